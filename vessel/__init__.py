@@ -1,0 +1,39 @@
+"""The Otter USV and the sea: Fossen's 6-DOF model, wave fields, thrust allocation, a numeric plant.
+
+No MAVLink and no I/O here; both the simulator and the NMPC build on this package.
+"""
+
+from .allocation import (
+    propeller_thrust,
+    shaft_speeds_to_tau,
+    tau_limits,
+    tau_to_shaft_speeds,
+)
+from .config import ConfigError
+from .dynamics import NX_PLANT, NX_RIGID, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
+from .params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
+from .plant import Plant, plant_step
+from .waves import CalmWater, RegularWaves, WaveField
+
+__all__ = [
+    "NX_PLANT",
+    "NX_RIGID",
+    "STATE_NAMES",
+    "CalmWater",
+    "ConfigError",
+    "OceanCurrent",
+    "OtterMatrices",
+    "OtterParameters",
+    "Plant",
+    "RegularWaves",
+    "WaveField",
+    "load_parameters",
+    "otter_parameters",
+    "plant_ode",
+    "plant_step",
+    "propeller_thrust",
+    "rigid_body_ode",
+    "shaft_speeds_to_tau",
+    "tau_limits",
+    "tau_to_shaft_speeds",
+]

@@ -1,0 +1,68 @@
+"""Propeller thrust law and thrust allocation for the Otter's two fixed propellers, both ways.
+
+Forward: shaft speeds (rad/s, left/right) -> thrust per propeller -> (τ_X N, τ_N N·m).
+Inverse: (τ_X, τ_N) -> shaft speeds, using k_pos or k_neg by the sign of each thrust (the published
+allocation uses k_pos for both, which is inexact in reverse) and saturating to [n_min, n_max].
+Every function works on floats, numpy arrays and CasADi symbols.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .mathops import ops, where
+from .params import OtterParameters
+
+
+def saturate_shaft_speed(params: OtterParameters, n: Any) -> Any:
+    """Clip shaft speed to [n_min, n_max] rad/s."""
+    mats = params.matrices()
+    xp = ops(n)
+    return xp.fmin(xp.fmax(n, mats.n_min), mats.n_max)
+
+
+def propeller_thrust(params: OtterParameters, n: Any) -> Any:
+    """Thrust in N of a propeller turning at n rad/s (saturated): k_pos·n|n| forward, k_neg·n|n| reverse."""
+    mats = params.matrices()
+    n_sat = saturate_shaft_speed(params, n)
+    k = where(n_sat > 0, mats.k_pos, mats.k_neg)
+    return k * n_sat * ops(n_sat).fabs(n_sat)
+
+
+def thrust_to_tau(params: OtterParameters, thrust_left: Any, thrust_right: Any) -> tuple[Any, Any]:
+    """(τ_X, τ_N) from left/right thrust: more thrust on the left turns the bow to starboard (τ_N > 0)."""
+    return thrust_left + thrust_right, params.pontoon_offset * (thrust_left - thrust_right)
+
+
+def shaft_speeds_to_tau(params: OtterParameters, n_left: Any, n_right: Any) -> tuple[Any, Any]:
+    """(τ_X N, τ_N N·m) produced by the two shaft speeds (rad/s)."""
+    return thrust_to_tau(params, propeller_thrust(params, n_left), propeller_thrust(params, n_right))
+
+
+def thrust_to_shaft_speed(params: OtterParameters, thrust: float | np.ndarray) -> np.ndarray:
+    """Shaft speed (rad/s, saturated) that gives this thrust (N), with the coefficient for its sign."""
+    mats = params.matrices()
+    thrust = np.asarray(thrust, float)
+    k = np.where(thrust > 0, mats.k_pos, mats.k_neg)
+    n = np.sign(thrust) * np.sqrt(np.abs(thrust) / k)
+    return saturate_shaft_speed(params, n)
+
+
+def tau_to_shaft_speeds(params: OtterParameters, tau_x: float, tau_n: float) -> tuple[float, float]:
+    """Shaft speeds (left, right) in rad/s for surge force τ_X (N) and yaw moment τ_N (N·m), saturated."""
+    if not (np.isfinite(tau_x) and np.isfinite(tau_n)):
+        raise ValueError(f"tau: non-finite surge force {tau_x!r} N or yaw moment {tau_n!r} N·m")
+    differential = tau_n / params.pontoon_offset
+    left = thrust_to_shaft_speed(params, 0.5 * (tau_x + differential))
+    right = thrust_to_shaft_speed(params, 0.5 * (tau_x - differential))
+    return float(left), float(right)
+
+
+def tau_limits(params: OtterParameters) -> tuple[float, float, float]:
+    """(max forward τ_X, max reverse τ_X magnitude, max |τ_N|) the saturated propellers can produce."""
+    mats = params.matrices()
+    forward = mats.k_pos * mats.n_max**2
+    reverse = mats.k_neg * mats.n_min**2
+    return 2 * forward, 2 * reverse, params.pontoon_offset * (forward + reverse)
