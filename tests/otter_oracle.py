@@ -17,7 +17,7 @@ Variants:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -186,7 +186,7 @@ def damping_matrix(M: np.ndarray) -> np.ndarray:
     return -np.diag([x_u, y_v, z_w, k_p, m_q, n_r])
 
 
-@lru_cache(maxsize=None)
+@cache
 def _model(variant: str) -> _Model:
     """Build (once) the constant matrices of a variant."""
     ig = inertia_about_cg(variant)

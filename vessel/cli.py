@@ -1,0 +1,112 @@
+"""`vessel` command line: open-water maneuvers on the bare Otter plant."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+from typing import NoReturn
+
+from .config import ConfigError
+from .maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
+from .params import PARAMETER_SETS, load_parameters, otter_parameters
+from .plant import INTEGRATORS
+from .waves import CalmWater, RegularWaves
+
+EXIT_USAGE = 2
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argparse parser whose errors are one line on stderr and exit code 2 (no usage dump)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print 'prog: error: message' and exit 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def _number(text: str) -> float:
+    """A finite float for argparse; NaN and inf are refused here so messages name the flag."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def build_parser() -> OneLineParser:
+    """The `vessel` parser with its `maneuver` subcommand."""
+    parser = OneLineParser(prog="vessel", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
+    man = sub.add_parser("maneuver", help="run a standard open-water maneuver on the bare plant",
+                         description="Shaft commands are percent of n_max (negative = reverse).")
+    man.add_argument("--preset", choices=sorted(PRESETS), help="a named maneuver; flags given override it")
+    man.add_argument("--left", type=_number, help="left (port) shaft speed, %% of n_max, [-100, 100]")
+    man.add_argument("--right", type=_number, help="right (starboard) shaft speed, %% of n_max, [-100, 100]")
+    man.add_argument("--duration", type=_number, help="simulated time in s, (0, 3600] (default 60)")
+    man.add_argument("--dt", type=_number, help="integration step in s, (0, 0.1] (default 0.01)")
+    man.add_argument("--roll-deg", type=_number, help="initial roll in degrees, [-60, 60]")
+    man.add_argument("--pitch-deg", type=_number, help="initial pitch in degrees, [-60, 60]")
+    man.add_argument("--zigzag-deg", type=_number, help="zig-zag: swap sides at ±this heading change")
+    man.add_argument("--integrator", choices=INTEGRATORS, default="rk4")
+    group = man.add_mutually_exclusive_group()
+    group.add_argument("--parameter-set", choices=PARAMETER_SETS, default="published",
+                       help="named Otter parameter set (default: published, quirks included)")
+    group.add_argument("--params", metavar="FILE", help="YAML parameter file (base set + overrides)")
+    man.add_argument("--waves", choices=("calm", "paper"), default="calm",
+                     help="calm water or the paper's 1.75 m / 35 m / 6 s waves from the East")
+    man.add_argument("--csv", metavar="PATH", help="write t,x,y,z,phi,theta,psi,u,v,w,p,q,r,n1,n2")
+    man.add_argument("--plot", metavar="PATH", help="write a PNG of the track and time series")
+    return parser
+
+
+def _maneuver_from_args(args: argparse.Namespace) -> Maneuver:
+    """Merge preset and flags into a validated Maneuver."""
+    settings: dict[str, float] = dict(PRESETS.get(args.preset, {})) if args.preset else {}
+    for flag, key in (("left", "left_pct"), ("right", "right_pct"), ("duration", "duration_s"),
+                      ("dt", "dt_s"), ("roll_deg", "roll_deg"), ("pitch_deg", "pitch_deg"),
+                      ("zigzag_deg", "zigzag_deg")):
+        value = getattr(args, flag)
+        if value is not None:
+            settings[key] = value
+    if not args.preset and (args.left is None or args.right is None):
+        raise ConfigError("--left and --right are required without --preset (percent of n_max, [-100, 100])")
+    params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
+    waves = RegularWaves() if args.waves == "paper" else CalmWater()
+    return Maneuver(**settings, integrator=args.integrator, params=params, waves=waves)
+
+
+def _print_figures(figures: dict[str, float]) -> None:
+    """Figures as aligned 'name  value' lines."""
+    for name, value in figures.items():
+        print(f"  {name:<26} {value:10.4f}")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `vessel` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        maneuver = _maneuver_from_args(args)
+        result = run_maneuver(maneuver)
+    except ConfigError as exc:
+        print(f"vessel {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except FloatingPointError as exc:
+        print(f"vessel {args.command}: error: {exc} (try a smaller --dt or --integrator rk4)",
+              file=sys.stderr)
+        return 1
+    m = maneuver
+    print(f"maneuver: left {m.left_pct:g} %, right {m.right_pct:g} %, {m.duration_s:g} s at dt {m.dt_s:g} s "
+          f"({m.integrator}), roll {m.roll_deg:g} deg, pitch {m.pitch_deg:g} deg")
+    _print_figures(maneuver_figures(result))
+    if args.csv:
+        write_csv(result, args.csv)
+        print(f"csv:  {args.csv}")
+    if args.plot:
+        plot(result, args.plot)
+        print(f"plot: {args.plot}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
