@@ -1,0 +1,124 @@
+"""`mission` command line: upload, download and clear the waypoint mission with MAVSDK."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+import sys
+from collections.abc import Sequence
+from typing import NoReturn
+
+from . import transfer
+from .files import read_mission_file, write_mission_file
+from .plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, validate
+
+EXIT_USAGE = 2
+EXIT_FAILED = 1
+MAX_OFFSET_M = 50_000.0
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with one-line errors and exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print 'prog: error: message' and exit 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def _pair(text: str) -> tuple[float, float]:
+    """Two finite numbers 'A,B'."""
+    parts = text.split(",")
+    try:
+        a, b = (float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected two numbers 'A,B', got {text!r}") from None
+    if not (math.isfinite(a) and math.isfinite(b)):
+        raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
+    return a, b
+
+
+def build_parser() -> OneLineParser:
+    """`mission upload|download|clear`."""
+    parser = OneLineParser(prog="mission", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
+    common = OneLineParser(add_help=False)
+    common.add_argument("--connect", default=transfer.DEFAULT_URL,
+                        help=f"MAVSDK connection URL (default {transfer.DEFAULT_URL})")
+    common.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the vehicle")
+    up = sub.add_parser("upload", parents=[common], help="upload a waypoint mission")
+    source = up.add_mutually_exclusive_group(required=True)
+    source.add_argument("--waypoint", type=_pair, metavar="N,E", help="one waypoint, metres north,east of home")
+    source.add_argument("--latlon", type=_pair, metavar="LAT,LON", help="one waypoint in degrees")
+    source.add_argument("file", nargs="?", help="a QGroundControl .plan or QGC WPL 110 .waypoints file")
+    down = sub.add_parser("download", parents=[common], help="download the stored mission")
+    down.add_argument("--out", metavar="FILE", help="write it as .plan or .waypoints (by extension)")
+    sub.add_parser("clear", parents=[common], help="clear the stored mission")
+    return parser
+
+
+def _print_mission(mission: Mission) -> None:
+    """One line per item, home first."""
+    print(f"  0 home      {mission.home.lat_deg:.7f} {mission.home.lon_deg:.7f} {mission.home.alt_m:.1f} m")
+    for seq, item in enumerate(mission.items, start=1):
+        print(f"  {seq} cmd {item.command:<4} {item.lat_deg:.7f} {item.lon_deg:.7f} {item.alt_m:.1f} m")
+
+
+async def _run(args: argparse.Namespace) -> int:
+    """Carry out the subcommand."""
+    if args.command == "upload":
+        if args.waypoint is not None:
+            north, east = args.waypoint
+            if max(abs(north), abs(east)) > MAX_OFFSET_M:
+                raise MissionError(f"--waypoint: {north:g},{east:g} is outside the allowed range "
+                                   f"[-{MAX_OFFSET_M:g}, {MAX_OFFSET_M:g}] m per axis")
+            await transfer.upload_relative(north, east, args.connect, args.timeout)
+            return 0
+        if args.latlon is not None:
+            lat, lon = args.latlon
+            check_latlon(lat, lon, "--latlon")
+            mission = await _with_vehicle_home(args, MissionItem(lat, lon, 0.0))
+        else:
+            mission = read_mission_file(args.file)
+        await transfer.upload(mission, args.connect, args.timeout)
+        return 0
+    if args.command == "download":
+        mission = await transfer.download(args.connect, args.timeout)
+        _print_mission(mission)
+        if args.out:
+            write_mission_file(mission, args.out)
+            print(f"written to {args.out}")
+        return 0
+    await transfer.clear(args.connect, args.timeout)
+    return 0
+
+
+async def _with_vehicle_home(args: argparse.Namespace, item: MissionItem) -> Mission:
+    """A one-waypoint mission whose seq 0 is the vehicle's current home."""
+    async with transfer.connected_system(args.connect, args.timeout, print) as system:
+        home = await transfer.vehicle_home(system, args.timeout)
+    return validate(Mission(MissionItem(home.lat_deg, home.lon_deg, home.alt_m, frame=FRAME_GLOBAL), (item,)))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `mission` console script."""
+    args = build_parser().parse_args(argv)
+    if not (math.isfinite(args.timeout) and 0 < args.timeout <= 600):
+        print(f"mission {args.command}: error: --timeout: {args.timeout!r} is outside the allowed range "
+              f"(0, 600] s", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        return asyncio.run(_run(args))
+    except MissionError as exc:
+        print(f"mission {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except transfer.TransferError as exc:
+        print(f"mission {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        print(f"mission {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

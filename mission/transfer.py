@@ -1,0 +1,177 @@
+"""Mission upload, download and clear with MAVSDK's MissionRaw against an ArduPilot vehicle.
+
+ArduPilot keeps home at seq 0, so uploads carry home first and put current=1 on seq 1 (MAVSDK
+insists on exactly one current item). The high-level Mission plugin is not used: it sends no home.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+
+import mavsdk
+from mavsdk.asyncio import ComponentType, Configuration, Mavsdk, MavsdkConnectionError
+from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
+from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync, MissionRawError
+from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+
+from vessel.geo import latlon_from_ned
+
+from .plan import FRAME_GLOBAL, Mission, MissionItem, validate
+
+DEFAULT_URL = "udpin://0.0.0.0:14550"
+GCS_SYSTEM_ID = 245  # MAVSDK's ground-station default; not SYSID_MYGCS, so it never takes the RC link
+GCS_COMPONENT_ID = 190
+MISSION_TYPE_MISSION = 0
+
+
+class TransferError(RuntimeError):
+    """A mission transfer failed; the message is one line that says what and why."""
+
+
+@dataclass(frozen=True)
+class Home:
+    """The vehicle's home position (deg, deg, m AMSL)."""
+
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+
+
+def _quiet_mavsdk() -> None:
+    """Keep MAVSDK's own log lines off the operator's terminal (errors are reported by us)."""
+    mavsdk.log_subscribe(lambda level, message, file, line: True)
+
+
+@asynccontextmanager
+async def connected_system(url: str, timeout_s: float, progress: Callable[[str], None]) -> AsyncIterator[object]:
+    """Connect to ``url`` and yield the first autopilot found, or raise TransferError on timeout."""
+
+    _quiet_mavsdk()
+    config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    config.system_id = GCS_SYSTEM_ID
+    config.component_id = GCS_COMPONENT_ID
+    async with Mavsdk(config) as drone:
+        try:
+            await drone.add_any_connection(url)
+        except MavsdkConnectionError as exc:
+            raise TransferError(f"connection {url!r} refused: {exc}") from None
+        progress(f"waiting for a vehicle on {url} (up to {timeout_s:g} s)")
+        system = await drone.first_autopilot(timeout_s=timeout_s)
+        if system is None:
+            raise TransferError(f"no vehicle answered on {url} within {timeout_s:g} s")
+        progress(f"vehicle {await system.get_system_id()} connected")
+        yield system
+
+
+def to_mavsdk_items(mission: Mission) -> list[object]:
+    """MAVSDK MissionItems, home at seq 0 (frame GLOBAL), current=1 on seq 1; lat/lon as degE7."""
+
+    result = []
+    for seq, item in enumerate(mission.all_items()):
+        p1, p2, p3, p4 = item.params
+        result.append(RawItem(seq=seq, frame=item.frame, command=item.command, current=1 if seq == 1 else 0,
+                              autocontinue=int(item.autocontinue), param1=p1, param2=p2, param3=p3,
+                              param4=p4, x=round(item.lat_deg * 1e7), y=round(item.lon_deg * 1e7),
+                              z=float(item.alt_m), mission_type=MISSION_TYPE_MISSION))
+    return result
+
+
+def from_mavsdk_items(items: list[object]) -> Mission:
+    """Our Mission from downloaded MAVSDK items (seq 0 is home)."""
+    if not items:
+        raise TransferError("the vehicle has no mission (not even home)")
+    converted = [MissionItem(lat_deg=i.x / 1e7, lon_deg=i.y / 1e7, alt_m=float(i.z), command=int(i.command),
+                             frame=int(i.frame), params=(i.param1, i.param2, i.param3, i.param4),
+                             autocontinue=bool(i.autocontinue)) for i in items]
+    home = converted[0]
+    return Mission(MissionItem(home.lat_deg, home.lon_deg, home.alt_m, frame=FRAME_GLOBAL), tuple(converted[1:]))
+
+
+def _raise_for(exc: Exception, action: str) -> None:
+    """Turn a MissionRawError into a one-line TransferError."""
+    result = getattr(exc, "result", None)
+    name = getattr(result, "name", None) or str(result or exc)
+    hints = {"TIMEOUT": "the vehicle stopped answering", "DENIED": "the vehicle refused (busy?)",
+             "INT_MESSAGES_NOT_SUPPORTED": "the autopilot lacks MISSION_INT",
+             "TOO_MANY_MISSION_ITEMS": "more items than the vehicle stores"}
+    raise TransferError(f"mission {action} failed: {name}"
+                        + (f" ({hints[name]})" if name in hints else "")) from None
+
+
+async def vehicle_home(system: object, timeout_s: float) -> Home:
+    """The vehicle's home position from HOME_POSITION (MAVSDK requests it), or TransferError."""
+
+    telemetry = TelemetryAsync(system)
+
+    async def first_home() -> Home:
+        async for position in telemetry.subscribe_home():
+            if math.isfinite(position.latitude_deg) and (position.latitude_deg or position.longitude_deg):
+                return Home(position.latitude_deg, position.longitude_deg, position.absolute_altitude_m)
+        raise TransferError("the vehicle's home stream ended")
+
+    try:
+        return await asyncio.wait_for(first_home(), timeout_s)
+    except TimeoutError:
+        raise TransferError(f"the vehicle sent no home position within {timeout_s:g} s") from None
+
+
+async def upload(mission: Mission, url: str = DEFAULT_URL, timeout_s: float = 10.0,
+                 progress: Callable[[str], None] = print) -> None:
+    """Validate, then upload the mission (home + items); the stored mission is untouched on any error."""
+
+    validate(mission)
+    async with connected_system(url, timeout_s, progress) as system:
+        progress(f"uploading {len(mission.items)} item(s) after home")
+        try:
+            await MissionRawAsync(system).upload_mission(to_mavsdk_items(mission))
+        except MissionRawError as exc:
+            _raise_for(exc, "upload")
+        progress("upload accepted by the vehicle")
+
+
+async def upload_relative(north_m: float, east_m: float, url: str = DEFAULT_URL, timeout_s: float = 10.0,
+                          progress: Callable[[str], None] = print) -> Mission:
+    """Upload one waypoint given in metres from the vehicle's home (NED); returns the mission sent."""
+
+
+    async with connected_system(url, timeout_s, progress) as system:
+        home = await vehicle_home(system, timeout_s)
+        lat, lon = latlon_from_ned(home.lat_deg, home.lon_deg, north_m, east_m)
+        mission = validate(Mission(MissionItem(home.lat_deg, home.lon_deg, home.alt_m, frame=FRAME_GLOBAL),
+                                   (MissionItem(lat, lon, 0.0),)))
+        progress(f"waypoint {north_m:g} m north, {east_m:g} m east of home = {lat:.7f}, {lon:.7f}")
+        try:
+            await MissionRawAsync(system).upload_mission(to_mavsdk_items(mission))
+        except MissionRawError as exc:
+            _raise_for(exc, "upload")
+        progress("upload accepted by the vehicle")
+        return mission
+
+
+async def download(url: str = DEFAULT_URL, timeout_s: float = 10.0,
+                   progress: Callable[[str], None] = print) -> Mission:
+    """Download the stored mission, home included."""
+
+    async with connected_system(url, timeout_s, progress) as system:
+        try:
+            items = await MissionRawAsync(system).download_mission()
+        except MissionRawError as exc:
+            _raise_for(exc, "download")
+        progress(f"downloaded {len(items)} item(s), home included")
+        return from_mavsdk_items(list(items))
+
+
+async def clear(url: str = DEFAULT_URL, timeout_s: float = 10.0, progress: Callable[[str], None] = print) -> None:
+    """Clear the stored mission (ArduPilot keeps only home)."""
+
+    async with connected_system(url, timeout_s, progress) as system:
+        try:
+            await MissionRawAsync(system).clear_mission()
+        except MissionRawError as exc:
+            _raise_for(exc, "clear")
+        progress("mission cleared")
+
