@@ -1,0 +1,215 @@
+"""``sim-vehicle``: command line of the SITL boat; bad input gives one line on stderr and exit status 2."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import shutil
+import signal
+import sys
+from pathlib import Path
+from typing import NoReturn
+
+from vessel.config import ConfigError
+
+from .geo import parse_home
+from .params import ParamTable, read_parm
+from .physics import WAVE_CHOICES, parse_current, parse_sea
+from .sim import Options, Simulator
+
+DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
+DEFAULT_OUTPUTS = ["udp:127.0.0.1:14550", "udp:127.0.0.1:14551"]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports errors in one line."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``prog: error: message`` and exit 2."""
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _port(text: str) -> int:
+    """A TCP/UDP port number in [1, 65535]."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a port number: {text!r}") from None
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be in [1, 65535], got {port}")
+    return port
+
+
+def _output(text: str) -> tuple[str, int]:
+    """A ``udp:HOST:PORT`` output as (host, port)."""
+    parts = text.split(":")
+    if len(parts) != 3 or parts[0] != "udp" or not parts[1]:
+        raise argparse.ArgumentTypeError(f"expected udp:HOST:PORT, got {text!r}")
+    return parts[1], _port(parts[2])
+
+
+def _speedup(text: str) -> float:
+    """A speed-up factor in [0, 1000]; 0 runs unpaced."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or not 0 <= value <= 1000:
+        raise argparse.ArgumentTypeError(
+            f"speedup must be in [0, 1000] (0 = as fast as possible), got {text}"
+        )
+    return value
+
+
+def _home(text: str) -> object:
+    """``LAT,LON,ALT,HEADING`` as a Home."""
+    try:
+        return parse_home(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _duration(text: str) -> float:
+    """A positive simulated duration in s."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"duration must be > 0 s, got {text}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (also documents every option)."""
+    p = _Parser(prog="sim-vehicle", description="SITL Otter boat that speaks MAVLink like ArduPilot Rover.")
+    p.add_argument("--tcp", type=_port, default=5760, metavar="PORT", help="TCP server port (default 5760)")
+    p.add_argument("--no-tcp", action="store_true", help="no TCP server")
+    p.add_argument(
+        "--out",
+        type=_output,
+        action="append",
+        metavar="udp:HOST:PORT",
+        help="UDP output, repeatable (default udp:127.0.0.1:14550 and udp:127.0.0.1:14551)",
+    )
+    p.add_argument("--no-out", action="store_true", help="no UDP outputs")
+    p.add_argument("--speedup", type=_speedup, default=1.0, help="simulated/wall time ratio (1 = real time)")
+    p.add_argument(
+        "--home",
+        type=_home,
+        default=None,
+        metavar="LAT,LON,ALT,HEADING",
+        help="home position and initial heading (default ArduPilot's CMAC)",
+    )
+    p.add_argument(
+        "--waves",
+        choices=WAVE_CHOICES,
+        default="calm",
+        help="sea state: calm, or the paper's 1.75 m / 35 m / 6 s waves",
+    )
+    p.add_argument(
+        "--sea",
+        metavar="H,LENGTH,PERIOD,DIR",
+        help="regular waves instead of --waves: height m, wavelength m, period s, travel direction deg",
+    )
+    p.add_argument(
+        "--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg"
+    )
+    p.add_argument("--params", type=Path, metavar="FILE", help=".parm file of default values (NAME VALUE)")
+    p.add_argument(
+        "--params-store",
+        type=Path,
+        default=DEFAULT_STORE,
+        metavar="PATH",
+        help=f"where parameter changes persist (default {DEFAULT_STORE}); missions go next to it",
+    )
+    p.add_argument("--wipe", action="store_true", help="forget stored parameters and missions first")
+    p.add_argument("--log-dir", type=Path, metavar="DIR", help="write sim_vehicle.tlog and state.csv here")
+    p.add_argument(
+        "--no-rc-receiver",
+        action="store_true",
+        help="no simulated RC receiver: only overrides give RC (RC failsafe applies)",
+    )
+    p.add_argument("--duration", type=_duration, metavar="S", help="stop after S simulated seconds")
+    p.add_argument("-v", "--verbose", action="store_true", help="log STATUSTEXT and connections to stderr")
+    return p
+
+
+def mission_store(params_store: Path) -> Path:
+    """The mission file that lives next to the parameter store."""
+    return params_store.with_name(params_store.stem + ".missions.json")
+
+
+def _load_params(args: argparse.Namespace) -> ParamTable:
+    """Defaults from the table, then the .parm file, then the store (unless wiped)."""
+    if args.wipe:
+        for path in (args.params_store, mission_store(args.params_store)):
+            try:
+                path.unlink(missing_ok=True)
+            except OSError as exc:
+                raise ConfigError(f"{path}: cannot wipe ({exc.strerror})") from None
+    defaults: dict[str, float] = {}
+    if args.params is not None:
+        probe = ParamTable()
+        for name, value in read_parm(args.params).items():
+            if name in probe:
+                defaults[name] = value
+            else:
+                print(f"sim-vehicle: ignoring unknown parameter {name} in {args.params}", file=sys.stderr)
+    return ParamTable(store=args.params_store, defaults=defaults)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse the command line, build the simulator and run it until a signal or --duration."""
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="sim-vehicle: %(message)s",
+        stream=sys.stderr,
+    )
+    try:
+        params = _load_params(args)
+        if args.log_dir is not None:
+            args.log_dir.mkdir(parents=True, exist_ok=True)
+            if shutil.disk_usage(args.log_dir).free < 1 << 20:
+                raise ConfigError(f"{args.log_dir}: less than 1 MB free for logs")
+        opts = Options(
+            waves=args.waves,
+            speedup=args.speedup,
+            params=params,
+            log_dir=args.log_dir,
+            tcp_port=None if args.no_tcp else args.tcp,
+            rc_receiver=not args.no_rc_receiver,
+            outputs=[] if args.no_out else (args.out or [_output(o) for o in DEFAULT_OUTPUTS]),
+            duration_s=args.duration,
+            mission_store=mission_store(args.params_store),
+            sea=None if args.sea is None else parse_sea(args.sea),
+            current=None if args.current is None else parse_current(args.current),
+        )
+        if args.home is not None:
+            opts.home = args.home
+        sim = Simulator(opts)
+    except ConfigError as exc:
+        print(f"sim-vehicle: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"sim-vehicle: error: cannot open a port or log file: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+
+    def stop(signum: int, frame: object) -> None:
+        """SIGTERM/SIGINT: finish the current step, then close logs and sockets."""
+        sim.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    try:
+        sim.run()
+    except FloatingPointError as exc:
+        print(f"sim-vehicle: error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

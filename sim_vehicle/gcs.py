@@ -1,0 +1,223 @@
+"""The MAVLink side of the autopilot: channels, routing of incoming messages, heartbeats and streams."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from .commands import handle_command, handle_set_mode
+from .guided import from_global, from_local
+from .link import Channel, TcpServer, TlogHook, UdpChannel
+from .missionproto import MissionServer
+from .modes import Mode
+from .paramproto import ParamServer
+from .params import ParamTable
+from .streams import Schedule
+from .telemetry import Telemetry
+from .vehicle import Vehicle
+
+log = logging.getLogger("sim_vehicle")
+HEARTBEAT_INTERVAL_S = 1.0
+STATUSTEXT_CHUNK = 50
+AUTOPILOT_VERSION_REQUEST = 183
+
+
+class Gcs:
+    """All MAVLink channels of the vehicle and what it says on them."""
+
+    def __init__(
+        self, params: ParamTable, vehicle: Vehicle, telemetry: Telemetry, tlog: TlogHook | None
+    ) -> None:
+        self.params, self.vehicle, self.telemetry = params, vehicle, telemetry
+        self.sysid = int(params["SYSID_THISMAV"])
+        self.compid = 1
+        self.tlog = tlog
+        self.channels: list[Channel] = []
+        self.servers: list[TcpServer] = []
+        self._schedules: dict[int, Schedule] = {}
+        self._next_heartbeat: dict[int, float] = {}
+        self._text_id = 0
+        self._ignored_override_from: set[int] = set()
+        self.missions: MissionServer | None = None  # set by the simulator (needs the store and runner)
+        self.param_server = ParamServer(params, self.text, self.broadcast, [])
+        self.now = 0.0
+
+    # channels
+    def add_udp(self, host: str, port: int) -> None:
+        """An output to host:port that also answers whoever writes to it."""
+        self.channels.append(
+            UdpChannel(host, port, len(self.servers) + len(self.channels), self.sysid, self.compid, self.tlog)
+        )
+
+    def add_tcp_server(self, host: str, port: int) -> None:
+        """A listening TCP port; its clients share stream-rate channel 0 (SR0_*)."""
+        self.servers.append(TcpServer(host, port, 0))
+
+    def fileno_list(self) -> list[int]:
+        """Descriptors worth waiting on."""
+        return [s.fileno() for s in self.servers] + [c.fileno() for c in self.channels if not c.closed]
+
+    def schedule(self, channel: Channel) -> Schedule:
+        """The stream schedule of a channel (created on first use)."""
+        key = id(channel)
+        if key not in self._schedules:
+            self._schedules[key] = Schedule(self.params, channel.index)
+        return self._schedules[key]
+
+    def close(self) -> None:
+        """Close every socket."""
+        for c in self.channels:
+            c.close()
+        for s in self.servers:
+            s.close()
+
+    # output
+    def broadcast(self, msg: mavlink.MAVLink_message) -> None:
+        """Send to every open channel."""
+        for c in self.channels:
+            if not c.closed:
+                c.send(msg)
+
+    def text(self, severity: int, text: str, channel: Channel | None = None) -> None:
+        """STATUSTEXT (chunked when long) to one channel or to all; also logged."""
+        log.info("STATUSTEXT %d: %s", severity, text)
+        data = text.encode("utf-8", errors="replace")
+        chunks = [data[i : i + STATUSTEXT_CHUNK] for i in range(0, max(1, len(data)), STATUSTEXT_CHUNK)]
+        msg_id = 0
+        if len(chunks) > 1:
+            self._text_id = self._text_id % 65535 + 1
+            msg_id = self._text_id
+        for seq, chunk in enumerate(chunks):
+            msg = mavlink.MAVLink_statustext_message(severity, chunk, msg_id, seq)
+            if channel is not None:
+                channel.send(msg)
+            else:
+                self.broadcast(msg)
+
+    # input
+    def poll(self, now: float) -> None:
+        """Accept clients, read every channel and act on each message."""
+        self.now = now
+        for server in self.servers:
+            for client in server.accept(self.sysid, self.compid, self.tlog):
+                log.info("client connected on %s", client.name)
+                self.channels.append(client)
+        for channel in list(self.channels):
+            for msg in channel.receive():
+                try:
+                    self.dispatch(channel, msg)
+                except Exception:
+                    log.exception("ignored %s that could not be handled", msg.get_type())
+            if channel.closed and not isinstance(channel, UdpChannel):
+                log.info("client disconnected from %s", channel.name)
+                self.channels.remove(channel)
+                self._schedules.pop(id(channel), None)
+                self._next_heartbeat.pop(id(channel), None)
+
+    def _for_us(self, msg: mavlink.MAVLink_message) -> bool:
+        """Only messages for our system/component (or broadcast) are processed."""
+        target = getattr(msg, "target_system", 0)
+        component = getattr(msg, "target_component", 0)
+        return target in (0, self.sysid) and component in (0, self.compid)
+
+    def dispatch(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """Route one decoded message to its handler."""
+        kind = msg.get_type()
+        if not self._for_us(msg):
+            return
+        src = msg.get_srcSystem()
+        if kind == "HEARTBEAT":
+            if src == int(self.params["SYSID_MYGCS"]):
+                self.vehicle.gcs_last_seen = self.now
+            return
+        handler: Callable[[Channel, mavlink.MAVLink_message], None] | None = {
+            "COMMAND_LONG": self._command,
+            "COMMAND_INT": self._command,
+            "SET_MODE": self._set_mode,
+            "RC_CHANNELS_OVERRIDE": self._override,
+            "SET_ATTITUDE_TARGET": self._attitude_target,
+            "REQUEST_DATA_STREAM": self._data_stream,
+            "SET_POSITION_TARGET_LOCAL_NED": self._position_target,
+            "SET_POSITION_TARGET_GLOBAL_INT": self._position_target,
+            "TIMESYNC": self._timesync,
+        }.get(kind)
+        if handler is not None:
+            handler(channel, msg)
+        elif kind.startswith("PARAM_"):
+            self.param_server.handle(channel, msg)
+        elif kind.startswith("MISSION_") and self.missions is not None:
+            self.missions.handle(channel, msg, self.now)
+        elif msg.get_msgId() == AUTOPILOT_VERSION_REQUEST:
+            channel.send(self.telemetry.autopilot_version())
+
+    def _command(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """COMMAND_LONG / COMMAND_INT."""
+        handle_command(self, channel, msg)
+
+    def _set_mode(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """The SET_MODE message."""
+        handle_set_mode(self, channel, msg)
+
+    def _override(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """RC_CHANNELS_OVERRIDE, taken only from SYSID_MYGCS (others are logged once and ignored)."""
+        src = msg.get_srcSystem()
+        if src != int(self.params["SYSID_MYGCS"]):
+            if src not in self._ignored_override_from:
+                self._ignored_override_from.add(src)
+                log.warning(
+                    "ignoring RC_CHANNELS_OVERRIDE from system %d (SYSID_MYGCS is %d)",
+                    src,
+                    int(self.params["SYSID_MYGCS"]),
+                )
+            return
+        channels = [getattr(msg, f"chan{i}_raw", 0) for i in range(1, 19)]
+        self.vehicle.override(channels)
+
+    def _attitude_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """SET_ATTITUDE_TARGET (the vehicle drops it outside GUIDED)."""
+        self.vehicle.attitude_target(msg.type_mask, list(msg.q), msg.body_yaw_rate, msg.thrust)
+
+    def _position_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """SET_POSITION_TARGET_*: only in GUIDED; anything Rover cannot use is dropped silently."""
+        v = self.vehicle
+        if v.mode != Mode.GUIDED:
+            return
+        if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
+            v.set_guided(from_local(msg, v.nav, v.default_speed(), self.now))
+        else:
+            v.set_guided(from_global(msg, v.home, v.nav, v.default_speed(), self.now))
+
+    def _timesync(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """Answer a TIMESYNC request (tc1 = 0) with our simulated clock in ns."""
+        if msg.tc1 == 0:
+            channel.send(mavlink.MAVLink_timesync_message(round(self.now * 1e9), msg.ts1))
+
+    def _data_stream(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """REQUEST_DATA_STREAM for the channel it arrived on."""
+        self.schedule(channel).set_stream(msg.req_stream_id, float(msg.req_message_rate), msg.start_stop == 1)
+
+    # periodic output
+    def send_due(self, now: float) -> None:
+        """Heartbeats at 1 Hz and every streamed message that is due, on every channel."""
+        self.now = now
+        self.param_server.update()
+        if self.missions is not None:
+            self.missions.update(now)
+        built: dict[int, mavlink.MAVLink_message | None] = {}
+        for channel in self.channels:
+            if channel.closed:
+                continue
+            key = id(channel)
+            schedule = self.schedule(channel)
+            ids = schedule.due(now)
+            if 0 not in schedule.custom and now >= self._next_heartbeat.get(key, 0.0):
+                self._next_heartbeat[key] = now + HEARTBEAT_INTERVAL_S
+                ids.insert(0, 0)
+            for msg_id in ids:
+                if msg_id not in built:
+                    built[msg_id] = self.telemetry.build(msg_id)
+                msg = built[msg_id]
+                if msg is not None:
+                    channel.send(msg)

@@ -1,0 +1,217 @@
+"""Test and bench harness: runs a real ``sim-vehicle`` process on free loopback ports and talks to it."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink import mavutil
+
+START_TIMEOUT_S = 20.0
+
+
+def free_port(kind: int = socket.SOCK_STREAM) -> int:
+    """A loopback port nobody listens on right now."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def sim_vehicle_command() -> list[str]:
+    """The installed ``sim-vehicle`` script next to this interpreter, else ``python -m sim_vehicle``."""
+    script = Path(sys.executable).with_name("sim-vehicle")
+    return [str(script)] if script.exists() else [sys.executable, "-m", "sim_vehicle"]
+
+
+class SimProcess:
+    """A sim-vehicle subprocess with its TCP port and log folder; stops it (by its handle) on exit."""
+
+    def __init__(
+        self,
+        workdir: Path,
+        speedup: float = 10.0,
+        waves: str = "calm",
+        extra: Sequence[str] = (),
+        udp_outs: int = 0,
+    ) -> None:
+        self.workdir = Path(workdir)
+        self.tcp_port = free_port()
+        self.udp_ports = [free_port(socket.SOCK_DGRAM) for _ in range(udp_outs)]
+        self.log_dir = self.workdir / "simlog"
+        self.args = [
+            *sim_vehicle_command(),
+            "--tcp",
+            str(self.tcp_port),
+            "--speedup",
+            str(speedup),
+            "--waves",
+            waves,
+            "--params-store",
+            str(self.workdir / "params.json"),
+            "--log-dir",
+            str(self.log_dir),
+            *extra,
+        ]
+        self.args += [a for p in self.udp_ports for a in ("--out", f"udp:127.0.0.1:{p}")] or ["--no-out"]
+        self.stderr_path = self.workdir / "sim_vehicle.stderr"
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.connections: list[Any] = []
+
+    def __enter__(self) -> SimProcess:
+        self.start()
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.stop()
+
+    def start(self) -> None:
+        """Launch and wait until the TCP port accepts connections."""
+        self.workdir.mkdir(parents=True, exist_ok=True)
+        with self.stderr_path.open("ab") as err:  # a file, not a pipe: a chatty process can never block
+            self.proc = subprocess.Popen(self.args, stdout=subprocess.DEVNULL, stderr=err)
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"sim-vehicle exited: {self._stderr()}")
+            try:
+                with socket.create_connection(("127.0.0.1", self.tcp_port), timeout=0.2):
+                    return
+            except OSError:
+                time.sleep(0.05)
+        self.stop()
+        raise TimeoutError("sim-vehicle did not open its TCP port")
+
+    def _stderr(self) -> str:
+        """What the process has written to stderr so far."""
+        try:
+            return self.stderr_path.read_text(errors="replace")
+        except OSError:
+            return ""
+
+    def connect(self, source_system: int = 255, source_component: int = 190) -> Any:
+        """A pymavlink TCP client; waits for the first heartbeat."""
+        conn = mavutil.mavlink_connection(
+            f"tcp:127.0.0.1:{self.tcp_port}",
+            source_system=source_system,
+            source_component=source_component,
+            autoreconnect=False,
+        )
+        self.connections.append(conn)
+        if conn.wait_heartbeat(timeout=10) is None:
+            raise TimeoutError("no heartbeat")
+        return conn
+
+    def stop(self) -> str:
+        """Terminate (then kill if needed) the process; returns its stderr."""
+        for conn in self.connections:
+            conn.close()
+        self.connections.clear()
+        if self.proc is None:
+            return ""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=5)
+        err = self._stderr()
+        self.proc = None
+        return err
+
+
+def wait_for(
+    conn: Any, kind: str | list[str], timeout: float = 10.0, cond: Callable[[Any], bool] | None = None
+) -> Any:
+    """The next message of ``kind`` satisfying ``cond`` within ``timeout`` wall seconds, else None."""
+    deadline = time.monotonic() + timeout
+    while (left := deadline - time.monotonic()) > 0:
+        msg = conn.recv_match(type=kind, blocking=True, timeout=min(left, 0.5))
+        if msg is not None and (cond is None or cond(msg)):
+            return msg
+    return None
+
+
+def command(conn: Any, cmd: int, *params: float, timeout: float = 5.0) -> int | None:
+    """COMMAND_LONG to 1/1; returns the ACK's result (None if no ACK came)."""
+    return command_texts(conn, cmd, *params, timeout=timeout)[0]
+
+
+def command_texts(conn: Any, cmd: int, *params: float, timeout: float = 5.0) -> tuple[int | None, list[str]]:
+    """COMMAND_LONG to 1/1; returns the ACK's result and the STATUSTEXTs that came before it."""
+    p = list(params) + [0.0] * (7 - len(params))
+    conn.mav.command_long_send(1, 1, cmd, 0, *p)
+    texts: list[str] = []
+    deadline = time.monotonic() + timeout
+    while (left := deadline - time.monotonic()) > 0:
+        msg = conn.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True, timeout=min(left, 0.5))
+        if msg is None:
+            continue
+        if msg.get_type() == "STATUSTEXT":
+            texts.append(msg.text)
+        elif msg.command == cmd:
+            return int(msg.result), texts
+    return None, texts
+
+
+def set_mode(conn: Any, mode: int) -> int | None:
+    """MAV_CMD_DO_SET_MODE with custom mode ``mode``."""
+    return command(conn, 176, 1, mode)
+
+
+def sim_seconds(conn: Any, timeout: float = 5.0) -> float:
+    """Simulated time from the next ATTITUDE/GLOBAL_POSITION_INT (s)."""
+    msg = wait_for(conn, ["ATTITUDE", "GLOBAL_POSITION_INT", "SYSTEM_TIME"], timeout)
+    if msg is None:
+        raise TimeoutError("no timed telemetry")
+    return msg.time_boot_ms / 1000.0
+
+
+def drain(conn: Any) -> list[Any]:
+    """Every message already waiting on the connection (so that the next one read is fresh)."""
+    msgs = []
+    while (msg := conn.recv_match(blocking=False)) is not None:
+        msgs.append(msg)
+    return msgs
+
+
+def latest_sim_seconds(conn: Any) -> float:
+    """Simulated time of the newest timed message, after draining whatever is queued (s)."""
+    latest = None
+    while (
+        msg := conn.recv_match(type=["ATTITUDE", "GLOBAL_POSITION_INT", "SYSTEM_TIME"], blocking=False)
+    ) is not None:
+        latest = msg.time_boot_ms / 1000.0
+    return latest if latest is not None else sim_seconds(conn)
+
+
+def run_for(
+    conn: Any,
+    sim_s: float,
+    each: Callable[[], None] | None = None,
+    period_s: float = 0.5,
+    wall_timeout: float = 60.0,
+) -> float:
+    """Let ``sim_s`` simulated seconds pass, calling ``each`` every ``period_s``; returns the end time."""
+    start = now = sim_seconds(conn)
+    next_call = start
+    deadline = time.monotonic() + wall_timeout
+    while now - start < sim_s and time.monotonic() < deadline:
+        if each is not None and now >= next_call:
+            each()
+            next_call = now + period_s
+        msg = wait_for(conn, ["ATTITUDE", "GLOBAL_POSITION_INT"], 5.0)
+        if msg is not None:
+            now = msg.time_boot_ms / 1000.0
+    return now

@@ -1,0 +1,85 @@
+"""Run logs: a ``.tlog`` of every MAVLink frame in and out, and a CSV of the true physical state."""
+
+from __future__ import annotations
+
+import csv
+import struct
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+CSV_COLUMNS = (
+    "t_s",
+    "north_m",
+    "east_m",
+    "down_m",
+    "roll_rad",
+    "pitch_rad",
+    "yaw_rad",
+    "u_m_s",
+    "v_m_s",
+    "w_m_s",
+    "p_rad_s",
+    "q_rad_s",
+    "r_rad_s",
+    "n1_rad_s",
+    "n2_rad_s",
+    "n1_cmd_rad_s",
+    "n2_cmd_rad_s",
+    "wave_elevation_m",
+    "wave_slope_rad",
+    "mode",
+    "armed",
+)
+
+
+class TlogWriter:
+    """MAVProxy-style telemetry log: each frame preceded by its time as a big-endian uint64 in µs."""
+
+    def __init__(self, path: Path, clock_us: Callable[[], int]) -> None:
+        self._file: IO[bytes] = path.open("wb")
+        self._clock_us = clock_us
+
+    def write(self, frame: bytes) -> None:
+        """Append one raw frame with the current (simulated Unix) time."""
+        self._file.write(struct.pack(">Q", self._clock_us()) + frame)
+
+    def close(self) -> None:
+        """Flush and close."""
+        self._file.close()
+
+
+class StateCsv:
+    """The plant's true state at every physics step, with the sea surface under the boat."""
+
+    def __init__(self, path: Path) -> None:
+        self._file = path.open("w", newline="", encoding="utf-8")
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(CSV_COLUMNS)
+
+    def write(
+        self,
+        t: float,
+        x: np.ndarray,
+        n_cmd: tuple[float, float],
+        wave: tuple[float, float],
+        mode: int,
+        armed: bool,
+    ) -> None:
+        """One row; floats with enough digits to compare exactly with float32 telemetry."""
+        row = (
+            [f"{t:.3f}"]
+            + [repr(float(v)) for v in x]
+            + [repr(n_cmd[0]), repr(n_cmd[1]), repr(wave[0]), repr(wave[1]), mode, int(armed)]
+        )
+        self._writer.writerow(row)
+
+    def flush(self) -> None:
+        """Push buffered rows to disk (so a reader sees a recent state)."""
+        self._file.flush()
+
+    def close(self) -> None:
+        """Flush and close."""
+        self._file.close()

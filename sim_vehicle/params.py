@@ -1,0 +1,226 @@
+"""Rover parameters: names, MAVLink types and defaults, the persistent store and ``.parm`` files.
+
+Only the parameters this simulator acts on (plus the ones tools commonly read) exist; values are
+kept as floats and cast to the parameter's integer type on write, as ArduPilot's AP_Param does.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from vessel.config import ConfigError
+
+INT8, INT16, INT32, REAL32 = 2, 4, 6, 9  # MAV_PARAM_TYPE values
+_INT_LIMITS = {INT8: (-128, 127), INT16: (-32768, 32767), INT32: (-(2**31), 2**31 - 1)}
+
+STREAM_NAMES = (
+    "RAW_SENS",
+    "EXT_STAT",
+    "RC_CHAN",
+    "RAW_CTRL",
+    "POSITION",
+    "EXTRA1",
+    "EXTRA2",
+    "EXTRA3",
+    "PARAMS",
+    "ADSB",
+)
+_STREAM_DEFAULTS = {"PARAMS": 10, "ADSB": 0}
+N_STREAM_CHANNELS = 4
+
+
+@dataclass(frozen=True)
+class ParamDef:
+    """One parameter: its name, MAV_PARAM_TYPE and default value."""
+
+    name: str
+    ptype: int
+    default: float
+
+
+def _defs() -> list[ParamDef]:
+    """The parameter table, in the order PARAM_REQUEST_LIST reports it."""
+    r, i8, i16, i32 = REAL32, INT8, INT16, INT32
+    table: list[tuple[str, int, float]] = [
+        ("FORMAT_VERSION", i16, 16),
+        ("SYSID_THISMAV", i16, 1),
+        ("SYSID_MYGCS", i16, 255),
+        ("SYSID_ENFORCE", i8, 0),
+        ("FRAME_CLASS", i8, 2),
+        ("FRAME_TYPE", i8, 0),
+        ("INITIAL_MODE", i8, 0),
+        ("MODE_CH", i8, 8),
+        ("PILOT_STEER_TYPE", i8, 0),
+        ("ARMING_CHECK", i32, 1),
+        ("ARMING_REQUIRE", i8, 1),
+        ("CRUISE_SPEED", r, 2.0),
+        ("CRUISE_THROTTLE", i8, 50),
+        ("WP_SPEED", r, 2.0),
+        ("WP_RADIUS", r, 2.0),
+        ("RTL_SPEED", r, 0.0),
+        ("TURN_RADIUS", r, 0.9),
+        ("LOIT_RADIUS", r, 2.0),
+        ("LOIT_SPEED_GAIN", r, 0.5),
+        ("ACRO_TURN_RATE", r, 180.0),
+        ("MIS_DONE_BEHAVE", i8, 0),
+        ("MIS_RESTART", i8, 0),
+        ("FS_ACTION", i8, 2),
+        ("FS_TIMEOUT", r, 1.5),
+        ("FS_THR_ENABLE", i8, 1),
+        ("FS_THR_VALUE", i16, 910),
+        ("FS_GCS_ENABLE", i8, 0),
+        ("FS_GCS_TIMEOUT", r, 5.0),
+        ("FS_OPTIONS", i32, 0),
+        ("RC_OVERRIDE_TIME", r, 3.0),
+        ("RC_OPTIONS", i32, 32),
+        ("MOT_THST_ASYM", r, 1.0),
+        ("MOT_STR_THR_MIX", r, 0.5),
+        ("MOT_SAFE_DISARM", i8, 0),
+        ("MOT_SLEWRATE", i16, 100),
+        ("MOT_THR_MAX", i8, 100),
+        # Steering and speed controllers: names as ArduPilot's, gains tuned for the Otter's thrusters.
+        ("ATC_STR_ANG_P", r, 2.0),
+        ("ATC_STR_RAT_MAX", r, 20.0),
+        ("ATC_STR_RAT_FF", r, 2.0),
+        ("ATC_STR_RAT_P", r, 1.0),
+        ("ATC_STR_RAT_I", r, 0.5),
+        ("ATC_STR_RAT_IMAX", r, 1.0),
+        ("ATC_SPEED_P", r, 0.3),
+        ("ATC_SPEED_I", r, 0.2),
+        ("ATC_SPEED_IMAX", r, 1.0),
+        ("ATC_ACCEL_MAX", r, 1.0),
+    ]
+    for n in (1, 3):
+        table += [
+            (f"RC{n}_MIN", i16, 1100),
+            (f"RC{n}_TRIM", i16, 1500),
+            (f"RC{n}_MAX", i16, 1900),
+            (f"RC{n}_REVERSED", i8, 0),
+            (f"RC{n}_DZ", i16, 30),
+        ]
+    for n, function in ((1, 73), (3, 74)):
+        table += [
+            (f"SERVO{n}_FUNCTION", i16, function),
+            (f"SERVO{n}_MIN", i16, 1100),
+            (f"SERVO{n}_TRIM", i16, 1500),
+            (f"SERVO{n}_MAX", i16, 1900),
+            (f"SERVO{n}_REVERSED", i8, 0),
+        ]
+    for ch in range(N_STREAM_CHANNELS):
+        table += [(f"SR{ch}_{s}", i16, _STREAM_DEFAULTS.get(s, 1)) for s in STREAM_NAMES]
+    return [ParamDef(name, ptype, float(default)) for name, ptype, default in table]
+
+
+PARAM_DEFS: tuple[ParamDef, ...] = tuple(_defs())
+
+
+def cast(ptype: int, value: float) -> float:
+    """The value a parameter of type ``ptype`` actually holds after being set to ``value``."""
+    if ptype == REAL32:
+        return float(value)
+    lo, hi = _INT_LIMITS[ptype]
+    return float(min(hi, max(lo, round(value))))
+
+
+class ParamTable:
+    """The live parameter values, with index order, defaults and an optional JSON store on disk."""
+
+    def __init__(self, store: Path | None = None, defaults: dict[str, float] | None = None) -> None:
+        self.defs = PARAM_DEFS
+        self._by_name = {d.name: i for i, d in enumerate(self.defs)}
+        self._values = [d.default for d in self.defs]
+        for name, value in (defaults or {}).items():
+            self._values[self._by_name[name]] = cast(self.defs[self._by_name[name]].ptype, value)
+        self.store = store
+        if store is not None:
+            self._load_store(store)
+
+    def __len__(self) -> int:
+        return len(self.defs)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._by_name
+
+    def __getitem__(self, name: str) -> float:
+        return self._values[self._by_name[name]]
+
+    def index(self, name: str) -> int:
+        """The parameter's index in PARAM_REQUEST_LIST order; KeyError if unknown."""
+        return self._by_name[name]
+
+    def at(self, index: int) -> tuple[ParamDef, float]:
+        """Definition and value at ``index``; IndexError if out of range."""
+        if not 0 <= index < len(self.defs):
+            raise IndexError(index)
+        return self.defs[index], self._values[index]
+
+    def set(self, name: str, value: float, save: bool = True) -> bool:
+        """Set a known parameter to a finite value (cast to its type) and persist it; False if refused."""
+        if name not in self._by_name or not math.isfinite(value):
+            return False
+        i = self._by_name[name]
+        self._values[i] = cast(self.defs[i].ptype, value)
+        if save and self.store is not None:
+            self._save_store(self.store)
+        return True
+
+    def _load_store(self, path: Path) -> None:
+        """Apply saved values; a missing store is an empty one, a corrupt store is a ConfigError."""
+        if not path.exists():
+            return
+        try:
+            saved = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise ConfigError(
+                f"{path}: unreadable parameter store ({exc}); use --wipe to start afresh"
+            ) from None
+        if not isinstance(saved, dict):
+            raise ConfigError(f"{path}: parameter store is not a mapping; use --wipe to start afresh")
+        for name, value in saved.items():
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                self.set(str(name), float(value), save=False)
+
+    def _save_store(self, path: Path) -> None:
+        """Write every value that differs from its default, atomically."""
+        changed = {d.name: v for d, v in zip(self.defs, self._values, strict=True) if v != d.default}
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(path.suffix + ".tmp")
+            tmp.write_text(json.dumps(changed, indent=1, sort_keys=True), encoding="utf-8")
+            os.replace(tmp, path)
+        except OSError:
+            pass  # like a failing EEPROM write: the value still applies for this run
+
+
+def parse_parm(lines: Iterable[str], where: str) -> dict[str, float]:
+    """Parse ``NAME VALUE`` or ``NAME,VALUE`` lines with ``#`` comments into a mapping."""
+    values: dict[str, float] = {}
+    for number, raw in enumerate(lines, 1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = line.replace(",", " ").split()
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            value = float(parts[1])
+            if not math.isfinite(value):
+                raise ValueError
+        except ValueError:
+            raise ConfigError(f"{where}:{number}: expected 'NAME VALUE', got {raw.strip()!r}") from None
+        values[parts[0].upper()] = value
+    return values
+
+
+def read_parm(path: Path) -> dict[str, float]:
+    """Read a ``.parm`` file; unreadable files and bad lines raise a one-line ConfigError."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read parameter file ({exc})") from None
+    return parse_parm(text.splitlines(), str(path))

@@ -1,0 +1,169 @@
+"""The simulator: one loop that owns time, stepping MAVLink I/O, the autopilot and the plant at 100 Hz."""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from vessel import OceanCurrent, RegularWaves
+
+from .clock import Pacer
+from .gcs import Gcs
+from .geo import Home
+from .guided import to_location
+from .logs import StateCsv, TlogWriter
+from .mission import MissionStore
+from .missionproto import MissionServer
+from .modes import Mode
+from .params import ParamTable
+from .physics import PHYSICS_DT_S, Physics, make_waves, nav_state
+from .telemetry import FIRMWARE_VERSION, Battery, Telemetry
+from .vehicle import Vehicle
+
+log = logging.getLogger("sim_vehicle")
+CSV_FLUSH_S = 1.0
+
+
+@dataclass
+class Options:
+    """Everything the command line (or a future scenario file) decides."""
+
+    home: Home = field(default_factory=Home)
+    waves: str = "calm"
+    sea: RegularWaves | None = None  # overrides ``waves`` when given
+    current: OceanCurrent | None = None
+    speedup: float = 1.0
+    tcp_port: int | None = 5760
+    tcp_host: str = "0.0.0.0"
+    outputs: list[tuple[str, int]] = field(
+        default_factory=lambda: [("127.0.0.1", 14550), ("127.0.0.1", 14551)]
+    )
+    params: ParamTable = field(default_factory=ParamTable)
+    mission_store: Path | None = None
+    log_dir: Path | None = None
+    rc_receiver: bool = True
+    duration_s: float | None = None
+
+
+class Simulator:
+    """Builds the boat, the autopilot and its links, then runs them in simulated time."""
+
+    def __init__(self, opts: Options) -> None:
+        self.opts = opts
+        self.params = opts.params
+        self.home = opts.home
+        waves = opts.sea if opts.sea is not None else make_waves(opts.waves)
+        self.physics = Physics.create(waves, opts.home.heading_deg, opts.current)
+        self.store = MissionStore(opts.mission_store)
+        self.boot_unix_us = int(time.time() * 1e6)
+        self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
+        self.csv = StateCsv(opts.log_dir / "state.csv") if opts.log_dir else None
+        self.battery = Battery()
+        self.gcs: Gcs
+        self.vehicle = Vehicle(
+            self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver
+        )
+        self.telemetry = Telemetry(
+            self.physics,
+            self.vehicle,
+            self.home,
+            self.params,
+            self.store,
+            self.vehicle.runner,
+            self.battery,
+            self.boot_unix_us,
+        )
+        self.gcs = Gcs(self.params, self.vehicle, self.telemetry, self.tlog.write if self.tlog else None)
+        self.gcs.missions = MissionServer(
+            self.store, self.vehicle.runner, self.home, self._text, self.gcs.broadcast
+        )
+        self.gcs.missions.guided_goto = self._guided_goto
+        major, minor, patch = FIRMWARE_VERSION
+        self.gcs.param_server.banner = [
+            f"ArduRover V{major}.{minor}.{patch} (sim_vehicle Otter SITL)",
+            "Frame: BOAT" if self.params["FRAME_CLASS"] == 2 else "Frame: ROVER",
+        ]
+        if opts.tcp_port is not None:
+            self.gcs.add_tcp_server(opts.tcp_host, opts.tcp_port)
+        for host, port in opts.outputs:
+            self.gcs.add_udp(host, port)
+        self.running = True
+        self.n_cmd = (0.0, 0.0)
+
+    def unix_us(self) -> int:
+        """Simulated Unix time in µs (boot wall time + simulated time)."""
+        return self.boot_unix_us + round(self.physics.plant.time * 1e6)
+
+    def _text(self, severity: int, text: str) -> None:
+        """STATUSTEXT from the vehicle logic to every channel."""
+        self.gcs.text(severity, text)
+
+    def _guided_goto(self, lat_deg: float, lon_deg: float) -> bool:
+        """MISSION_ITEM with current=2: a guided waypoint, accepted only in GUIDED."""
+        v = self.vehicle
+        return v.set_guided(to_location(lat_deg, lon_deg, self.home, v.nav, v.default_speed(), v.now))
+
+    def _reached(self, seq: int) -> None:
+        """MISSION_ITEM_REACHED to every channel when a nav item completes."""
+        self.gcs.broadcast(mavlink.MAVLink_mission_item_reached_message(seq))
+
+    def step(self) -> None:
+        """One physics step: read links, run the autopilot, advance the plant, send what is due."""
+        plant = self.physics.plant
+        now = plant.time
+        self.vehicle.now = now  # messages handled below are stamped with this step's time
+        self.gcs.poll(now)
+        outputs = self.vehicle.update(nav_state(plant.state), now, PHYSICS_DT_S)
+        self.n_cmd = self.physics.shaft_commands(outputs)
+        self.battery.update(outputs, PHYSICS_DT_S)
+        x = plant.step(self.n_cmd)
+        self._log_state(x)
+        self.gcs.send_due(plant.time)
+
+    def _log_state(self, x: np.ndarray) -> None:
+        """One CSV row of the true state after a step."""
+        if self.csv is None:
+            return
+        t = self.physics.plant.time
+        wave = self.physics.wave_at(float(x[0]), float(x[1]), t)
+        self.csv.write(t, x, self.n_cmd, wave, int(self.vehicle.mode), self.vehicle.armed)
+
+    def run(self) -> None:
+        """Loop until stopped (signal) or the optional duration has passed."""
+        pacer = Pacer(self.opts.speedup)
+        plant = self.physics.plant
+        last_flush = time.monotonic()
+        if self.csv is not None:
+            self.csv.write(
+                plant.time,
+                plant.state,
+                self.n_cmd,
+                self.physics.wave_at(0.0, 0.0, 0.0),
+                int(self.vehicle.mode),
+                self.vehicle.armed,
+            )
+        log.info("sim_vehicle running: mode %s, speedup %g", Mode(self.vehicle.mode).name, self.opts.speedup)
+        try:
+            while self.running:
+                if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
+                    break
+                self.step()
+                pacer.wait_until(plant.time)
+                if self.csv is not None and time.monotonic() - last_flush > CSV_FLUSH_S:
+                    self.csv.flush()
+                    last_flush = time.monotonic()
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Close sockets and logs."""
+        self.gcs.close()
+        if self.csv is not None:
+            self.csv.close()
+        if self.tlog is not None:
+            self.tlog.close()
