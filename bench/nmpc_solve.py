@@ -1,0 +1,79 @@
+"""Solve-time distribution of each NMPC solver configuration over a whole closed-loop run.
+
+    python bench/nmpc_solve.py [--scenario scenarios/balanced.yaml] [--configs ipopt,rti] [--t-max 180]
+
+For each configuration: median, p95, p99 and max wall time per control step (ms) over the run (and the
+max after the first step, which is a cold start for every configuration), and the run's closed-loop
+metrics (average and maximum roll, time to the waypoint), printed as a table. Run it alone on the
+machine (one process, OMP_NUM_THREADS=1) for clean timings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from mavbridge.experiment import run_scenario
+from mavbridge.scenario import load_scenarios
+
+# name -> controller overrides
+CONFIGS: dict[str, dict] = {
+    "ipopt": {"solver": "ipopt"},  # reference: SX, warm start, Euler 2×0.05 s
+    "ipopt-rk4": {"solver": "ipopt", "integrator": "rk4", "substeps": 1},  # one RK4 step of 0.1 s
+    "rti": {"solver": "rti"},  # Gauss–Newton SQP, HPIPM: 2 iterations per step, QP capped at 4 iterations
+    # The same iterated until the input step is below 0.01 (up to 30 iterations): converged GN-SQP.
+    "rti-converged": {"solver": "rti", "rti_max_iterations": 30, "rti_step_tol": 0.01, "rti_qp_iter_max": 0},
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run each configuration and print the table."""
+    root = Path(__file__).resolve().parents[1]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default=str(root / "scenarios" / "balanced.yaml"))
+    parser.add_argument("--configs", default="ipopt,rti", help=f"comma-separated, from {', '.join(CONFIGS)}")
+    parser.add_argument("--t-max", type=float, default=None, help="override the scenario's t_max_s")
+    args = parser.parse_args(argv)
+    names = [n.strip() for n in args.configs.split(",") if n.strip()]
+    unknown = [n for n in names if n not in CONFIGS]
+    if unknown:
+        parser.error(f"unknown configuration {unknown[0]!r} (choose from {', '.join(CONFIGS)})")
+    base = load_scenarios(args.scenario)[0]
+    if args.t_max is not None:
+        base = dataclasses.replace(base, t_max_s=args.t_max)
+    rows = []
+    for name in names:
+        scenario = dataclasses.replace(base, controller=base.controller.replace(**CONFIGS[name]))
+        start = time.perf_counter()
+        result = run_scenario(scenario, None, plots=False)
+        wall = time.perf_counter() - start
+        ms = np.array(result.solve_ms)
+        m = result.metrics
+        arrival = f"{m['time_to_waypoint_s']:.1f}" if m["time_to_waypoint_s"] is not None else "N/A"
+        warm = ms[1:] if len(ms) > 1 else ms  # the first step is a cold start (a full IPOPT solve)
+        rows.append((name, len(ms), np.median(ms), np.percentile(ms, 95), np.percentile(ms, 99), ms.max(),
+                     warm.max(), m["iterations_median"], m["failures"], m["avg_roll_deg"], m["max_roll_deg"],
+                     arrival, wall))
+        print(f"{name}: done in {wall:.1f} s", file=sys.stderr, flush=True)
+    print(f"scenario {Path(args.scenario).name} ({base.name}), horizon {base.controller.horizon}, "
+          f"period {base.controller.period_s} s; solve ms per control step (wall clock)")
+    print("| config | steps | median ms | p95 ms | p99 ms | max ms | max after 1st ms | iters (median) "
+          "| failures | avg roll ° | max roll ° | t_wpt s | run wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r[0]} | {r[1]} | {r[2]:.2f} | {r[3]:.2f} | {r[4]:.2f} | {r[5]:.1f} | {r[6]:.2f} | {r[7]:g} "
+              f"| {r[8]} | {r[9]:.2f} | {r[10]:.2f} | {r[11]} | {r[12]:.1f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

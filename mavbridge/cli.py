@@ -1,0 +1,96 @@
+"""``mavbridge`` console script: subcommands (``experiment`` now; ``run`` comes with the MAVLink link)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+from pathlib import Path
+
+from vessel import ConfigError
+
+from .nmpc.config import SOLVERS
+
+PLANTS = ("tau", "propellers")  # mirrors mavbridge.scenario.PLANTS (kept import-light)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump) and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(2)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with its subcommands."""
+    parser = _Parser(prog="mavbridge", description="Roll-aware NMPC companion for the Otter USV.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    exp = sub.add_parser("experiment", help="closed-loop runs of a scenario file in-process (no MAVLink)",
+                         description="Run every run of a scenario file in closed loop with the vessel plant; "
+                                     "write timeseries.csv, metrics.json, scenario.yaml and plots per run, "
+                                     "and table3.md for a set of runs.")
+    exp.add_argument("scenario", help="scenario YAML file (a single scenario or base + runs)")
+    exp.add_argument("--out", help="output folder (default: runs/<scenario file name>)")
+    exp.add_argument("--jobs", type=_positive_int, default=None,
+                     help="parallel processes (default: all cores)")
+    exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
+    exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
+    exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
+    return parser
+
+
+def _experiment(args: argparse.Namespace) -> int:
+    from .experiment import experiment
+    from .scenario import load_scenarios
+
+    scenarios = load_scenarios(args.scenario)
+    if args.only:
+        wanted = [name.strip() for name in args.only.split(",") if name.strip()]
+        names = [s.name for s in scenarios]
+        missing = [name for name in wanted if name not in names]
+        if missing:
+            raise ConfigError(f"--only: no run named '{missing[0]}' in {args.scenario} "
+                              f"(runs: {', '.join(names)})")
+        scenarios = [s for s in scenarios if s.name in wanted]
+    if args.solver:
+        scenarios = [dataclasses.replace(s, controller=s.controller.replace(solver=args.solver)) for s in scenarios]
+    if args.plant:
+        scenarios = [dataclasses.replace(s, plant=args.plant) for s in scenarios]
+    out = Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem
+    experiment(scenarios, out, args.jobs)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; bad input prints one line to stderr and exits with code 2."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "experiment":
+            return _experiment(args)
+    except (ConfigError, ValueError) as exc:
+        sys.stderr.write(f"mavbridge: error: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
+        return 2
+    except (FloatingPointError, RuntimeError) as exc:
+        sys.stderr.write(f"mavbridge: run failed: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
+        return 1
+    except KeyboardInterrupt:
+        sys.stderr.write("mavbridge: interrupted\n")
+        return 130
+    return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,78 @@
+"""Compile a CasADi Function to a shared library once and cache it on disk, keyed by its content hash.
+
+The key is a hash of the serialised Function, so any change of model, parameters, waves or horizon
+builds a new library; the same structure reuses it across runs and processes. Without a C compiler (or
+when compilation fails) the Function is returned as it is and runs in CasADi's SX virtual machine.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import warnings
+from pathlib import Path
+
+import casadi as ca
+
+CACHE_ENV = "MAVBRIDGE_CACHE_DIR"
+
+
+def cache_dir() -> Path:
+    """$MAVBRIDGE_CACHE_DIR, else $XDG_CACHE_HOME/mavbridge, else ~/.cache/mavbridge."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mavbridge"
+
+
+def compiler() -> str | None:
+    """The C compiler to use (``$CC``, gcc or cc), or None."""
+    for name in (os.environ.get("CC"), "gcc", "cc"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+def function_hash(fn: ca.Function) -> str:
+    """A content hash of the Function (its serialised form) and the CasADi version."""
+    digest = hashlib.sha256(fn.serialize().encode())
+    digest.update(ca.__version__.encode())
+    return digest.hexdigest()[:20]
+
+
+def compiled(fn: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> tuple[ca.Function, str]:
+    """(Function, how): a compiled equivalent of ``fn`` from the cache (built if missing), or ``fn``."""
+    cc = compiler()
+    if cc is None:
+        return fn, "sx-vm (no C compiler)"
+    directory = cache_dir()
+    name = fn.name()
+    library = directory / f"{name}_{function_hash(fn)}.so"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        if not library.exists():
+            with open(directory / f".{library.name}.lock", "w") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)  # another process may be building the same library
+                if not library.exists():
+                    _build(fn, library, cc, flags)
+        return ca.external(name, str(library)), f"compiled ({library.name})"
+    except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
+        warnings.warn(f"compiling {name} failed ({str(exc).splitlines()[0]}); using the SX virtual machine",
+                      RuntimeWarning, stacklevel=2)
+        return fn, "sx-vm (compilation failed)"
+
+
+def _build(fn: ca.Function, library: Path, cc: str, flags: tuple[str, ...]) -> None:
+    with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
+        source = Path(tmp) / f"{fn.name()}.c"
+        with contextlib.chdir(tmp):
+            fn.generate(source.name, {"with_header": False})
+        target = Path(tmp) / library.name
+        subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(target), str(source), "-lm"], check=True,
+                       capture_output=True, timeout=1800)
+        os.replace(target, library)

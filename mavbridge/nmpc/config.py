@@ -1,0 +1,74 @@
+"""NmpcConfig: the controller's weights, horizon, discretisation, input bounds and solver choice."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from vessel.config import ConfigError, bounded, validate
+
+SOLVERS = ("ipopt", "rti")
+INTEGRATORS = ("euler", "rk4")
+
+
+def choice(default: str, choices: tuple[str, ...], doc: str = "") -> str:
+    """A text field restricted to ``choices`` (checked by vessel.config on load)."""
+    return dataclasses.field(default=default, metadata={"choices": choices, "doc": doc})
+
+
+@dataclass(frozen=True)
+class NmpcConfig:
+    """Everything that defines the NMPC problem and its solver (SI units, radians)."""
+
+    q: float = bounded(5.0, 0.0, 1e6, "", "heading-error weight Q (per rad²)")
+    r: float = bounded(1550.0, 0.0, 1e7, "", "roll weight R (per rad²)")
+    s: float = bounded(2.0, 0.0, 1e6, "", "distance weight S (per m)")
+    w_dtau_x: float = bounded(1.0, 0.0, 1e6, "", "input-change weight W11 (per N²)")
+    w_dtau_n: float = bounded(1.0, 0.0, 1e6, "", "input-change weight W22 (per (N·m)²)")
+    horizon: int = bounded(40, 1, 400, "steps", "prediction horizon P")
+    period_s: float = bounded(0.1, 0.01, 2.0, "s", "sampling period T")
+    substeps: int = bounded(2, 1, 50, "", "integrator sub-steps per period")
+    integrator: str = choice("euler", INTEGRATORS, "explicit Euler or RK4 per sub-step")
+    tau_x_max_n: float = bounded(150.0, 1.0, 1000.0, "N", "largest forward surge force")
+    tau_x_min_n: float = bounded(-150.0, -1000.0, 0.0, "N", "largest reverse surge force (negative)")
+    tau_n_max_nm: float = bounded(73.6, 0.1, 1000.0, "N·m", "largest |yaw moment|")
+    min_speed_mps: float = bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed")
+    min_speed_weight: float = bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it")
+    solver: str = choice("ipopt", SOLVERS, "ipopt (reference) or rti (Gauss–Newton SQP with HPIPM)")
+    max_iter: int = bounded(50, 0, 10000, "", "IPOPT iteration limit")
+    rti_iterations: int = bounded(2, 1, 20, "", "SQP iterations per step, at least (rti)")
+    rti_max_iterations: int = bounded(2, 1, 50, "", "SQP iterations per step, at most (rti)")
+    rti_step_tol: float = bounded(1.0, 0.0, 1e6, "N, N·m", "rti: iterate past the minimum while an input "
+                                  "step exceeds this")
+    rti_qp_iter_max: int = bounded(4, 0, 1000, "", "HPIPM iteration cap per QP (rti; 0 = HPIPM's default)")
+    rti_codegen: str = choice("auto", ("auto", "off"), "rti: compile the linearisation to C (cached) or not")
+    safe_surge_n: float = bounded(30.0, 0.0, 1000.0, "N", "fallback surge force when there is no plan")
+
+    def __post_init__(self) -> None:
+        validate(self)
+        for f in dataclasses.fields(self):
+            choices = f.metadata.get("choices")
+            if choices and getattr(self, f.name) not in choices:
+                raise ConfigError(f"{f.name}: {getattr(self, f.name)!r} is not one of {', '.join(choices)}")
+        if self.rti_max_iterations < self.rti_iterations:
+            raise ConfigError(f"rti_max_iterations: {self.rti_max_iterations} is below rti_iterations "
+                              f"{self.rti_iterations}; allowed [rti_iterations, 50]")
+        if self.safe_surge_n > self.tau_x_max_n:
+            raise ConfigError(f"safe_surge_n: {self.safe_surge_n:g} N exceeds tau_x_max_n "
+                              f"{self.tau_x_max_n:g} N; allowed [0, tau_x_max_n] N")
+
+    @property
+    def weights(self) -> tuple[float, float, float, float, float]:
+        """(Q, R, S, W11, W22), the runtime parameters of the NLP."""
+        return (self.q, self.r, self.s, self.w_dtau_x, self.w_dtau_n)
+
+    def structural(self) -> tuple:
+        """The fields that change the NLP's structure (a new solver must be built when they change)."""
+        return (self.horizon, self.period_s, self.substeps, self.integrator, self.min_speed_mps,
+                self.min_speed_weight, self.solver, self.max_iter, self.rti_iterations, self.rti_max_iterations,
+                self.rti_step_tol, self.rti_qp_iter_max,
+                self.rti_codegen, self.tau_x_max_n, self.tau_x_min_n, self.tau_n_max_nm)
+
+    def replace(self, **changes: object) -> NmpcConfig:
+        """A copy with some fields changed (validated)."""
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,67 @@
+"""The reference solver: IPOPT on the SX-expanded multiple-shooting NLP, warm-started (notes' variant b)."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .backend import SolveOutcome
+from .config import NmpcConfig
+from .problem import Layout
+
+SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+ITERATION_LIMIT = "Maximum_Iterations_Exceeded"
+FEASIBILITY_TOL = 1e-3  # an iteration-limited iterate (≥ 1 iteration) is used when its gaps are below this
+
+
+def ipopt_options(cfg: NmpcConfig) -> dict:
+    """The recommended configuration: SX expansion, IPOPT warm start, mu_init 1e-3, iteration cap."""
+    return {
+        "expand": True,
+        "print_time": False,
+        "error_on_fail": False,
+        "ipopt.print_level": 0,
+        "ipopt.sb": "yes",
+        "ipopt.warm_start_init_point": "yes",
+        "ipopt.warm_start_bound_push": 1e-6,
+        "ipopt.warm_start_mult_bound_push": 1e-6,
+        "ipopt.mu_init": 1e-3,
+        "ipopt.max_iter": cfg.max_iter,
+        "ipopt.tol": 1e-6,
+        "ipopt.acceptable_tol": 1e-4,
+    }
+
+
+class IpoptBackend:
+    """Builds the IPOPT solver once; ``solve`` runs it from a given primal/dual guess."""
+
+    name = "ipopt"
+
+    def __init__(self, nlp: dict, layout: Layout, cfg: NmpcConfig) -> None:
+        self.layout = layout
+        self.n_g = nlp["g"].numel()
+        self.solver = ca.nlpsol("nmpc_ipopt", "ipopt", nlp, ipopt_options(cfg))
+
+    def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
+              lam_w0: np.ndarray | None, lam_g0: np.ndarray | None) -> SolveOutcome:
+        """One NLP solve; never raises for solver failures (they come back as an unusable outcome)."""
+        args = {"x0": w0, "p": p, "lbx": lbw, "ubx": ubw, "lbg": 0.0, "ubg": 0.0}
+        if lam_w0 is not None and lam_g0 is not None:
+            args["lam_x0"] = lam_w0
+            args["lam_g0"] = lam_g0
+        try:
+            sol = self.solver(**args)
+        except RuntimeError as exc:  # evaluation errors surface here in some CasADi versions
+            return SolveOutcome.failed(f"error: {str(exc).splitlines()[0]}")
+        stats = self.solver.stats()
+        status = str(stats.get("return_status", "unknown"))
+        w = np.asarray(sol["x"]).ravel()
+        gaps = np.asarray(sol["g"]).ravel()
+        violation = float(np.max(np.abs(gaps))) if gaps.size else 0.0
+        iterations = int(stats.get("iter_count", 0))
+        finite = bool(np.all(np.isfinite(w)) and np.isfinite(violation))
+        usable = finite and (status in SUCCESS_STATUSES
+                             or (status == ITERATION_LIMIT and iterations > 0 and violation <= FEASIBILITY_TOL))
+        return SolveOutcome(w=w, lam_w=np.asarray(sol["lam_x"]).ravel(), lam_g=np.asarray(sol["lam_g"]).ravel(),
+                            usable=usable, status=status, iterations=iterations,
+                            violation=violation)

@@ -1,0 +1,90 @@
+"""The fast solver (Gauss–Newton RTI with HPIPM): same QP data as the reference linearisation, the same
+closed loop as IPOPT on a short case, and the compiled linearisation cached on disk."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from mavbridge.experiment import run_scenario
+from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
+from mavbridge.nmpc.codegen import compiler
+from mavbridge.nmpc.problem import discrete_model
+from mavbridge.nmpc.rti import linearisation, linearisation_inlined
+from mavbridge.scenario import scenario_from_mapping
+from vessel import OceanCurrent, RegularWaves, otter_parameters
+
+WAVES = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2)
+
+
+def test_mapped_linearisation_equals_the_inlined_one() -> None:
+    cfg = NmpcConfig(horizon=4)
+    step = discrete_model(otter_parameters(), WAVES, OceanCurrent(), cfg)
+    mapped, inlined = linearisation(step, cfg), linearisation_inlined(step, cfg)
+    rng = np.random.default_rng(3)
+    w = rng.normal(size=mapped.size1_in(0)) * 0.3
+    p = np.concatenate([rng.normal(size=12), [7.0, 85.0, 75.0], [20.0, 1.0], [5, 1550, 2, 1, 1]])
+    for a, b in zip(mapped(w, p), inlined(w, p), strict=True):
+        np.testing.assert_allclose(ca.densify(a).full(), ca.densify(b).full(), atol=1e-10)
+
+
+def _beam(solver: str) -> dict:
+    return {
+        "name": f"beam_{solver}",
+        "sea": {"height_m": 1.75, "length_m": 35.0, "period_s": 6.0, "travel_dir_deg": -90.0},
+        "start": {"heading_deg": 30.0, "surge_mps": 1.0},
+        "waypoint": {"north_m": 40.0, "east_m": 10.0},
+        "t_max_s": 10.0,
+        "controller": {"q": 5, "r": 1550, "s": 2, "horizon": 12, "solver": solver, "rti_codegen": "off"},
+    }
+
+
+def test_rti_closed_loop_matches_ipopt_on_a_short_case() -> None:
+    results = {}
+    for solver in ("ipopt", "rti"):
+        scenario = scenario_from_mapping(_beam(solver), "test")
+        results[solver] = run_scenario(scenario, None, plots=False)
+    ipopt, rti = results["ipopt"].metrics, results["rti"].metrics
+    assert rti["failures"] == 0
+    assert rti["avg_roll_deg"] == pytest.approx(ipopt["avg_roll_deg"], rel=0.05)
+    assert rti["final_distance_m"] == pytest.approx(ipopt["final_distance_m"], rel=0.05)
+    # After the cold start (an IPOPT solve) every step is a few SQP iterations: far faster.
+    assert np.median(results["rti"].solve_ms[1:]) < 0.5 * np.median(results["ipopt"].solve_ms[1:])
+
+
+def test_rti_first_solve_is_a_full_solve_then_real_time_iterations() -> None:
+    cfg = NmpcConfig(horizon=6, solver="rti", rti_codegen="off", rti_iterations=2, rti_max_iterations=2)
+    nmpc = RollAwareNmpc(cfg, otter_parameters(), WAVES)
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    first = nmpc.solve(x, 0.0, (85.0, 75.0))
+    assert first.status == "Solve_Succeeded"
+    second = nmpc.solve(first.states[1], 0.1, (85.0, 75.0))
+    assert second.status.startswith("RTI") and second.iterations == 2 and second.success
+    assert np.all(np.isfinite(second.tau))
+    nmpc.reset()
+    assert nmpc.solve(x, 0.0, (85.0, 75.0)).status == "Solve_Succeeded"
+
+
+@pytest.mark.skipif(compiler() is None, reason="no C compiler")
+def test_compiled_linearisation_is_cached_by_model_hash(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MAVBRIDGE_CACHE_DIR", str(tmp_path))
+    cfg = NmpcConfig(horizon=3, solver="rti", rti_codegen="auto")
+    nmpc = RollAwareNmpc(cfg, otter_parameters().replace(payload_mass=24.0), WAVES)
+    assert nmpc._backend.codegen.startswith("compiled")
+    libraries = list(tmp_path.glob("rti_linearisation_*.so"))
+    assert len(libraries) == 1
+    stamp = libraries[0].stat().st_mtime_ns
+    from mavbridge.nmpc.rti import RtiBackend
+
+    again = RtiBackend({"x": None}, nmpc.layout, cfg, nmpc._step, ipopt=nmpc._backend.ipopt)
+    assert again.codegen == nmpc._backend.codegen
+    assert libraries[0].stat().st_mtime_ns == stamp
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    first = nmpc.solve(x, 0.0, (85.0, 75.0))
+    assert nmpc.solve(first.states[1], 0.1, (85.0, 75.0)).success
