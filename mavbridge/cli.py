@@ -1,4 +1,4 @@
-"""``mavbridge`` console script: subcommands (``experiment`` now; ``run`` comes with the MAVLink link)."""
+"""``mavbridge`` console script: ``experiment`` (in-process), ``run`` (the companion), ``demo`` (everything)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from pathlib import Path
 
 from vessel import ConfigError
 
+from .cli_run import add_demo_parser, add_run_parser, demo_command, run_command
 from .nmpc.config import SOLVERS
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.scenario.PLANTS (kept import-light)
@@ -48,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
     exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
     exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
+    add_run_parser(sub)
+    add_demo_parser(sub)
     return parser
 
 
@@ -80,6 +83,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "experiment":
             return _experiment(args)
+        if args.command == "run":
+            return run_command(args)
+        if args.command == "demo":
+            return demo_command(args)
     except (ConfigError, ValueError) as exc:
         sys.stderr.write(f"mavbridge: error: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
         return 2

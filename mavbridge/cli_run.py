@@ -1,0 +1,110 @@
+"""The `mavbridge run` and `mavbridge demo` subcommands (argument parsing and dispatch)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+from vessel.config import ConfigError
+
+from .nmpc.config import SOLVERS
+
+OUTPUTS = ("rc_override", "attitude_target")
+
+
+def _pair(text: str) -> tuple[float, float]:
+    """'N,E' metres as two finite numbers."""
+    try:
+        north, east = (float(p) for p in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'N,E' in metres, got {text!r}") from None
+    if not (math.isfinite(north) and math.isfinite(east)):
+        raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
+    return north, east
+
+
+def _speedup(text: str) -> float:
+    """A speedup in (0, 100]."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 100], got {text!r}") from None
+    if not (math.isfinite(value) and 0 < value <= 100):
+        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range (0, 100]")
+    return value
+
+
+def add_run_parser(sub: Any) -> None:
+    """`mavbridge run`: the companion process."""
+    run = sub.add_parser("run", help="fly the roll-aware NMPC over MAVLink (the companion process)",
+                         description="Connect to an ArduPilot Rover, take the waypoint from its mission, and "
+                                     "command it with the NMPC while it is armed in the configured mode.")
+    run.add_argument("--config", help="companion YAML (connection, ids, output, timeouts); flags override it")
+    run.add_argument("--connect", help="pymavlink connection: udpin:0.0.0.0:14551, tcp:HOST:PORT, /dev/ttyAMA0")
+    run.add_argument("--baud", type=int, help="serial baud rate (default 921600)")
+    run.add_argument("--sysid", type=int, help="our system id (default 255 = ArduPilot's SYSID_MYGCS)")
+    run.add_argument("--compid", type=int, help="our component id (default 191, onboard computer)")
+    run.add_argument("--output", choices=OUTPUTS, help="rc_override (MANUAL) or attitude_target (GUIDED)")
+    run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
+                                        "Balanced run)")
+    run.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
+    run.add_argument("--waypoint", type=_pair, metavar="N,E", help="waypoint in metres from home (testing)")
+    run.add_argument("--arm", action="store_true", help="arm the vehicle at start")
+    run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
+    run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
+    run.add_argument("--max-time", type=float, help="stop after this many seconds engaged (autopilot time)")
+    run.add_argument("--out", help="run folder for tlog, CSV and metrics (default runs/companion-<time>)")
+
+
+def add_demo_parser(sub: Any) -> None:
+    """`mavbridge demo`: simulator + mission upload + companion, one command."""
+    demo = sub.add_parser("demo", help="the whole system: sim-vehicle + mission upload + mavbridge run",
+                          description="Start the simulator in the paper's waves and the companion side by side "
+                                      "over UDP, upload the waypoint with MAVSDK, fly there, print the figures.")
+    demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10 with the "
+                                                                         "rti solver, 1 with ipopt)")
+    demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
+    demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
+    demo.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
+    demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
+
+
+def _scenario(path: str | None, solver: str | None) -> Any:
+    from .scenario import Scenario, load_scenarios
+
+    if path:
+        scenarios = load_scenarios(path)
+        if len(scenarios) != 1:
+            raise ConfigError(f"--scenario: {path} defines {len(scenarios)} runs; give a single-run scenario")
+        scenario = scenarios[0]
+    else:
+        scenario = Scenario(name="balanced")
+    if solver:
+        scenario = dataclasses.replace(scenario, controller=scenario.controller.replace(solver=solver))
+    return scenario
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Carry out `mavbridge run`."""
+    import time
+
+    from .companion import Companion, load_companion_config
+
+    config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
+                                   component_id=args.compid, output=args.output, max_time_s=args.max_time)
+    scenario = _scenario(args.scenario, args.solver)
+    out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
+    return Companion(config, scenario, out, args.waypoint, args.arm, args.set_mode, args.dry_run).run()
+
+
+def demo_command(args: argparse.Namespace) -> int:
+    """Carry out `mavbridge demo`."""
+    from .demo import run_demo, timestamped_folder
+
+    scenario = _scenario(args.scenario, args.solver)
+    speedup = args.speedup or (10.0 if scenario.controller.solver == "rti" else 1.0)
+    out = Path(args.out) if args.out else timestamped_folder()
+    return run_demo(args.scenario, scenario, out, speedup, args.output, args.solver)

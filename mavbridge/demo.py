@@ -1,0 +1,134 @@
+"""`mavbridge demo`: the whole system in one command, as separate processes over UDP loopback.
+
+Starts `sim-vehicle` in the scenario's sea, uploads the waypoint with `mission upload` (MAVSDK), runs
+`mavbridge run` (which arms and sets the mode), waits for the arrival or t_max, stops every process it
+started by its own handles, prints the figures and leaves a run folder with tlogs, CSVs, metrics and plots.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import math
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .plots import plot_path, plot_timeseries
+from .scenario import Scenario
+
+HOME = (-35.363261, 149.165230, 584.0)  # ArduPilot SITL's CMAC
+
+
+def free_udp_port() -> int:
+    """A UDP port on 127.0.0.1 that nothing is bound to right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def free_tcp_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _stop(process: subprocess.Popen, name: str, grace_s: float = 5.0) -> None:
+    """Terminate a child we started (SIGTERM, then SIGKILL after a grace period) and reap it."""
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(grace_s)
+        except subprocess.TimeoutExpired:
+            print(f"demo: {name} did not stop in {grace_s:g} s, killing it", file=sys.stderr)
+            process.kill()
+            process.wait()
+
+
+def _plot(scenario: Scenario, out: Path, metrics: dict) -> None:
+    """The paper's figures from the simulator's true state."""
+    rows = list(csv.DictReader((out / "sim" / "state.csv").open()))
+    if not rows:
+        return
+    t = np.array([float(r["t_s"]) for r in rows])
+    engaged_from = metrics.get("engaged_at_s") or 0.0
+    keep = t >= engaged_from
+    col = {k: np.array([float(r[k]) for r in rows])[keep] for k in ("north_m", "east_m", "roll_rad", "pitch_rad",
+                                                                     "wave_slope_rad", "n1_rad_s", "n2_rad_s")}
+    params = scenario.params()
+    from vessel import shaft_speeds_to_tau
+
+    tau_x, tau_n = (np.asarray(v, float) for v in shaft_speeds_to_tau(params, col["n1_rad_s"], col["n2_rad_s"]))
+    force = -0.5 * params.matrices().m_total * params.g * np.sin(2 * col["wave_slope_rad"])
+    wp = (scenario.waypoint.north_m, scenario.waypoint.east_m)
+    plot_path(out / "path.png", col["north_m"], col["east_m"], wp, scenario.waypoint.acceptance_radius_m,
+              scenario.sea.waves(), float(t[keep][-1]), "demo: simulator + companion over MAVLink")
+    plot_timeseries(out / "timeseries.png", t[keep], force, np.degrees(col["roll_rad"]),
+                    np.degrees(col["pitch_rad"]), tau_x, tau_n, "demo (true plant state; τ from shaft speeds)")
+
+
+def run_demo(scenario_path: str | None, scenario: Scenario, out: Path, speedup: float, output: str,
+             solver: str | None) -> int:
+    """Run the demo; returns 0 when the boat reached the waypoint."""
+    out.mkdir(parents=True, exist_ok=True)
+    gcs_port, companion_port, tcp_port = free_udp_port(), free_udp_port(), free_tcp_port()
+    python = sys.executable
+    heading_deg = scenario.start.heading_deg
+    sim_cmd = [python, "-m", "sim_vehicle.cli", "--tcp", str(tcp_port), "--out", f"udp:127.0.0.1:{gcs_port}",
+               "--out", f"udp:127.0.0.1:{companion_port}", "--waves", "paper" if scenario.sea.height_m else "calm",
+               f"--home={HOME[0]},{HOME[1]},{HOME[2]},{heading_deg}", "--params-store",
+               str(out / "sim_state" / "params.json"), "--wipe", "--log-dir", str(out / "sim"),
+               "--speedup", f"{speedup:g}"]
+    companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
+                     "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode"]
+    if scenario_path:
+        companion_cmd += ["--scenario", scenario_path]
+    if solver:
+        companion_cmd += ["--solver", solver]
+    print(f"demo: simulator TCP {tcp_port}, ground station UDP {gcs_port}, companion UDP {companion_port}, "
+          f"speedup {speedup:g}, output {output}")
+    children: list[tuple[subprocess.Popen, str]] = []
+    try:
+        with (out / "sim.log").open("w") as sim_log:
+            sim = subprocess.Popen(sim_cmd, stdout=sim_log, stderr=subprocess.STDOUT)
+            children.append((sim, "sim-vehicle"))
+            north, east = scenario.waypoint.north_m, scenario.waypoint.east_m
+            upload = subprocess.run([python, "-m", "mission.cli", "upload", "--waypoint", f"{north:g},{east:g}",
+                                     "--connect", f"udpin://127.0.0.1:{gcs_port}", "--timeout", "20"],
+                                    capture_output=True, text=True, timeout=120)
+            print(upload.stdout.rstrip())
+            if upload.returncode != 0:
+                print(f"demo: mission upload failed: {upload.stderr.strip()}", file=sys.stderr)
+                return 1
+            companion = subprocess.Popen(companion_cmd)
+            children.append((companion, "mavbridge run"))
+            wall_limit = scenario.t_max_s / speedup + 120.0
+            try:
+                companion.wait(wall_limit)
+            except subprocess.TimeoutExpired:
+                print(f"demo: companion still running after {wall_limit:.0f} s, stopping it", file=sys.stderr)
+    finally:
+        for process, name in reversed(children):
+            _stop(process, name)
+    metrics_path = out / "companion" / "metrics.json"
+    if not metrics_path.exists():
+        print("demo: the companion wrote no metrics", file=sys.stderr)
+        return 1
+    metrics = json.loads(metrics_path.read_text())
+    with contextlib.suppress(Exception):  # the figures are a bonus; the metrics are the result
+        _plot(scenario, out, metrics)
+    arrived = metrics.get("time_to_waypoint_s")
+    print(f"demo: average roll {metrics['avg_roll_deg']} deg, max roll {metrics['max_roll_deg']} deg, "
+          f"time to waypoint {arrived if arrived is not None else 'not reached'} s; run folder {out}")
+    return 0 if arrived is not None and math.isfinite(arrived) else 1
+
+
+def timestamped_folder(root: Path = Path("runs")) -> Path:
+    """runs/demo-YYYYmmdd-HHMMSS."""
+    return root / time.strftime("demo-%Y%m%d-%H%M%S")

@@ -1,0 +1,214 @@
+"""The companion's MAVLink link: one autopilot, heartbeats, requests with retries, a .tlog of both ways.
+
+Only messages from the autopilot found by the first autopilot HEARTBEAT are passed on; garbage, bad
+CRCs and other systems or components are counted and dropped. On UDP the reply address is pinned to
+the autopilot, so a stray sender on the port cannot steer our commands elsewhere.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink import mavutil
+
+mavlink = mavutil.mavlink
+MAV_AUTOPILOT_INVALID = 8
+NON_AUTOPILOT_TYPES = {mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER}
+MAV_COMP_ID_ONBOARD_COMPUTER = 191
+
+Handler = Callable[[Any], None]
+
+
+class LinkError(RuntimeError):
+    """The link cannot do what was asked (no autopilot, no answer); one line for the user."""
+
+
+class Link:
+    """A pymavlink connection to one autopilot, with message filtering, logging and request helpers."""
+
+    def __init__(self, url: str, system_id: int = 255, component_id: int = MAV_COMP_ID_ONBOARD_COMPUTER,
+                 tlog_path: str | Path | None = None, baud: int = 921600) -> None:
+        try:
+            self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
+                                                   baud=baud, autoreconnect=True, dialect="ardupilotmega")
+        except Exception as exc:  # pymavlink raises many kinds for bad URLs, ports and devices
+            raise LinkError(f"connection {url!r}: {exc}") from None
+        self.url = url
+        self.mav = self.conn.mav
+        self.target: tuple[int, int] | None = None
+        self._reply_address: Any = None
+        self._tlog = open(tlog_path, "ab") if tlog_path else None
+        self.mav.set_send_callback(self._log_sent)
+        self.handlers: list[Handler] = []
+        self.counts = {"accepted": 0, "foreign": 0, "bad": 0}
+        self.rates: dict[str, int] = {}
+        self._last_heartbeat_sent = 0.0
+
+    # -- logging ----------------------------------------------------------------------------------
+    def _write_tlog(self, data: bytes) -> None:
+        if self._tlog is not None and data:
+            self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(data))
+
+    def _log_sent(self, msg: Any, *args: Any, **kwargs: Any) -> None:
+        self._write_tlog(msg.get_msgbuf())
+
+    def close(self) -> None:
+        """Close the connection and the log."""
+        if self._tlog is not None:
+            self._tlog.close()
+            self._tlog = None
+        self.conn.close()
+
+    # -- receiving --------------------------------------------------------------------------------
+    def _is_autopilot_heartbeat(self, msg: Any) -> bool:
+        return (msg.get_type() == "HEARTBEAT" and msg.autopilot != MAV_AUTOPILOT_INVALID
+                and msg.type not in NON_AUTOPILOT_TYPES)
+
+    def recv(self, timeout_s: float) -> Any | None:
+        """The next message from the autopilot (after handlers ran), or None on timeout or a dropped one."""
+        try:
+            msg = self.conn.recv_match(blocking=True, timeout=timeout_s)
+        except Exception:  # a malformed frame must never kill the companion
+            self.counts["bad"] += 1
+            return None
+        if msg is None:
+            return None
+        if msg.get_type() == "BAD_DATA":
+            self.counts["bad"] += 1
+            return None
+        source = (msg.get_srcSystem(), msg.get_srcComponent())
+        if self.target is None and self._is_autopilot_heartbeat(msg):
+            self.target = source
+        if source != self.target:
+            self.counts["foreign"] += 1
+            return None
+        self._write_tlog(msg.get_msgbuf())
+        self.counts["accepted"] += 1
+        self.rates[msg.get_type()] = self.rates.get(msg.get_type(), 0) + 1
+        if hasattr(self.conn, "last_address"):
+            self._reply_address = self.conn.last_address
+        for handler in self.handlers:
+            handler(msg)
+        return msg
+
+    def wait_for(self, predicate: Callable[[Any], bool], timeout_s: float) -> Any | None:
+        """Receive until ``predicate(msg)`` holds or the timeout passes; other messages still reach handlers."""
+        deadline = time.monotonic() + timeout_s
+        while (left := deadline - time.monotonic()) > 0:
+            self.heartbeat_if_due()
+            msg = self.recv(min(left, 0.1))
+            if msg is not None and predicate(msg):
+                return msg
+        return None
+
+    def wait_autopilot(self, timeout_s: float) -> tuple[int, int]:
+        """Block until an autopilot's heartbeat arrives; returns its (system, component)."""
+        if self.wait_for(lambda m: m.get_type() == "HEARTBEAT", timeout_s) is None or self.target is None:
+            raise LinkError(f"no autopilot heartbeat on {self.url} within {timeout_s:g} s")
+        return self.target
+
+    # -- sending ----------------------------------------------------------------------------------
+    def _pin(self) -> None:
+        if self._reply_address is not None:
+            self.conn.last_address = self._reply_address
+
+    def send(self, name: str, *args: Any) -> None:
+        """Send message ``name`` (e.g. 'rc_channels_override') with its fields in order."""
+        self._pin()
+        getattr(self.mav, f"{name}_send")(*args)
+
+    def heartbeat_if_due(self, period_s: float = 1.0) -> None:
+        """Our 1 Hz HEARTBEAT as an onboard controller (wall clock: it is a link-level signal)."""
+        now = time.monotonic()
+        if now - self._last_heartbeat_sent >= period_s:
+            self._last_heartbeat_sent = now
+            self.send("heartbeat", mavlink.MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0,
+                      mavlink.MAV_STATE_ACTIVE)
+
+    def command_long(self, command: int, params: tuple[float, ...], timeout_s: float = 1.5,
+                     retries: int = 3) -> int | None:
+        """COMMAND_LONG to the autopilot, resent until a COMMAND_ACK for it arrives; returns its result."""
+        assert self.target is not None, "wait_autopilot() first"
+        p = list(params) + [0.0] * (7 - len(params))
+        for attempt in range(retries):
+            self.send("command_long", self.target[0], self.target[1], command, attempt, *p)
+            ack = self.wait_for(lambda m: m.get_type() == "COMMAND_ACK" and m.command == command,
+                                timeout_s / retries)
+            if ack is not None:
+                return int(ack.result)
+        return None
+
+    def read_parameter(self, name: str, timeout_s: float = 3.0) -> float | None:
+        """PARAM_REQUEST_READ by name (retried); the value, or None when the autopilot does not answer."""
+        assert self.target is not None, "wait_autopilot() first"
+        for _ in range(3):
+            self.send("param_request_read", self.target[0], self.target[1], name.encode(), -1)
+            reply = self.wait_for(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout_s / 3)
+            if reply is not None:
+                return float(reply.param_value)
+        return None
+
+    def set_mode(self, custom_mode: int) -> int | None:
+        """MAV_CMD_DO_SET_MODE with the custom-mode flag; returns the ACK result."""
+        return self.command_long(mavlink.MAV_CMD_DO_SET_MODE,
+                                 (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, custom_mode))
+
+    def arm(self) -> int | None:
+        """MAV_CMD_COMPONENT_ARM_DISARM p1 = 1 (with the autopilot's checks); returns the ACK result."""
+        return self.command_long(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
+
+    def request_message_interval(self, msg_id: int, rate_hz: float) -> bool:
+        """SET_MESSAGE_INTERVAL via MAV_CMD_SET_MESSAGE_INTERVAL; True if ACCEPTED."""
+        result = self.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (msg_id, 1e6 / rate_hz))
+        return result == mavlink.MAV_RESULT_ACCEPTED
+
+    def request_data_stream(self, stream_id: int, rate_hz: int) -> None:
+        """The older REQUEST_DATA_STREAM (ArduPilot's SRn_ rates); no answer exists for it."""
+        assert self.target is not None
+        self.send("request_data_stream", self.target[0], self.target[1], stream_id, rate_hz, 1)
+
+    def download_mission(self, timeout_s: float = 2.0, retries: int = 5) -> list[Any]:
+        """The autopilot's mission with the mission protocol (MISSION_REQUEST_INT per item); home is seq 0."""
+        assert self.target is not None, "wait_autopilot() first"
+        sysid, compid = self.target
+        count_msg = None
+        for _ in range(retries):
+            self.send("mission_request_list", sysid, compid, mavlink.MAV_MISSION_TYPE_MISSION)
+            count_msg = self.wait_for(lambda m: m.get_type() == "MISSION_COUNT", timeout_s)
+            if count_msg is not None:
+                break
+        if count_msg is None:
+            raise LinkError("mission download: no MISSION_COUNT from the autopilot")
+        items = []
+        for seq in range(count_msg.count):
+            item = None
+            for _ in range(retries):
+                self.send("mission_request_int", sysid, compid, seq, mavlink.MAV_MISSION_TYPE_MISSION)
+                item = self.wait_for(lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s, timeout_s)
+                if item is not None:
+                    break
+            if item is None:
+                raise LinkError(f"mission download: item {seq} never came")
+            items.append(item)
+        self.send("mission_ack", sysid, compid, mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_TYPE_MISSION)
+        return items
+
+    def rc_override(self, ch1: int, ch3: int) -> None:
+        """RC_CHANNELS_OVERRIDE of steering (ch1) and throttle (ch3); others unchanged; 0 releases a channel."""
+        assert self.target is not None
+        keep = 65535  # UINT16_MAX: "leave unchanged" on channels 1-8
+        self.send("rc_channels_override", self.target[0], self.target[1], ch1, keep, ch3, keep, keep, keep, keep,
+                  keep)
+
+    def attitude_target(self, time_boot_ms: int, quaternion: tuple[float, float, float, float], thrust: float,
+                        type_mask: int) -> None:
+        """SET_ATTITUDE_TARGET (GUIDED): heading from the quaternion, thrust as a fraction of WP_SPEED."""
+        assert self.target is not None
+        self.send("set_attitude_target", time_boot_ms, self.target[0], self.target[1], type_mask,
+                  list(quaternion), 0.0, 0.0, 0.0, thrust)

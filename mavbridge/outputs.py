@@ -1,0 +1,115 @@
+"""The companion's two command paths, as pure functions of the NMPC's answer.
+
+``rc_override`` (MANUAL): τ_X, τ_N -> shaft speeds (the vessel allocation) -> motor outputs in [-1, 1]
+-> the inverse of ArduPilot's skid-steer mixer -> steering (ch1) and throttle (ch3) fractions -> PWM
+through the autopilot's own RCn_MIN/TRIM/MAX/DZ. ``attitude_target`` (GUIDED): the plan's heading and
+surge speed a short look-ahead ahead, as a SET_ATTITUDE_TARGET yaw quaternion and thrust = speed/WP_SPEED.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vessel import OtterParameters, tau_to_shaft_speeds
+
+# SET_ATTITUDE_TARGET type_mask: ignore body roll rate (1), pitch rate (2) and yaw rate (4) -> heading mode.
+ATTITUDE_TYPE_MASK_HEADING = 0b0000_0111
+
+
+@dataclass(frozen=True)
+class RcCalibration:
+    """One RC input channel as the autopilot reads it (µs): RCn_MIN, RCn_TRIM, RCn_MAX, RCn_DZ."""
+
+    minimum: int = 1100
+    trim: int = 1500
+    maximum: int = 1900
+    dead_zone: int = 30
+
+    def __post_init__(self) -> None:
+        if not (800 <= self.minimum < self.trim < self.maximum <= 2200):
+            raise ValueError(f"RC calibration: need 800 <= MIN < TRIM < MAX <= 2200 µs, got {self.minimum}/"
+                             f"{self.trim}/{self.maximum}")
+        if not 0 <= self.dead_zone < min(self.trim - self.minimum, self.maximum - self.trim):
+            raise ValueError(f"RC calibration: dead zone {self.dead_zone} µs must be in [0, half range)")
+
+
+def pwm_from_fraction(fraction: float, cal: RcCalibration) -> int:
+    """PWM (µs) that an ArduPilot centred input with dead zone reads back as ``fraction`` in [-1, 1]."""
+    f = float(np.clip(fraction, -1.0, 1.0))
+    if f > 0:
+        return round(cal.trim + cal.dead_zone + f * (cal.maximum - cal.trim - cal.dead_zone))
+    if f < 0:
+        return round(cal.trim - cal.dead_zone + f * (cal.trim - cal.dead_zone - cal.minimum))
+    return cal.trim
+
+
+def fraction_from_pwm(pwm: int, cal: RcCalibration) -> float:
+    """The fraction in [-1, 1] ArduPilot reads from a PWM on a centred channel with dead zone."""
+    pwm = min(max(pwm, cal.minimum), cal.maximum)
+    high, low = cal.trim + cal.dead_zone, cal.trim - cal.dead_zone
+    if pwm > high:
+        return (pwm - high) / (cal.maximum - high)
+    if pwm < low:
+        return (pwm - low) / (low - cal.minimum)
+    return 0.0
+
+
+def motor_output(n: float, n_max: float, n_min: float) -> float:
+    """Motor output in [-1, 1] for a shaft speed (rad/s): +1 is n_max, −1 is n_min (reverse)."""
+    return float(np.clip(n / n_max if n >= 0 else n / abs(n_min), -1.0, 1.0))
+
+
+def inverse_skid_mix(left: float, right: float) -> tuple[float, float]:
+    """(throttle, steering) fractions that ArduPilot's skid mixer (left = t + s, right = t − s) turns into
+    these motor outputs; exact because |t| + |s| = max(|left|, |right|) <= 1 never saturates the mixer."""
+    return 0.5 * (left + right), 0.5 * (left - right)
+
+
+@dataclass(frozen=True)
+class RcCommand:
+    """What goes out on RC_CHANNELS_OVERRIDE, and how it was derived (for the log)."""
+
+    steering_pwm: int
+    throttle_pwm: int
+    n_left: float
+    n_right: float
+    throttle: float
+    steering: float
+
+
+def rc_command(params: OtterParameters, tau_x: float, tau_n: float, steering_cal: RcCalibration,
+               throttle_cal: RcCalibration) -> RcCommand:
+    """ch1/ch3 PWM for a surge force (N) and yaw moment (N·m), through the vessel's allocation."""
+    mats = params.matrices()
+    n_left, n_right = tau_to_shaft_speeds(params, tau_x, tau_n)
+    left = motor_output(n_left, mats.n_max, mats.n_min)
+    right = motor_output(n_right, mats.n_max, mats.n_min)
+    throttle, steering = inverse_skid_mix(left, right)
+    return RcCommand(pwm_from_fraction(steering, steering_cal), pwm_from_fraction(throttle, throttle_cal),
+                     n_left, n_right, throttle, steering)
+
+
+@dataclass(frozen=True)
+class AttitudeCommand:
+    """A GUIDED heading/speed target: yaw (rad, NED, 0 = North) and thrust = speed / WP_SPEED in [-1, 1]."""
+
+    yaw_rad: float
+    thrust: float
+    speed_mps: float
+
+    def quaternion(self) -> tuple[float, float, float, float]:
+        """(w, x, y, z) of a pure yaw rotation, as SET_ATTITUDE_TARGET carries it."""
+        return (math.cos(self.yaw_rad / 2), 0.0, 0.0, math.sin(self.yaw_rad / 2))
+
+
+def attitude_command(states: np.ndarray, wp_speed_mps: float, lookahead_steps: int = 5) -> AttitudeCommand:
+    """Heading and surge speed of the NMPC plan ``lookahead_steps`` ahead (rows of [η, ν])."""
+    if not wp_speed_mps > 0:
+        raise ValueError(f"WP_SPEED: {wp_speed_mps!r} m/s must be > 0 to scale thrust")
+    k = min(max(lookahead_steps, 1), len(states) - 1)
+    yaw = math.atan2(math.sin(states[k, 5]), math.cos(states[k, 5]))
+    speed = float(states[k, 6])
+    return AttitudeCommand(yaw, float(np.clip(speed / wp_speed_mps, -1.0, 1.0)), speed)
