@@ -66,9 +66,10 @@ def add_demo_parser(sub: Any) -> None:
                                       "over UDP, upload the waypoint with MAVSDK, fly there, print the figures.")
     demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10 with the "
                                                                          "rti solver, 1 with ipopt)")
+    demo.add_argument("--solver", choices=SOLVERS, default="rti",
+                      help="NMPC solver (default rti, the real-time one; ipopt is the paper's reference)")
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
-    demo.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
 
 

@@ -135,11 +135,15 @@ class Companion:
         return RcCalibration(values["MIN"], values["TRIM"], values["MAX"], values["DZ"])
 
     def _request_streams(self, link: Link) -> None:
-        accepted = all(link.request_message_interval(msg_id, rate) for msg_id, rate in STREAMS_HZ.items())
-        if not accepted:
+        refused = [msg_id for msg_id, rate in STREAMS_HZ.items() if not link.request_message_interval(msg_id, rate)]
+        if refused:
             self.log("SET_MESSAGE_INTERVAL not accepted: falling back to REQUEST_DATA_STREAM")
             for stream, rate in FALLBACK_STREAMS_HZ.items():
                 link.request_data_stream(stream, rate)
+        # Heartbeats (mode, armed) faster than the control period, so a pilot's mode change stops us within one.
+        heartbeat_hz = 2.0 / self.scenario.controller.period_s
+        if not link.request_message_interval(mavlink.MAVLINK_MSG_ID_HEARTBEAT, heartbeat_hz):
+            self.log("warning: HEARTBEAT rate not raised; a mode change is noticed within 1 s only")
 
     def _measure_rates(self, link: Link, seconds: float = 2.0) -> None:
         """Count what arrives for a while, per second of autopilot time (falls back to wall time)."""
@@ -291,15 +295,16 @@ class Companion:
                 self.supervisor.stop(self._stop_reason)
                 break
             link.heartbeat_if_due()
-            msg = link.recv(0.05)
+            link.recv(0.05)
+            link.drain()  # act on the newest state, never on a backlog
             phase_before = self.supervisor.phase
             if self.supervisor.tick(time.monotonic()) != phase_before:
                 self.log(f"phase: {self.supervisor.phase.value}")
             if self.supervisor.phase == Phase.TAKEN_OVER and self._commanding:
                 self._release(link)
-            if msg is None or msg.get_type() != "ATTITUDE":
+            now_ms = self.state.attitude_ms
+            if now_ms is None:
                 continue
-            now_ms = int(msg.time_boot_ms)
             if next_tick_ms is None or now_ms < next_tick_ms - 10 * self.period_ms:  # first tick, or a reboot
                 next_tick_ms = now_ms
             if now_ms < next_tick_ms:

@@ -8,6 +8,7 @@ the autopilot, so a stray sender on the port cannot steer our commands elsewhere
 from __future__ import annotations
 
 import os
+import select
 import struct
 import time
 from collections.abc import Callable
@@ -71,9 +72,12 @@ class Link:
                 and msg.type not in NON_AUTOPILOT_TYPES)
 
     def recv(self, timeout_s: float) -> Any | None:
-        """The next message from the autopilot (after handlers ran), or None on timeout or a dropped one."""
+        """The next message from the autopilot (after handlers ran), or None on timeout or a dropped one.
+
+        ``timeout_s`` 0 does not wait at all.
+        """
         try:
-            msg = self.conn.recv_match(blocking=True, timeout=timeout_s)
+            msg = self.conn.recv_match(blocking=timeout_s > 0, timeout=timeout_s)
         except Exception:  # a malformed frame must never kill the companion
             self.counts["bad"] += 1
             return None
@@ -96,6 +100,24 @@ class Link:
         for handler in self.handlers:
             handler(msg)
         return msg
+
+    def pending(self) -> bool:
+        """True if bytes wait in the socket or device (pymavlink's own buffer may hold a partial frame: ignored)."""
+        fd = getattr(self.conn, "fd", None)
+        if fd is None:
+            return False
+        try:
+            return bool(select.select([fd], [], [], 0)[0])
+        except (OSError, ValueError):
+            return False
+
+    def drain(self, limit: int = 5000) -> int:
+        """Process everything already received (handlers run); returns how many reads it took."""
+        reads = 0
+        while reads < limit and self.pending():
+            self.recv(0)
+            reads += 1
+        return reads
 
     def wait_for(self, predicate: Callable[[Any], bool], timeout_s: float) -> Any | None:
         """Receive until ``predicate(msg)`` holds or the timeout passes; other messages still reach handlers."""

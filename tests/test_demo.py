@@ -1,0 +1,35 @@
+"""The whole system in one command: `mavbridge demo` at speedup over UDP loopback, leaving nothing behind."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+
+def test_demo_reaches_the_waypoint_and_leaves_a_run_folder(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    done = subprocess.run([sys.executable, "-m", "mavbridge.cli", "demo", "--speedup", "8", "--out", str(out)],
+                          capture_output=True, text=True, timeout=400)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "upload accepted by the vehicle" in done.stdout  # the waypoint went up with MAVSDK
+    summary = [line for line in done.stdout.splitlines() if line.startswith("demo: average roll")]
+    assert summary and "not reached" not in summary[0]
+    metrics = json.loads((out / "companion" / "metrics.json").read_text())
+    assert metrics["phase"] == "ARRIVED" and 0 < metrics["avg_roll_deg"] < 4.0
+    for name in ("sim/sim_vehicle.tlog", "sim/state.csv", "companion/companion.tlog", "companion/companion.csv",
+                 "path.png", "timeseries.png"):
+        assert (out / name).stat().st_size > 1000, name
+    leftovers = subprocess.run(["pgrep", "-f", str(out)], capture_output=True, text=True)
+    assert leftovers.stdout.strip() == "", "processes left behind"
+
+
+def test_demo_bad_speedup_is_one_line(tmp_path: Path) -> None:
+    done = subprocess.run([sys.executable, "-m", "mavbridge.cli", "demo", "--speedup", "0"], capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "--speedup" in done.stderr
