@@ -1,4 +1,5 @@
-"""``mavbridge`` console script: ``experiment`` (in-process), ``run`` (the companion), ``demo`` (everything)."""
+"""``mavbridge`` console script: ``experiment`` (in-process), ``run`` (the companion), ``demo`` (everything),
+``check`` (preflight against any ArduPilot Rover)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from pathlib import Path
 
 from vessel import ConfigError
 
+from .check import add_check_parser, check_command
 from .cli_run import add_demo_parser, add_run_parser, demo_command, run_command
 from .nmpc.config import SOLVERS
 
@@ -51,6 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
     add_run_parser(sub)
     add_demo_parser(sub)
+    add_check_parser(sub)
     return parser
 
 
@@ -87,6 +90,8 @@ def main(argv: list[str] | None = None) -> int:
             return run_command(args)
         if args.command == "demo":
             return demo_command(args)
+        if args.command == "check":
+            return check_command(args)
     except (ConfigError, ValueError) as exc:
         sys.stderr.write(f"mavbridge: error: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
         return 2

@@ -14,7 +14,7 @@ from typing import NoReturn
 from vessel.config import ConfigError
 
 from .geo import parse_home
-from .params import ParamTable, read_parm
+from .params import ParamTable, is_param_name, read_parm
 from .physics import WAVE_CHOICES, parse_current, parse_sea
 from .sim import Options, Simulator
 
@@ -47,6 +47,22 @@ def _output(text: str) -> tuple[str, int]:
     if len(parts) != 3 or parts[0] != "udp" or not parts[1]:
         raise argparse.ArgumentTypeError(f"expected udp:HOST:PORT, got {text!r}")
     return parts[1], _port(parts[2])
+
+
+def _serial(text: str) -> tuple[str, int | None]:
+    """``DEVICE[,BAUD]`` as (device, baud or None)."""
+    device, _, baud = text.partition(",")
+    if not device:
+        raise argparse.ArgumentTypeError(f"expected DEVICE[,BAUD], got {text!r}")
+    if not baud:
+        return device, None
+    try:
+        rate = int(baud)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"baud must be a whole number, got {baud!r}") from None
+    if not 1200 <= rate <= 4_000_000:
+        raise argparse.ArgumentTypeError(f"baud must be in [1200, 4000000], got {rate}")
+    return device, rate
 
 
 def _speedup(text: str) -> float:
@@ -94,6 +110,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="UDP output, repeatable (default udp:127.0.0.1:14550 and udp:127.0.0.1:14551)",
     )
     p.add_argument("--no-out", action="store_true", help="no UDP outputs")
+    p.add_argument(
+        "--serial",
+        type=_serial,
+        metavar="DEVICE[,BAUD]",
+        help="also serve MAVLink on a serial device (a UART, USB adapter or /dev/pts/N) as SERIAL2: "
+        "needs SERIAL2_PROTOCOL 1 or 2, stream rates SR2_*, baud from SERIAL2_BAUD unless given",
+    )
     p.add_argument("--speedup", type=_speedup, default=1.0, help="simulated/wall time ratio (1 = real time)")
     p.add_argument(
         "--home",
@@ -150,14 +173,27 @@ def _load_params(args: argparse.Namespace) -> ParamTable:
             except OSError as exc:
                 raise ConfigError(f"{path}: cannot wipe ({exc.strerror})") from None
     defaults: dict[str, float] = {}
+    extra: dict[str, float] = {}
     if args.params is not None:
         probe = ParamTable()
         for name, value in read_parm(args.params).items():
             if name in probe:
                 defaults[name] = value
+            elif is_param_name(name):
+                extra[name] = value
             else:
-                print(f"sim-vehicle: ignoring unknown parameter {name} in {args.params}", file=sys.stderr)
-    return ParamTable(store=args.params_store, defaults=defaults)
+                print(
+                    f"sim-vehicle: ignoring unknown parameter {name} in {args.params} "
+                    "(not a name in any ArduPilot Rover parameter group)",
+                    file=sys.stderr,
+                )
+        if extra:
+            print(
+                f"sim-vehicle: warning: {len(extra)} parameter(s) in {args.params} are stored and reported but "
+                f"not simulated: {', '.join(sorted(extra))}",
+                file=sys.stderr,
+            )
+    return ParamTable(store=args.params_store, defaults=defaults, extra=extra)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -186,6 +222,7 @@ def main(argv: list[str] | None = None) -> int:
             mission_store=mission_store(args.params_store),
             sea=None if args.sea is None else parse_sea(args.sea),
             current=None if args.current is None else parse_current(args.current),
+            serial=args.serial,
         )
         if args.home is not None:
             opts.home = args.home

@@ -9,7 +9,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from .commands import handle_command, handle_set_mode
 from .guided import from_global, from_local
-from .link import Channel, TcpServer, TlogHook, UdpChannel
+from .link import Channel, SerialChannel, TcpServer, TlogHook, UdpChannel
 from .missionproto import MissionServer
 from .modes import Mode
 from .paramproto import ParamServer
@@ -50,6 +50,10 @@ class Gcs:
         self.channels.append(
             UdpChannel(host, port, len(self.servers) + len(self.channels), self.sysid, self.compid, self.tlog)
         )
+
+    def add_serial(self, device: str, baud: int, index: int) -> None:
+        """A serial MAVLink port on stream-rate channel ``index`` (SRn_*); it stays open for the whole run."""
+        self.channels.append(SerialChannel(device, baud, index, self.sysid, self.compid, self.tlog))
 
     def add_tcp_server(self, host: str, port: int) -> None:
         """A listening TCP port; its clients share stream-rate channel 0 (SR0_*)."""
@@ -110,7 +114,7 @@ class Gcs:
                     self.dispatch(channel, msg)
                 except Exception:
                     log.exception("ignored %s that could not be handled", msg.get_type())
-            if channel.closed and not isinstance(channel, UdpChannel):
+            if channel.closed and not isinstance(channel, (UdpChannel, SerialChannel)):
                 log.info("client disconnected from %s", channel.name)
                 self.channels.remove(channel)
                 self._schedules.pop(id(channel), None)

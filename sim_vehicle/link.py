@@ -1,4 +1,5 @@
-"""MAVLink transports: a TCP server (one channel per client) and UDP outputs that answer their peer.
+"""MAVLink transports: a TCP server (one channel per client), UDP outputs that answer their peer, and a
+serial port (a real UART, a USB adapter or a pseudo-terminal).
 
 Each channel has its own pymavlink codec (sequence numbers, parser state, MAVLink 2 framing); reading
 never blocks and never raises on bad bytes.
@@ -6,7 +7,10 @@ never blocks and never raises on bad bytes.
 
 from __future__ import annotations
 
+import os
 import socket
+import termios
+import tty
 from collections.abc import Callable
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -231,3 +235,75 @@ class TcpServer:
     def close(self) -> None:
         """Stop listening."""
         self.sock.close()
+
+
+class SerialChannel(Channel):
+    """A serial device in raw mode at ``baud`` (like an autopilot's SERIALn port); never blocks.
+
+    Bytes that the device does not take at once (a slow UART, a peer not reading) are kept up to
+    MAX_BACKLOG_BYTES, then the oldest are dropped: a serial port cannot disconnect a slow reader.
+    """
+
+    def __init__(self, device: str, baud: int, index: int, sysid: int, compid: int, tlog: TlogHook | None) -> None:
+        super().__init__(f"serial:{device}@{baud}", index, sysid, compid, tlog)
+        self.fd = os.open(device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        try:
+            tty.setraw(self.fd)
+            attrs = termios.tcgetattr(self.fd)
+            speed = getattr(termios, f"B{baud}", None)
+            if speed is not None:
+                attrs[4] = attrs[5] = speed
+            attrs[2] |= termios.CLOCAL | termios.CREAD
+            termios.tcsetattr(self.fd, termios.TCSANOW, attrs)
+        except termios.error:
+            pass  # not a terminal (e.g. a FIFO in a test): bytes still flow
+        self._backlog = bytearray()
+
+    def write(self, frame: bytes) -> None:
+        """Queue and flush; the oldest bytes go when the backlog overflows."""
+        if self.closed:
+            return
+        self._backlog += frame
+        self.flush()
+        if len(self._backlog) > MAX_BACKLOG_BYTES:
+            del self._backlog[: len(self._backlog) - MAX_BACKLOG_BYTES]
+
+    def flush(self) -> None:
+        """Write as much of the backlog as the device takes now."""
+        while self._backlog and not self.closed:
+            try:
+                sent = os.write(self.fd, self._backlog)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:
+                return  # e.g. EIO while the other end of a pseudo-terminal is closed: try again later
+            del self._backlog[:sent]
+
+    def receive(self) -> list[mavlink.MAVLink_message]:
+        """Read whatever bytes are waiting."""
+        msgs: list[mavlink.MAVLink_message] = []
+        for _ in range(64):
+            try:
+                data = os.read(self.fd, RECV_BYTES)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError:
+                break
+            if not data:
+                break
+            msgs.extend(self.decode(data))
+        self.flush()
+        return msgs
+
+    def fileno(self) -> int:
+        """Device descriptor."""
+        return self.fd
+
+    def close(self) -> None:
+        """Close the device."""
+        if not self.closed:
+            super().close()
+            try:
+                os.close(self.fd)
+            except OSError:
+                pass

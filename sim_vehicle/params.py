@@ -1,7 +1,9 @@
 """Rover parameters: names, MAVLink types and defaults, the persistent store and ``.parm`` files.
 
-Only the parameters this simulator acts on (plus the ones tools commonly read) exist; values are
+The parameters this simulator acts on (plus the ones tools commonly read) are built in; values are
 kept as floats and cast to the parameter's integer type on write, as ArduPilot's AP_Param does.
+Other real ArduPilot names given in a ``.parm`` file (``extra``) are kept as REAL32 parameters after
+the built-in ones: stored, readable, settable and listed, but not acted on.
 """
 
 from __future__ import annotations
@@ -83,6 +85,13 @@ def _defs() -> list[ParamDef]:
         ("MOT_SAFE_DISARM", i8, 0),
         ("MOT_SLEWRATE", i16, 100),
         ("MOT_THR_MAX", i8, 100),
+        # Serial ports: protocol 2 = MAVLink2, baud in ArduPilot's short codes (57 = 57600, 921 = 921600).
+        ("SERIAL0_PROTOCOL", i8, 2),
+        ("SERIAL0_BAUD", i32, 115),
+        ("SERIAL1_PROTOCOL", i8, 2),
+        ("SERIAL1_BAUD", i32, 57),
+        ("SERIAL2_PROTOCOL", i8, 2),
+        ("SERIAL2_BAUD", i32, 57),
         # Steering and speed controllers: names as ArduPilot's, gains tuned for the Otter's thrusters.
         ("ATC_STR_ANG_P", r, 2.0),
         ("ATC_STR_RAT_MAX", r, 20.0),
@@ -119,6 +128,42 @@ def _defs() -> list[ParamDef]:
 PARAM_DEFS: tuple[ParamDef, ...] = tuple(_defs())
 
 
+_BAUD_CODES = {1: 1200, 2: 2400, 4: 4800, 9: 9600, 19: 19200, 38: 38400, 57: 57600, 111: 111100, 115: 115200,
+               230: 230400, 256: 256000, 460: 460800, 500: 500000, 921: 921600, 1500: 1500000, 2000: 2000000}
+
+
+def baud_from_code(code: float) -> int:
+    """SERIALn_BAUD as a bit rate: ArduPilot's short codes, else values above 2000 taken as bits/s."""
+    value = round(code)
+    if value in _BAUD_CODES:
+        return _BAUD_CODES[value]
+    if value > 2000:
+        return value
+    raise ValueError(f"{value} is not a SERIALn_BAUD code")
+
+
+# Name prefixes of ArduPilot Rover's parameter groups (libraries and vehicle code), for telling a real
+# parameter this simulator does not model from a typo or an invented name.
+ARDUPILOT_GROUPS = (
+    "ACRO_", "ADSB_", "AHRS_", "AIS_", "ARMING_", "ARSPD", "ATC_", "AUTO_", "AVOID_", "BARO", "BATT", "BCN_", "BRD_",
+    "BTN_", "CAM", "CAN_", "CIRC_", "COMPASS_", "CRUISE_", "CUST_ROT", "DOCK_", "EAHRS", "EK2_", "EK3_", "ESC_",
+    "FENCE_", "FFT_", "FLOW", "FOLL_", "FORMAT_VERSION", "FRAME_", "FRSKY_", "FS_", "GCS_", "GEN_", "GPS", "GRIP_",
+    "GUID_", "ICE_", "INITIAL_MODE", "INS_", "LOG_", "LOIT_", "MAV", "MIS_", "MNT", "MODE", "MOT_", "MSP_",
+    "NAVL1_", "NET_", "NTF_", "OA_", "OSD", "PILOT_", "PRX", "PSC_", "RALLY_", "RC", "RELAY", "RNGFND", "RPM", "RSSI_",
+    "RTC_", "RTL_", "SAIL_", "SCHED_", "SCR_", "SERIAL", "SERVO", "SIM_", "SPEED_", "SPRAY_", "SR", "STAT_",
+    "STEER2SRV_", "SYSID_", "TEMP", "TERRAIN_", "TUNE", "TURN_", "VISO", "VTX_", "WENC", "WNDVN", "WP_", "WRC",
+)
+
+
+def is_param_name(name: str) -> bool:
+    """A plausible ArduPilot Rover parameter: at most 16 of A-Z, 0-9 and _, in one of Rover's groups."""
+    return (
+        1 <= len(name) <= 16
+        and all(c.isupper() or c.isdigit() or c == "_" for c in name)
+        and name.startswith(ARDUPILOT_GROUPS)
+    )
+
+
 def cast(ptype: int, value: float) -> float:
     """The value a parameter of type ``ptype`` actually holds after being set to ``value``."""
     if ptype == REAL32:
@@ -130,8 +175,16 @@ def cast(ptype: int, value: float) -> float:
 class ParamTable:
     """The live parameter values, with index order, defaults and an optional JSON store on disk."""
 
-    def __init__(self, store: Path | None = None, defaults: dict[str, float] | None = None) -> None:
-        self.defs = PARAM_DEFS
+    def __init__(
+        self,
+        store: Path | None = None,
+        defaults: dict[str, float] | None = None,
+        extra: dict[str, float] | None = None,
+    ) -> None:
+        known = {d.name for d in PARAM_DEFS}
+        added = [ParamDef(n, REAL32, float(v)) for n, v in (extra or {}).items() if n not in known]
+        self.defs = PARAM_DEFS + tuple(added)
+        self.extra_names = tuple(d.name for d in added)
         self._by_name = {d.name: i for i, d in enumerate(self.defs)}
         self._values = [d.default for d in self.defs]
         for name, value in (defaults or {}).items():

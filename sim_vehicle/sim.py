@@ -11,6 +11,7 @@ import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vessel import OceanCurrent, RegularWaves
+from vessel.config import ConfigError
 
 from .clock import Pacer
 from .gcs import Gcs
@@ -20,13 +21,14 @@ from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
 from .missionproto import MissionServer
 from .modes import Mode
-from .params import ParamTable
+from .params import ParamTable, baud_from_code
 from .physics import PHYSICS_DT_S, Physics, make_waves, nav_state
 from .telemetry import FIRMWARE_VERSION, Battery, Telemetry
 from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
 CSV_FLUSH_S = 1.0
+SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 
 
 @dataclass
@@ -48,6 +50,7 @@ class Options:
     log_dir: Path | None = None
     rc_receiver: bool = True
     duration_s: float | None = None
+    serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
 
 
 class Simulator:
@@ -92,8 +95,24 @@ class Simulator:
             self.gcs.add_tcp_server(opts.tcp_host, opts.tcp_port)
         for host, port in opts.outputs:
             self.gcs.add_udp(host, port)
+        if opts.serial is not None:
+            self._open_serial(*opts.serial)
         self.running = True
         self.n_cmd = (0.0, 0.0)
+
+    def _open_serial(self, device: str, baud: int | None) -> None:
+        """The companion's port, as SERIAL2 of an autopilot: MAVLink only if SERIAL2_PROTOCOL says so, SR2_* rates."""
+        protocol = int(self.params["SERIAL2_PROTOCOL"])
+        if protocol not in (1, 2):
+            raise ConfigError(f"--serial: SERIAL2_PROTOCOL is {protocol}, so that port would not speak MAVLink "
+                              "(set it to 2 = MAVLink2)")
+        if baud is None:
+            try:
+                baud = baud_from_code(self.params["SERIAL2_BAUD"])
+            except ValueError as exc:
+                raise ConfigError(f"SERIAL2_BAUD: {exc}") from None
+        self.gcs.add_serial(device, baud, SERIAL_PORT_CHANNEL)
+        log.info("serving MAVLink on %s at %d baud (SERIAL2, stream rates SR%d_*)", device, baud, SERIAL_PORT_CHANNEL)
 
     def unix_us(self) -> int:
         """Simulated Unix time in µs (boot wall time + simulated time)."""
