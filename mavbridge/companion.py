@@ -114,6 +114,8 @@ class Companion:
         self.waypoints: list[tuple[float, float]] = []
         self._stop_reason: str | None = None
         self._commanding = False
+        self._mission_changed = False
+        self._mission_total: int | None = None
 
     # -- setup --------------------------------------------------------------------------------------
     def _on_heartbeat(self, msg: Any) -> None:
@@ -123,6 +125,24 @@ class Companion:
             after = self.supervisor.on_heartbeat(time.monotonic(), armed, int(msg.custom_mode))
             if after != before:
                 self.log(f"phase: {after.value}" + (f" ({self.supervisor.reason})" if after.final else ""))
+
+    def _on_mission_notice(self, msg: Any) -> None:
+        """Flag a new mission: ArduPilot's "Flight plan received", or MISSION_CURRENT.total changing."""
+        kind = msg.get_type()
+        if kind == "STATUSTEXT" and "Flight plan received" in str(msg.text):
+            self._mission_changed = True
+        elif kind == "MISSION_CURRENT" and getattr(msg, "total", 0):
+            if self._mission_total is not None and msg.total != self._mission_total:
+                self._mission_changed = True
+            self._mission_total = msg.total
+
+    def _reload_mission(self, link: Link) -> None:
+        """Download the mission again after it changed; keep flying to the old target if that fails."""
+        self._mission_changed = False
+        try:
+            self._load_mission(link)
+        except LinkError as exc:
+            self.log(f"warning: mission changed but could not be downloaded ({exc}); keeping the old waypoint")
 
     def _read_calibration(self, link: Link, channel: int) -> RcCalibration:
         values = {}
@@ -163,16 +183,17 @@ class Companion:
         if not items:
             raise LinkError("mission download returned nothing (not even home)")
         home = items[0]
-        self.state.set_home(home.x / 1e7, home.y / 1e7)
-        self.waypoints = [ned_from_latlon(home.x / 1e7, home.y / 1e7, i.x / 1e7, i.y / 1e7)
-                          for i in items[1:] if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
-        self.log(f"home {home.x / 1e7:.7f}, {home.y / 1e7:.7f}; {len(self.waypoints)} waypoint(s) from the mission")
+        waypoints = [ned_from_latlon(home.x / 1e7, home.y / 1e7, i.x / 1e7, i.y / 1e7)
+                     for i in items[1:] if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
+        self.log(f"home {home.x / 1e7:.7f}, {home.y / 1e7:.7f}; {len(waypoints)} waypoint(s) from the mission")
         if self.waypoint_override is not None:
-            self.waypoints = [self.waypoint_override]
+            waypoints = [self.waypoint_override]
             north, east = self.waypoint_override
             self.log(f"waypoint overridden: north {north:g} m, east {east:g} m")
-        if not self.waypoints:
+        if not waypoints:
             raise LinkError("no waypoint: upload one with `mission upload` or pass --waypoint N,E")
+        self.state.set_home(home.x / 1e7, home.y / 1e7)
+        self.waypoints = waypoints  # flown in turn from the first; a changed mission restarts them
 
     # -- control ------------------------------------------------------------------------------------
     def _release(self, link: Link) -> None:
@@ -249,7 +270,7 @@ class Companion:
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         link = Link(self.config.connect, self.config.system_id, self.config.component_id,
                     self.out_dir / "companion.tlog", self.config.baud)
-        link.handlers += [self.state.on_message, self._on_heartbeat]
+        link.handlers += [self.state.on_message, self._on_heartbeat, self._on_mission_notice]
         code = 0
         try:
             code = self._fly(link)
@@ -283,7 +304,9 @@ class Companion:
         self.wp_speed = wp_speed if wp_speed and wp_speed > 0 else 2.0
         self._request_streams(link)
         self._load_mission(link)
+        self._mission_changed = False
         self._measure_rates(link)
+        self.supervisor.self_commanded = self.set_mode or self.arm
         if self.set_mode:
             self.supervisor.expected_mode = self.required_mode
             link.set_mode(self.required_mode)
@@ -297,6 +320,8 @@ class Companion:
             link.heartbeat_if_due()
             link.recv(0.05)
             link.drain()  # act on the newest state, never on a backlog
+            if self._mission_changed:
+                self._reload_mission(link)
             phase_before = self.supervisor.phase
             if self.supervisor.tick(time.monotonic()) != phase_before:
                 self.log(f"phase: {self.supervisor.phase.value}")

@@ -2,7 +2,10 @@
 
 The human always wins: once the companion has been engaged, a mode change it did not ask for (or a
 disarm) ends its run for good — it never re-engages behind a pilot's back, because in MANUAL the
-pilot's sticks would be overridden. Link loss only suspends it; it resumes when heartbeats return.
+pilot's sticks would be overridden. Consent to engage is a change into armed + mode seen after the
+companion started (or the companion arming / switching mode itself when told to): finding the boat
+already armed in MANUAL — a pilot driving, or a restart mid-run — is not consent. Link loss only
+suspends it; it resumes when heartbeats return.
 """
 
 from __future__ import annotations
@@ -40,6 +43,8 @@ class Supervisor:
     last_heartbeat_s: float | None = None
     reason: str = ""
     expected_mode: int | None = None  # a mode change the companion itself asked for
+    self_commanded: bool = False  # the companion arms / sets the mode itself: that is consent
+    seen_not_ready: bool = False  # a heartbeat not armed-in-mode was seen since the start
 
     def on_heartbeat(self, now_s: float, armed: bool, mode: int) -> Phase:
         """Feed the autopilot's HEARTBEAT; returns the phase after it."""
@@ -53,8 +58,12 @@ class Supervisor:
                 return self._finish(Phase.TAKEN_OVER, f"mode changed to {mode} by someone else")
             if not armed:
                 return self._finish(Phase.TAKEN_OVER, "vehicle disarmed")
-        if self._ready():
+        if not self._ready():
+            self.seen_not_ready = True
+        elif self.phase == Phase.LINK_LOST or self.seen_not_ready or self.self_commanded or self.dry_run:
             self.phase = Phase.ENGAGED
+        elif self.phase == Phase.WAITING:
+            self.reason = "already armed in the mode at start: switch out of it and back to engage"
         return self.phase
 
     def _ready(self) -> bool:

@@ -84,22 +84,33 @@ def test_supervisor_engages_only_armed_in_its_mode() -> None:
     assert sup.may_command()
 
 
+def test_finding_the_boat_already_armed_in_the_mode_is_not_consent() -> None:
+    sup = Supervisor(required_mode=0)
+    assert sup.on_heartbeat(0.0, True, 0) == Phase.WAITING  # a pilot driving in MANUAL, or a restart mid-run
+    assert "switch out" in sup.reason
+    assert sup.on_heartbeat(0.5, True, 4) == Phase.WAITING
+    assert sup.on_heartbeat(1.0, True, 0) == Phase.ENGAGED  # the pilot's switch into MANUAL is the consent
+    told = Supervisor(required_mode=0, self_commanded=True)
+    assert told.on_heartbeat(0.0, True, 0) == Phase.ENGAGED  # --arm / --set-mode given: the operator consented
+
+
 def test_human_mode_change_ends_the_run_for_good() -> None:
     sup = Supervisor(required_mode=0)
-    sup.on_heartbeat(0.0, True, 0)
+    sup.on_heartbeat(0.0, False, 0)
+    sup.on_heartbeat(0.1, True, 0)
     assert sup.on_heartbeat(0.5, True, 4) == Phase.TAKEN_OVER
     assert sup.on_heartbeat(1.0, True, 0) == Phase.TAKEN_OVER  # never re-engages behind the pilot
     assert not sup.may_command()
 
 
 def test_disarm_ends_the_run() -> None:
-    sup = Supervisor(required_mode=15)
+    sup = Supervisor(required_mode=15, self_commanded=True)
     sup.on_heartbeat(0.0, True, 15)
     assert sup.on_heartbeat(0.5, False, 15) == Phase.TAKEN_OVER
 
 
 def test_link_loss_suspends_and_resumes() -> None:
-    sup = Supervisor(required_mode=0, link_timeout_s=2.0)
+    sup = Supervisor(required_mode=0, link_timeout_s=2.0, self_commanded=True)
     sup.on_heartbeat(0.0, True, 0)
     assert sup.tick(1.9) == Phase.ENGAGED
     assert sup.tick(2.1) == Phase.LINK_LOST and not sup.may_command()
@@ -108,7 +119,7 @@ def test_link_loss_suspends_and_resumes() -> None:
 
 
 def test_arrival_is_final_and_own_mode_change_is_not_a_takeover() -> None:
-    sup = Supervisor(required_mode=0)
+    sup = Supervisor(required_mode=0, self_commanded=True)
     sup.on_heartbeat(0.0, True, 0)
     sup.arrived()
     sup.expected_mode = 4

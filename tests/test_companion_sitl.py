@@ -35,10 +35,11 @@ pytestmark = pytest.mark.slow
 class Companion:
     """A `mavbridge run` child process whose output lines are collected with their wall time."""
 
-    def __init__(self, port: int, out: Path, *extra: str) -> None:
+    def __init__(self, port: int, out: Path, *extra: str, waypoint: str | None = "85,75") -> None:
         self.out = out
         cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{port}", "--solver",
-               "rti", "--arm", "--set-mode", "--waypoint", "85,75", "--out", str(out), *extra]
+               "rti", "--arm", "--set-mode", "--out", str(out), *extra]
+        cmd += ["--waypoint", waypoint] if waypoint else []
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
@@ -98,8 +99,8 @@ def sitl(tmp_path: Path) -> Iterator[SimProcess]:
 def companion_factory(tmp_path: Path) -> Iterator:
     started: list[Companion] = []
 
-    def start(port: int, *extra: str) -> Companion:
-        companion = Companion(port, tmp_path / f"companion{len(started)}", *extra)
+    def start(port: int, *extra: str, waypoint: str | None = "85,75") -> Companion:
+        companion = Companion(port, tmp_path / f"companion{len(started)}", *extra, waypoint=waypoint)
         started.append(companion)
         return companion
 
@@ -251,3 +252,23 @@ def test_link_drop_stops_commands_then_resumes(tmp_path: Path, companion_factory
         assert np.max(np.diff(times)) >= 2 * 2.0  # a gap of at least the link timeout in autopilot time
         assert times[-1] - times[0] > 30  # and it went on commanding after the link came back
         assert sim.proc is not None
+
+
+def _upload(port: int, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "mission.cli", "upload", *args, "--connect",
+                           f"udpin://127.0.0.1:{port}", "--timeout", "20"], capture_output=True, text=True, timeout=120)
+
+
+def test_waypoint_comes_from_the_mission_and_follows_its_changes(tmp_path: Path, companion_factory) -> None:
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=2) as sim:
+        gcs_port, companion_port = sim.udp_ports
+        assert _upload(gcs_port, "--waypoint", "300,0").returncode == 0  # far away: not reached in this test
+        companion = companion_factory(companion_port, waypoint=None)
+        assert companion.wait_line("phase: engaged", 60), "\n".join(companion.lines)
+        assert companion.wait_line("1 waypoint(s) from the mission", 1)
+        done = _upload(gcs_port, "--waypoint", "15,20")  # the operator moves the goal mid-run
+        assert done.returncode == 0, done.stderr
+        assert companion.wait_line("1 waypoint(s) from the mission", 30, count=2), "\n".join(companion.lines)
+        assert companion.wait(120) == 0
+        metrics = companion.metrics()
+        assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] < 60
