@@ -80,8 +80,9 @@ def run_demo(scenario_path: str | None, scenario: Scenario, out: Path, speedup: 
     gcs_port, companion_port, tcp_port = free_udp_port(), free_udp_port(), free_tcp_port()
     python = sys.executable
     heading_deg = scenario.start.heading_deg
+    sea = ["--scenario", scenario_path] if scenario_path else ["--waves", "paper"]  # the default is the paper's
     sim_cmd = [python, "-m", "sim_vehicle.cli", "--tcp", str(tcp_port), "--out", f"udp:127.0.0.1:{gcs_port}",
-               "--out", f"udp:127.0.0.1:{companion_port}", "--waves", "paper" if scenario.sea.height_m else "calm",
+               "--out", f"udp:127.0.0.1:{companion_port}", *sea,
                f"--home={HOME[0]},{HOME[1]},{HOME[2]},{heading_deg}", "--params-store",
                str(out / "sim_state" / "params.json"), "--wipe", "--log-dir", str(out / "sim"),
                "--speedup", f"{speedup:g}"]

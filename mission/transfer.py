@@ -103,8 +103,10 @@ def _raise_for(exc: Exception, action: str) -> None:
 
 
 async def vehicle_home(system: object, timeout_s: float) -> Home:
-    """The vehicle's home position from HOME_POSITION (MAVSDK requests it), or TransferError."""
+    """The vehicle's home: from HOME_POSITION (MAVSDK requests it), else seq 0 of its mission (ArduPilot's home).
 
+    A HOME_POSITION that arrived before our subscription is not repeated, so the mission is the fallback.
+    """
     telemetry = TelemetryAsync(system)
 
     async def first_home() -> Home:
@@ -114,9 +116,16 @@ async def vehicle_home(system: object, timeout_s: float) -> Home:
         raise TransferError("the vehicle's home stream ended")
 
     try:
-        return await asyncio.wait_for(first_home(), timeout_s)
+        return await asyncio.wait_for(first_home(), min(timeout_s, 3.0))
     except TimeoutError:
-        raise TransferError(f"the vehicle sent no home position within {timeout_s:g} s") from None
+        pass
+    try:
+        items = await asyncio.wait_for(MissionRawAsync(system).download_mission(), timeout_s)
+    except (MissionRawError, TimeoutError):
+        items = []
+    if not items or not (items[0].x or items[0].y):
+        raise TransferError(f"the vehicle sent no home position within {timeout_s:g} s")
+    return Home(items[0].x / 1e7, items[0].y / 1e7, float(items[0].z))
 
 
 async def upload(mission: Mission, url: str = DEFAULT_URL, timeout_s: float = 10.0,

@@ -11,11 +11,13 @@ import sys
 from pathlib import Path
 from typing import NoReturn
 
+from vessel import RegularWaves
 from vessel.config import ConfigError
 
 from .geo import parse_home
 from .params import ParamTable, is_param_name, read_parm
 from .physics import WAVE_CHOICES, parse_current, parse_sea
+from .scenario import load_sim_scenario
 from .sim import Options, Simulator
 
 DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
@@ -128,8 +130,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--waves",
         choices=WAVE_CHOICES,
-        default="calm",
-        help="sea state: calm, or the paper's 1.75 m / 35 m / 6 s waves",
+        default=None,
+        help="sea state: calm (default), or the paper's 1.75 m / 35 m / 6 s waves",
+    )
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        metavar="FILE",
+        help="scenario YAML: vessel parameter set, sea state and start pose (heading, offset from home, "
+        "velocity); --waves/--sea/--current given too override its sea",
     )
     p.add_argument(
         "--sea",
@@ -196,9 +205,25 @@ def _load_params(args: argparse.Namespace) -> ParamTable:
     return ParamTable(store=args.params_store, defaults=defaults, extra=extra)
 
 
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--home -35.3,149.1,...`` as ``--home=-35.3,...``: argparse would take the value for an option."""
+    joined: list[str] = []
+    i = 0
+    while i < len(argv):
+        flag = argv[i]
+        if flag in ("--home", "--sea", "--current") and i + 1 < len(argv) and argv[i + 1][:2].replace(".", "0") \
+                in {f"-{d}" for d in "0123456789"}:
+            joined.append(f"{flag}={argv[i + 1]}")
+            i += 2
+            continue
+        joined.append(flag)
+        i += 1
+    return joined
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse the command line, build the simulator and run it until a signal or --duration."""
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(_join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
         format="sim-vehicle: %(message)s",
@@ -210,8 +235,10 @@ def main(argv: list[str] | None = None) -> int:
             args.log_dir.mkdir(parents=True, exist_ok=True)
             if shutil.disk_usage(args.log_dir).free < 1 << 20:
                 raise ConfigError(f"{args.log_dir}: less than 1 MB free for logs")
+        scenario = load_sim_scenario(args.scenario) if args.scenario is not None else None
+        explicit_sea = args.sea is not None or args.waves is not None
         opts = Options(
-            waves=args.waves,
+            waves=args.waves or "calm",
             speedup=args.speedup,
             params=params,
             log_dir=args.log_dir,
@@ -224,6 +251,14 @@ def main(argv: list[str] | None = None) -> int:
             current=None if args.current is None else parse_current(args.current),
             serial=args.serial,
         )
+        if scenario is not None:
+            opts.vessel = scenario.vessel
+            opts.x0 = scenario.initial_state()
+            if not explicit_sea:
+                waves = scenario.sea.waves()
+                opts.sea = waves if isinstance(waves, RegularWaves) else None
+            if args.current is None:
+                opts.current = scenario.sea.current()
         if args.home is not None:
             opts.home = args.home
         sim = Simulator(opts)

@@ -39,7 +39,7 @@ class SimProcess:
         self,
         workdir: Path,
         speedup: float = 10.0,
-        waves: str = "calm",
+        waves: str | None = "calm",
         extra: Sequence[str] = (),
         udp_outs: int = 0,
     ) -> None:
@@ -53,8 +53,7 @@ class SimProcess:
             str(self.tcp_port),
             "--speedup",
             str(speedup),
-            "--waves",
-            waves,
+            *(["--waves", waves] if waves else []),
             "--params-store",
             str(self.workdir / "params.json"),
             "--log-dir",

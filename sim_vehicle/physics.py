@@ -64,12 +64,18 @@ class Physics:
 
     @classmethod
     def create(
-        cls, waves: CalmWater | RegularWaves, heading_deg: float, current: OceanCurrent | None = None
+        cls,
+        waves: CalmWater | RegularWaves,
+        heading_deg: float,
+        current: OceanCurrent | None = None,
+        vessel: str = "published",
+        x0: np.ndarray | None = None,
     ) -> Physics:
-        """An Otter at rest at the origin, pointing ``heading_deg``, stepped at 100 Hz."""
-        params = otter_parameters("published")
-        x0 = np.zeros(14)
-        x0[5] = math.radians(heading_deg)
+        """An Otter stepped at 100 Hz: at rest at the origin pointing ``heading_deg``, or at state ``x0``."""
+        params = otter_parameters(vessel)
+        if x0 is None:
+            x0 = np.zeros(14)
+            x0[5] = math.radians(heading_deg)
         plant = Plant(params, waves, current or OceanCurrent(), dt=PHYSICS_DT_S, integrator="rk4", x0=x0)
         limits = params.matrices()
         return cls(plant, float(limits.n_max), float(limits.n_min))

@@ -51,6 +51,8 @@ class Options:
     rc_receiver: bool = True
     duration_s: float | None = None
     serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
+    vessel: str = "published"  # Otter parameter set
+    x0: np.ndarray | None = None  # initial plant state (14); None: at rest at home, pointing home.heading_deg
 
 
 class Simulator:
@@ -61,7 +63,7 @@ class Simulator:
         self.params = opts.params
         self.home = opts.home
         waves = opts.sea if opts.sea is not None else make_waves(opts.waves)
-        self.physics = Physics.create(waves, opts.home.heading_deg, opts.current)
+        self.physics = Physics.create(waves, opts.home.heading_deg, opts.current, opts.vessel, opts.x0)
         self.store = MissionStore(opts.mission_store)
         self.boot_unix_us = int(time.time() * 1e6)
         self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
