@@ -24,6 +24,7 @@ from typing import Any
 
 from vessel.config import ConfigError
 
+from .cli_run import parse_north_east
 from .nmpc.config import SOLVERS
 
 PASS, WARN, FAIL = "PASS", "WARN", "FAIL"
@@ -464,16 +465,6 @@ class Preflight:
 
 
 # -- command line -------------------------------------------------------------------------------------
-def _pair(text: str) -> tuple[float, float]:
-    try:
-        north, east = (float(p) for p in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected 'N,E' in metres, got {text!r}") from None
-    if not (math.isfinite(north) and math.isfinite(east)):
-        raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
-    return north, east
-
-
 def _count(text: str) -> int:
     try:
         value = int(text)
@@ -504,7 +495,8 @@ def add_check_parser(sub: Any) -> None:
     check.add_argument("--port", type=int, default=2, metavar="N",
                        help="stream-rate set of the companion's port: SRn_* / MAV(n+1)_* (default 2 = SERIAL2 on "
                             "a typical Rover; the simulator's 127.0.0.1:14551 output is 2 as well)")
-    check.add_argument("--waypoint", type=_pair, metavar="N,E", help="check this waypoint instead of the mission")
+    check.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
+                       help="check this waypoint instead of the mission")
     check.add_argument("--max-range", type=float, default=DEFAULT_MAX_RANGE_M, metavar="M",
                        help=f"largest distance home-waypoint in m (default {DEFAULT_MAX_RANGE_M:g})")
     check.add_argument("--timeout", type=float, help="wait this long for the autopilot (s; default from config)")

@@ -15,8 +15,8 @@ from .nmpc.config import SOLVERS
 OUTPUTS = ("rc_override", "attitude_target")
 
 
-def _pair(text: str) -> tuple[float, float]:
-    """'N,E' metres as two finite numbers."""
+def parse_north_east(text: str) -> tuple[float, float]:
+    """'N,E' metres as two finite numbers (argparse type)."""
     try:
         north, east = (float(p) for p in text.split(","))
     except ValueError:
@@ -51,7 +51,7 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
     run.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
-    run.add_argument("--waypoint", type=_pair, metavar="N,E", help="waypoint in metres from home (testing)")
+    run.add_argument("--waypoint", type=parse_north_east, metavar="N,E", help="waypoint in metres from home (testing)")
     run.add_argument("--arm", action="store_true", help="arm the vehicle at start")
     run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
     run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
