@@ -17,6 +17,7 @@ from mavbridge.nmpc.problem import discrete_model
 from mavbridge.nmpc.rti import linearisation, linearisation_inlined
 from mavbridge.scenario import scenario_from_mapping
 from vessel import OceanCurrent, RegularWaves, otter_parameters
+from vessel.config import ConfigError
 
 WAVES = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2)
 
@@ -45,15 +46,18 @@ def _beam(solver: str) -> dict:
 
 def test_rti_closed_loop_matches_ipopt_on_a_short_case() -> None:
     results = {}
-    for solver in ("ipopt", "rti"):
+    for solver in ("ipopt", "rti", "asrti"):
         scenario = scenario_from_mapping(_beam(solver), "test")
         results[solver] = run_scenario(scenario, None, plots=False)
-    ipopt, rti = results["ipopt"].metrics, results["rti"].metrics
-    assert rti["failures"] == 0
-    assert rti["avg_roll_deg"] == pytest.approx(ipopt["avg_roll_deg"], rel=0.05)
-    assert rti["final_distance_m"] == pytest.approx(ipopt["final_distance_m"], rel=0.05)
-    # After the cold start (an IPOPT solve) every step is a few SQP iterations: far faster.
-    assert np.median(results["rti"].solve_ms[1:]) < 0.5 * np.median(results["ipopt"].solve_ms[1:])
+    ipopt = results["ipopt"].metrics
+    for solver in ("rti", "asrti"):
+        fast = results[solver].metrics
+        assert fast["failures"] == 0
+        assert fast["avg_roll_deg"] == pytest.approx(ipopt["avg_roll_deg"], rel=0.05)
+        assert fast["final_distance_m"] == pytest.approx(ipopt["final_distance_m"], rel=0.05)
+        # The cold start is done by ``prepare`` before the loop; every step is a few SQP iterations: far faster.
+        assert np.median(results[solver].solve_ms) < 0.5 * np.median(results["ipopt"].solve_ms)
+    assert results["asrti"].metrics["background_solve_ms_max"] > 0
 
 
 def test_rti_first_solve_is_a_full_solve_then_real_time_iterations() -> None:
@@ -68,6 +72,71 @@ def test_rti_first_solve_is_a_full_solve_then_real_time_iterations() -> None:
     assert np.all(np.isfinite(second.tau))
     nmpc.reset()
     assert nmpc.solve(x, 0.0, (85.0, 75.0)).status == "Solve_Succeeded"
+
+
+@pytest.mark.parametrize("solver", ["ipopt", "rti", "asrti"])
+def test_prepare_does_the_cold_solve_so_the_first_step_is_warm(solver: str) -> None:
+    cfg = NmpcConfig(horizon=6, solver=solver, rti_codegen="off")
+    nmpc = RollAwareNmpc(cfg, otter_parameters(), WAVES)
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    prepared = nmpc.prepare(x, 0.0, (85.0, 75.0))
+    assert prepared.status == "Solve_Succeeded" and prepared.success
+    np.testing.assert_array_equal(nmpc.last_input, [0.0, 0.0])  # nothing was applied
+    first = nmpc.solve(x, 0.0, (85.0, 75.0))
+    assert first.success and first.fallback is None
+    # The plan from prepare starts at the same time: not shifted, so the first step is already converged.
+    np.testing.assert_allclose(first.tau, prepared.tau, atol=0.5)
+    if solver == "ipopt":
+        assert first.iterations <= 3
+    else:
+        assert first.status.startswith("RTI") and first.iterations == (1 if solver == "asrti" else 2)
+
+
+def test_asrti_steps_start_from_the_background_solve() -> None:
+    cfg = NmpcConfig(horizon=6, solver="asrti", rti_codegen="off")
+    nmpc = RollAwareNmpc(cfg, otter_parameters(), WAVES)
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    nmpc.prepare(x, 0.0, (85.0, 75.0))
+    first = nmpc.solve(x, 0.0, (85.0, 75.0))
+    assert "background" not in first.stats and first.iterations == 1
+    second = nmpc.solve(first.states[1], 0.1, (85.0, 75.0))
+    assert second.stats["background"] == "used" and second.iterations == 1 and second.success
+    assert second.stats["background_solve_s"] > 0 and second.stats["background_iterations"] >= 1
+    # The background solve ran for (predicted state, t + T): one iteration from it gives IPOPT's answer.
+    reference = RollAwareNmpc(cfg.replace(solver="ipopt"), otter_parameters(), WAVES)
+    reference.prepare(x, 0.0, (85.0, 75.0))
+    np.testing.assert_allclose(reference.solve(x, 0.0, (85.0, 75.0)).tau, first.tau, atol=0.5)
+    converged = reference.solve(first.states[1], 0.1, (85.0, 75.0))
+    np.testing.assert_allclose(second.tau, converged.tau, atol=1.0)
+    # A plan for another waypoint is not used; after reset nothing is pending.
+    third = nmpc.solve(second.states[1], 0.2, (60.0, 75.0))
+    assert third.stats["background"] == "unused" and third.success
+    nmpc.reset()
+    assert "background" not in nmpc.solve(x, 0.0, (85.0, 75.0)).stats
+
+
+def test_asrti_worker_process_gives_the_thread_answers() -> None:
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    answers = {}
+    for worker in ("thread", "process"):
+        cfg = NmpcConfig(horizon=6, solver="asrti", rti_codegen="off", as_worker=worker)
+        nmpc = RollAwareNmpc(cfg, otter_parameters(), WAVES)
+        nmpc.prepare(x, 0.0, (85.0, 75.0))
+        first = nmpc.solve(x, 0.0, (85.0, 75.0))
+        second = nmpc.solve(first.states[1], 0.1, (85.0, 75.0))
+        assert second.stats["background"] == "used"
+        answers[worker] = np.concatenate([first.tau, second.tau])
+    np.testing.assert_allclose(answers["process"], answers["thread"], atol=1e-9)
+
+
+def test_asrti_config_fields_are_bounded() -> None:
+    for field, value in (("as_iterations", 0), ("as_max_iterations", 0), ("as_step_tol", -1.0), ("as_wait_s", -1),
+                         ("as_worker", "fork")):
+        with pytest.raises(ConfigError, match=field):
+            NmpcConfig(**{field: value})
 
 
 @pytest.mark.skipif(compiler() is None, reason="no C compiler")

@@ -1,9 +1,12 @@
 """The roll-aware NMPC (the paper's controller), no I/O.
 
 ``NmpcConfig`` (weights, horizon, discretisation, τ bounds, solver) -> ``RollAwareNmpc(config, params,
-waves, current).solve(x0, t, waypoint_ne, deadline_s=None) -> NmpcResult``. Two solvers share one problem
-definition (``problem``): ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter 50),
-and ``rti``, Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation.
+waves, current).solve(x0, t, waypoint_ne, deadline_s=None) -> NmpcResult``, with ``prepare(x0, t,
+waypoint_ne)`` for the cold, full solve before the loop. Three solvers share one problem definition
+(``problem``): ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter 50); ``rti``,
+Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation; and ``asrti``,
+advanced-step RTI: a converged Gauss–Newton SQP for the predicted next state runs in a background thread
+during the period, and the step is one iteration from its plan (the same closed loop as ``ipopt``).
 """
 
 from .config import INTEGRATORS, SOLVERS, NmpcConfig

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from vessel.config import ConfigError, bounded, validate
 
-SOLVERS = ("ipopt", "rti")
+SOLVERS = ("ipopt", "rti", "asrti")
 INTEGRATORS = ("euler", "rk4")
 
 
@@ -34,13 +34,22 @@ class NmpcConfig:
     tau_n_max_nm: float = bounded(73.6, 0.1, 1000.0, "N·m", "largest |yaw moment|")
     min_speed_mps: float = bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed")
     min_speed_weight: float = bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it")
-    solver: str = choice("ipopt", SOLVERS, "ipopt (reference) or rti (Gauss–Newton SQP with HPIPM)")
+    solver: str = choice("ipopt", SOLVERS, "ipopt (reference), rti (Gauss–Newton SQP with HPIPM) or asrti "
+                         "(rti corrected from a converged SQP solve for the predicted state, run in the background)")
     max_iter: int = bounded(50, 0, 10000, "", "IPOPT iteration limit")
     rti_iterations: int = bounded(2, 1, 20, "", "SQP iterations per step, at least (rti)")
     rti_max_iterations: int = bounded(2, 1, 50, "", "SQP iterations per step, at most (rti)")
     rti_step_tol: float = bounded(1.0, 0.0, 1e6, "N, N·m", "rti: iterate past the minimum while an input "
                                   "step exceeds this")
     rti_qp_iter_max: int = bounded(4, 0, 1000, "", "HPIPM iteration cap per QP (rti; 0 = HPIPM's default)")
+    as_iterations: int = bounded(1, 1, 20, "", "asrti: SQP iterations per step from the background plan")
+    as_max_iterations: int = bounded(30, 1, 200, "", "asrti: SQP iteration limit of the background solve")
+    as_step_tol: float = bounded(0.3, 0.0, 1e6, "N, N·m", "asrti: the background solve stops when every input "
+                                 "step is below this")
+    as_wait_s: float = bounded(1.0, 0.0, 60.0, "s", "asrti: longest wait at a step for the background solve "
+                               "started at the previous one (beyond it: plain rti from the shifted plan)")
+    as_worker: str = choice("thread", ("thread", "process"), "asrti: run the background solve in a thread (CasADi "
+                            "releases the GIL while it computes) or in a worker process (no GIL sharing)")
     rti_codegen: str = choice("auto", ("auto", "off"), "rti: compile the linearisation to C (cached) or not")
     safe_surge_n: float = bounded(30.0, 0.0, 1000.0, "N", "fallback surge force when there is no plan")
 
@@ -67,6 +76,7 @@ class NmpcConfig:
         return (self.horizon, self.period_s, self.substeps, self.integrator, self.min_speed_mps,
                 self.min_speed_weight, self.solver, self.max_iter, self.rti_iterations, self.rti_max_iterations,
                 self.rti_step_tol, self.rti_qp_iter_max,
+                self.as_iterations, self.as_max_iterations, self.as_step_tol, self.as_worker,
                 self.rti_codegen, self.tau_x_max_n, self.tau_x_min_n, self.tau_n_max_nm)
 
     def replace(self, **changes: object) -> NmpcConfig:
