@@ -64,10 +64,10 @@ def add_demo_parser(sub: Any) -> None:
     demo = sub.add_parser("demo", help="the whole system: sim-vehicle + mission upload + mavbridge run",
                           description="Start the simulator in the paper's waves and the companion side by side "
                                       "over UDP, upload the waypoint with MAVSDK, fly there, print the figures.")
-    demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10 with the "
-                                                                         "rti solver, 1 with ipopt)")
-    demo.add_argument("--solver", choices=SOLVERS, default="rti",
-                      help="NMPC solver (default rti, the real-time one; ipopt is the paper's reference)")
+    demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10, or 1 with "
+                                                                         "the ipopt solver)")
+    demo.add_argument("--solver", choices=SOLVERS, default="asrti",
+                      help="NMPC solver (default asrti, the real-time one; ipopt is the paper's reference)")
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
@@ -106,6 +106,6 @@ def demo_command(args: argparse.Namespace) -> int:
     from .demo import run_demo, timestamped_folder
 
     scenario = _scenario(args.scenario, args.solver)
-    speedup = args.speedup or (10.0 if scenario.controller.solver == "rti" else 1.0)
+    speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
     return run_demo(args.scenario, scenario, out, speedup, args.output, args.solver)

@@ -288,9 +288,11 @@ class Companion:
         return code
 
     def _fly(self, link: Link) -> int:
-        # Build the solver first: it takes seconds, during which no heartbeat would be read.
-        nmpc = RollAwareNmpc(self.scenario.controller, self.params, self.scenario.sea.waves(),
-                             self.scenario.sea.current())
+        # Build the solver first: it takes seconds, during which no heartbeat would be read. In real time a
+        # step may wait for asrti's background solve for a quarter period at most, never the whole period.
+        controller = self.scenario.controller
+        controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
+        nmpc = RollAwareNmpc(controller, self.params, self.scenario.sea.waves(), self.scenario.sea.current())
         sysid, compid = link.wait_autopilot(self.config.connect_timeout_s)
         self.log(f"autopilot {sysid}/{compid} on {self.config.connect}; we are {self.config.system_id}/"
                  f"{self.config.component_id}; output {self.config.output}" + (" (dry run)" if self.dry_run else ""))
@@ -306,6 +308,9 @@ class Companion:
         self._load_mission(link)
         self._mission_changed = False
         self._measure_rates(link)
+        if self.state.ready():  # the cold, full solve before the loop, so that every step in it is warm
+            prepared = nmpc.prepare(self.state.vector(), (self.state.attitude_ms or 0) / 1000.0, self.waypoints[0])
+            self.log(f"solver {controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms ({prepared.status})")
         self.supervisor.self_commanded = self.set_mode or self.arm
         if self.set_mode:
             self.supervisor.expected_mode = self.required_mode

@@ -1,6 +1,6 @@
 """The companion against the simulator: real `sim-vehicle` and `mavbridge run` processes over UDP loopback.
 
-The fast NMPC ('rti') lets these run at speedup 5-10; every figure is in simulated time.
+The real-time NMPC (asrti) lets these run at speedup 5-10; every figure is in simulated time.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class Companion:
     def __init__(self, port: int, out: Path, *extra: str, waypoint: str | None = "85,75") -> None:
         self.out = out
         cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{port}", "--solver",
-               "rti", "--arm", "--set-mode", "--out", str(out), *extra]
+               "asrti", "--arm", "--set-mode", "--out", str(out), *extra]
         cmd += ["--waypoint", waypoint] if waypoint else []
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.lines: list[str] = []
@@ -158,7 +158,7 @@ def test_balanced_rc_override_reaches_the_waypoint_like_the_experiment(sitl: Sim
 def run_scenario_metrics() -> dict:
     """The in-process experiment's figures for the same scenario and solver (propeller plant, like the sim)."""
     base = Scenario(name="balanced")
-    scenario = dataclasses.replace(base, plant="propellers", controller=base.controller.replace(solver="rti"))
+    scenario = dataclasses.replace(base, plant="propellers", controller=base.controller.replace(solver="asrti"))
     return run_scenario(scenario, None, plots=False).metrics
 
 
