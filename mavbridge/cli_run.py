@@ -94,6 +94,8 @@ def run_command(args: argparse.Namespace) -> int:
 
     from .companion import Companion, load_companion_config
 
+    if args.dry_run and (args.arm or args.set_mode):
+        raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time)
     scenario = _scenario(args.scenario, args.solver)

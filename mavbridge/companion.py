@@ -27,7 +27,14 @@ from vessel.geo import ned_from_latlon
 from .link import MAV_COMP_ID_ONBOARD_COMPUTER, Link, LinkError, mavlink
 from .nmpc import RollAwareNmpc
 from .nmpc.config import choice
-from .outputs import ATTITUDE_TYPE_MASK_HEADING, RcCalibration, attitude_command, rc_command
+from .outputs import (
+    ATTITUDE_TYPE_MASK_HEADING,
+    RcCalibration,
+    RcSetup,
+    attitude_command,
+    neutral_pwm,
+    rc_command,
+)
 from .scenario import Scenario
 from .state import StateEstimate
 from .supervisor import Phase, Supervisor
@@ -52,6 +59,9 @@ class CompanionConfig:
     component_id: int = bounded(MAV_COMP_ID_ONBOARD_COMPUTER, 1, 255, "", "our component id (191: onboard)")
     output: str = choice("rc_override", OUTPUTS, "rc_override (MANUAL) or attitude_target (GUIDED)")
     link_timeout_s: float = bounded(2.0, 0.2, 60.0, "s", "no heartbeat this long = link lost")
+    max_link_outage_s: float = bounded(10.0, 0.5, 600.0, "s", "a link lost longer than this ends the run "
+                                       "(the pilot has had the sticks back for a while; no silent resume)")
+    max_distance_m: float = bounded(10_000.0, 10.0, 1e6, "m", "a position farther than this from home is rejected")
     connect_timeout_s: float = bounded(30.0, 0.5, 600.0, "s", "wait this long for the autopilot at start")
     stale_state_s: float = bounded(0.5, 0.05, 10.0, "s", "state older than this (autopilot time) is not used")
     lookahead_steps: int = bounded(5, 1, 400, "steps", "attitude_target: plan step whose heading/speed is sent")
@@ -116,6 +126,11 @@ class Companion:
         self._commanding = False
         self._mission_changed = False
         self._mission_total: int | None = None
+        self._last_command_wall = 0.0
+        self._in_loop = False
+        self.rc: RcSetup | None = None
+        self.wp_speed = 2.0
+        self.state.max_distance_m = config.max_distance_m
 
     # -- setup --------------------------------------------------------------------------------------
     def _on_heartbeat(self, msg: Any) -> None:
@@ -153,6 +168,31 @@ class Companion:
                 value = default
             values[suffix] = round(value)
         return RcCalibration(values["MIN"], values["TRIM"], values["MAX"], values["DZ"])
+
+    def _read_rc_setup(self, link: Link) -> RcSetup:
+        """Everything that decides how the autopilot reads our overrides; refuses setups that ignore them."""
+        gcs = link.read_parameter("SYSID_MYGCS")
+        gcs = gcs if gcs is not None else link.read_optional_parameter("MAV_GCS_SYSID")  # 4.7 renamed it
+        if gcs is not None and round(gcs) != self.config.system_id:
+            raise LinkError(f"SYSID_MYGCS is {round(gcs)} but we are system {self.config.system_id}: the autopilot "
+                            f"would ignore our RC overrides (set system_id: {round(gcs)} or SYSID_MYGCS)")
+        override_time = link.read_optional_parameter("RC_OVERRIDE_TIME")
+        if override_time is not None and override_time == 0:
+            raise LinkError("RC_OVERRIDE_TIME is 0: the autopilot ignores RC overrides (set it to e.g. 0.5 s)")
+        options = link.read_optional_parameter("RC_OPTIONS")
+        if options is not None and int(options) & 2:
+            raise LinkError("RC_OPTIONS bit 1 is set: the autopilot ignores MAVLink RC overrides (clear it)")
+        steer_ch = round(link.read_optional_parameter("RCMAP_ROLL") or 1)
+        throttle_ch = round(link.read_optional_parameter("RCMAP_THROTTLE") or 3)
+        try:
+            setup = RcSetup(self._read_calibration(link, steer_ch), self._read_calibration(link, throttle_ch),
+                            steer_ch, throttle_ch, round(link.read_optional_parameter("PILOT_STEER_TYPE") or 0),
+                            bool(link.read_optional_parameter(f"RC{steer_ch}_REVERSED") or 0),
+                            bool(link.read_optional_parameter(f"RC{throttle_ch}_REVERSED") or 0))
+        except ValueError as exc:
+            raise LinkError(str(exc)) from None
+        self.log(f"RC: steering ch{steer_ch}, throttle ch{throttle_ch}, PILOT_STEER_TYPE {setup.steer_type}")
+        return setup
 
     def _request_streams(self, link: Link) -> None:
         refused = [msg_id for msg_id, rate in STREAMS_HZ.items() if not link.request_message_interval(msg_id, rate)]
@@ -194,22 +234,43 @@ class Companion:
             raise LinkError("no waypoint: upload one with `mission upload` or pass --waypoint N,E")
         self.state.set_home(home.x / 1e7, home.y / 1e7)
         self.waypoints = waypoints  # flown in turn from the first; a changed mission restarts them
+        self._mission_total = len(items) - 1  # MISSION_CURRENT.total leaves ArduPilot's home out
+
+    def _log_result(self, what: str, result: int | None) -> None:
+        if result != mavlink.MAV_RESULT_ACCEPTED:
+            reason = "no answer" if result is None else mavlink.enums["MAV_RESULT"][result].name
+            self.log(f"warning: {what} not accepted ({reason})")
 
     # -- control ------------------------------------------------------------------------------------
+    def _rc_channels(self, steering_pwm: int, throttle_pwm: int) -> dict[int, int]:
+        assert self.rc is not None
+        return {self.rc.steering_channel: steering_pwm, self.rc.throttle_channel: throttle_pwm}
+
     def _release(self, link: Link) -> None:
         """Give the sticks back (RC override 0 = release), a few times since UDP may drop one."""
-        if self.config.output == "rc_override" and not self.dry_run:
+        if self.config.output == "rc_override" and not self.dry_run and self.rc is not None:
             for _ in range(3):
-                link.rc_override(0, 0)
+                link.rc_override(self._rc_channels(0, 0))
         self._commanding = False
 
+    def _neutral(self, link: Link) -> None:
+        """Zero thrust, no turn, still overriding (so the sticks do not take over in between)."""
+        if self.dry_run:
+            return
+        if self.config.output == "rc_override" and self.rc is not None:
+            link.rc_override(self._rc_channels(*neutral_pwm(self.rc)))
+        elif self.config.output == "attitude_target" and self.state.attitude_ms is not None:
+            yaw = float(self.state.attitude[2])  # hold the present heading: no pivot towards north
+            link.attitude_target(self.state.attitude_ms, (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)), 0.0,
+                                 ATTITUDE_TYPE_MASK_HEADING)
+
     def _finish_at_waypoint(self, link: Link) -> None:
-        if self.config.output == "attitude_target" and not self.dry_run:
-            link.attitude_target(self.state.attitude_ms or 0, (1.0, 0.0, 0.0, 0.0), 0.0, ATTITUDE_TYPE_MASK_HEADING)
-        self._release(link)
+        """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
+        self._neutral(link)
         if self.config.on_arrival == "hold" and not self.dry_run:
             self.supervisor.expected_mode = MODE_HOLD
-            link.set_mode(MODE_HOLD)
+            self._log_result("HOLD at the waypoint", link.set_mode(MODE_HOLD))
+        self._release(link)
 
     def _control_step(self, link: Link, nmpc: RollAwareNmpc, now_ms: int) -> None:
         phase = self.supervisor.phase
@@ -219,6 +280,8 @@ class Companion:
             return
         if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
             self.record.stale += 1
+            if self._commanding:
+                self._neutral(link)  # never leave the last command running on old data
             return
         x = self.state.vector()
         if self.record.engaged_at_ms is None:
@@ -243,17 +306,24 @@ class Companion:
         ch1 = ch3 = 0
         yaw_target = thrust = math.nan
         if self.config.output == "rc_override":
-            command = rc_command(self.params, float(result.tau[0]), float(result.tau[1]), self.steering_cal,
-                                 self.throttle_cal)
+            assert self.rc is not None
+            command = rc_command(self.params, float(result.tau[0]), float(result.tau[1]), self.rc)
             ch1, ch3 = command.steering_pwm, command.throttle_pwm
             if not self.dry_run:
-                link.rc_override(ch1, ch3)
+                link.rc_override(self._rc_channels(ch1, ch3))
         else:
-            attitude = attitude_command(result.states, self.wp_speed, self.config.lookahead_steps)
+            try:
+                attitude = attitude_command(result.states, self.wp_speed, self.config.lookahead_steps)
+            except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
+                self.log(f"warning: {exc}; holding heading with zero thrust")
+                self.record.failures += 1
+                self._neutral(link)
+                return
             yaw_target, thrust = attitude.yaw_rad, attitude.thrust
             if not self.dry_run:
                 link.attitude_target(now_ms, attitude.quaternion(), attitude.thrust, ATTITUDE_TYPE_MASK_HEADING)
         self._commanding = not self.dry_run
+        self._last_command_wall = time.monotonic()
         self.record.rows.append([now_ms / 1000.0, phase.name, *np.round(x, 6), *np.round(result.tau, 4), ch1, ch3,
                                  yaw_target, thrust, round(result.wall_time_s * 1e3, 3), result.status,
                                  result.fallback or "", int(not self.dry_run)])
@@ -261,25 +331,35 @@ class Companion:
     # -- the run ------------------------------------------------------------------------------------
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
+        if not self._in_loop:  # still connecting or preparing: stop now, the loop is not there to see it
+            raise LinkError(f"stopped by {self._stop_reason} before flying")
 
     def run(self) -> int:
         """Connect, prepare, fly until a final phase; always releases and writes logs. Returns an exit code."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
         (self.out_dir / "config.yaml").write_text(yaml.safe_dump({"companion": to_mapping(self.config),
                                                                   "scenario": self.scenario.to_mapping()}))
-        previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-        link = Link(self.config.connect, self.config.system_id, self.config.component_id,
-                    self.out_dir / "companion.tlog", self.config.baud)
+        try:
+            link = Link(self.config.connect, self.config.system_id, self.config.component_id,
+                        self.out_dir / "companion.tlog", self.config.baud)
+        except LinkError as exc:
+            self.log(f"mavbridge run: error: {exc}")
+            return 1
         link.handlers += [self.state.on_message, self._on_heartbeat, self._on_mission_notice]
+        previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
         try:
             code = self._fly(link)
         except LinkError as exc:
             self.supervisor.stop(str(exc))
-            self.log(f"mavbridge run: error: {exc}")
-            code = 1
+            if self._stop_reason:  # asked to stop (systemd stop, Ctrl-C): not a failure to restart from
+                self.log(f"mavbridge run: {exc}")
+            else:
+                self.log(f"mavbridge run: error: {exc}")
+                code = 1
         finally:
             if self._commanding:
+                self._neutral(link)
                 self._release(link)
             for s, handler in previous.items():
                 signal.signal(s, handler)
@@ -296,13 +376,11 @@ class Companion:
         sysid, compid = link.wait_autopilot(self.config.connect_timeout_s)
         self.log(f"autopilot {sysid}/{compid} on {self.config.connect}; we are {self.config.system_id}/"
                  f"{self.config.component_id}; output {self.config.output}" + (" (dry run)" if self.dry_run else ""))
-        gcs = link.read_parameter("SYSID_MYGCS")
-        if self.config.output == "rc_override" and gcs is not None and int(gcs) != self.config.system_id:
-            raise LinkError(f"SYSID_MYGCS is {int(gcs)} but we are system {self.config.system_id}: the autopilot "
-                            f"would ignore our RC overrides (set system_id: {int(gcs)} or SYSID_MYGCS)")
-        self.steering_cal = self._read_calibration(link, 1)
-        self.throttle_cal = self._read_calibration(link, 3)
+        if self.config.output == "rc_override":
+            self.rc = self._read_rc_setup(link)
         wp_speed = link.read_parameter("WP_SPEED")
+        if not (wp_speed and wp_speed > 0):  # older firmware uses CRUISE_SPEED when WP_SPEED is 0
+            wp_speed = link.read_parameter("CRUISE_SPEED")
         self.wp_speed = wp_speed if wp_speed and wp_speed > 0 else 2.0
         self._request_streams(link)
         self._load_mission(link)
@@ -314,10 +392,14 @@ class Companion:
         self.supervisor.self_commanded = self.set_mode or self.arm
         if self.set_mode:
             self.supervisor.expected_mode = self.required_mode
-            link.set_mode(self.required_mode)
+            self._log_result(f"mode {self.required_mode}", link.set_mode(self.required_mode))
         if self.arm:
-            link.arm()
+            self._log_result("arming", link.arm())
         next_tick_ms: int | None = None
+        self._in_loop = True
+        if self._stop_reason:
+            self.supervisor.stop(self._stop_reason)
+        period_s = self.scenario.controller.period_s
         while not self.supervisor.phase.final:
             if self._stop_reason:
                 self.supervisor.stop(self._stop_reason)
@@ -331,6 +413,12 @@ class Companion:
             if self.supervisor.tick(time.monotonic()) != phase_before:
                 self.log(f"phase: {self.supervisor.phase.value}")
             if self.supervisor.phase == Phase.TAKEN_OVER and self._commanding:
+                self._release(link)
+            if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
+                self.supervisor.stop(f"link lost for more than {self.config.max_link_outage_s:g} s")
+                break
+            if self._commanding and time.monotonic() - self._last_command_wall > 3 * period_s:
+                self._neutral(link)  # no fresh step for three periods (no ATTITUDE): stop pushing
                 self._release(link)
             now_ms = self.state.attitude_ms
             if now_ms is None:

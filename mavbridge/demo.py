@@ -53,7 +53,8 @@ def _stop(process: subprocess.Popen, name: str, grace_s: float = 5.0) -> None:
 
 def _plot(scenario: Scenario, out: Path, metrics: dict) -> None:
     """The paper's figures from the simulator's true state."""
-    rows = list(csv.DictReader((out / "sim" / "state.csv").open()))
+    with (out / "sim" / "state.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
     if not rows:
         return
     t = np.array([float(r["t_s"]) for r in rows])
@@ -100,9 +101,13 @@ def run_demo(scenario_path: str | None, scenario: Scenario, out: Path, speedup: 
             sim = subprocess.Popen(sim_cmd, stdout=sim_log, stderr=subprocess.STDOUT)
             children.append((sim, "sim-vehicle"))
             north, east = scenario.waypoint.north_m, scenario.waypoint.east_m
-            upload = subprocess.run([python, "-m", "mission.cli", "upload", "--waypoint", f"{north:g},{east:g}",
-                                     "--connect", f"udpin://127.0.0.1:{gcs_port}", "--timeout", "20"],
-                                    capture_output=True, text=True, timeout=120)
+            try:
+                upload = subprocess.run([python, "-m", "mission.cli", "upload", "--waypoint", f"{north:g},{east:g}",
+                                         "--connect", f"udpin://127.0.0.1:{gcs_port}", "--timeout", "20"],
+                                        capture_output=True, text=True, timeout=120)
+            except subprocess.TimeoutExpired:
+                print("demo: mission upload did not finish within 120 s", file=sys.stderr)
+                return 1
             print(upload.stdout.rstrip())
             if upload.returncode != 0:
                 print(f"demo: mission upload failed: {upload.stderr.strip()}", file=sys.stderr)

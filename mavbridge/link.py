@@ -1,8 +1,9 @@
 """The companion's MAVLink link: one autopilot, heartbeats, requests with retries, a .tlog of both ways.
 
-Only messages from the autopilot found by the first autopilot HEARTBEAT are passed on; garbage, bad
-CRCs and other systems or components are counted and dropped. On UDP the reply address is pinned to
-the autopilot, so a stray sender on the port cannot steer our commands elsewhere.
+Only messages from the autopilot found by the first ArduPilot Rover/boat HEARTBEAT are passed on;
+garbage, bad CRCs and other systems or components are counted and dropped. On a UDP server port
+pymavlink writes to every address that ever sent a datagram; we send only to the autopilot's address,
+so a stray sender on the port never receives our commands.
 """
 
 from __future__ import annotations
@@ -20,8 +21,24 @@ from pymavlink import mavutil
 
 mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
-NON_AUTOPILOT_TYPES = {mavlink.MAV_TYPE_GCS, mavlink.MAV_TYPE_ONBOARD_CONTROLLER}
+ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
+
+
+class _AddressRecordingSocket:
+    """Wraps a UDP socket so the sender of the last datagram read is known (pymavlink keeps only a set)."""
+
+    def __init__(self, sock: Any) -> None:
+        self._sock = sock
+        self.last_sender: Any = None
+
+    def recvfrom(self, size: int) -> tuple[bytes, Any]:
+        data, address = self._sock.recvfrom(size)
+        self.last_sender = address
+        return data, address
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._sock, name)
 
 Handler = Callable[[Any], None]
 
@@ -43,8 +60,16 @@ class Link:
         self.url = url
         self.mav = self.conn.mav
         self.target: tuple[int, int] | None = None
-        self._reply_address: Any = None
-        self._tlog = open(tlog_path, "ab") if tlog_path else None
+        self._autopilot_address: Any = None
+        self._udp_server = isinstance(self.conn, mavutil.mavudp) and self.conn.udp_server
+        if self._udp_server:
+            self.conn.port = _AddressRecordingSocket(self.conn.port)
+        self.system_id = system_id
+        try:
+            self._tlog = open(tlog_path, "ab") if tlog_path else None
+        except OSError as exc:
+            self.conn.close()
+            raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
         self.counts = {"accepted": 0, "foreign": 0, "bad": 0}
@@ -68,8 +93,9 @@ class Link:
 
     # -- receiving --------------------------------------------------------------------------------
     def _is_autopilot_heartbeat(self, msg: Any) -> bool:
-        return (msg.get_type() == "HEARTBEAT" and msg.autopilot != MAV_AUTOPILOT_INVALID
-                and msg.type not in NON_AUTOPILOT_TYPES)
+        """An ArduPilot Rover or boat (a gimbal, radio or GCS on the link is not the autopilot)."""
+        return (msg.get_type() == "HEARTBEAT" and msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+                and msg.type in ROVER_TYPES)
 
     def recv(self, timeout_s: float) -> Any | None:
         """The next message from the autopilot (after handlers ran), or None on timeout or a dropped one.
@@ -77,7 +103,7 @@ class Link:
         ``timeout_s`` 0 does not wait at all.
         """
         try:
-            msg = self.conn.recv_match(blocking=timeout_s > 0, timeout=timeout_s)
+            msg = self.conn.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
         except Exception:  # a malformed frame must never kill the companion
             self.counts["bad"] += 1
             return None
@@ -95,8 +121,8 @@ class Link:
         self._write_tlog(msg.get_msgbuf())
         self.counts["accepted"] += 1
         self.rates[msg.get_type()] = self.rates.get(msg.get_type(), 0) + 1
-        if hasattr(self.conn, "last_address"):
-            self._reply_address = self.conn.last_address
+        if self._udp_server:
+            self._autopilot_address = self.conn.port.last_sender
         for handler in self.handlers:
             handler(msg)
         return msg
@@ -137,8 +163,10 @@ class Link:
 
     # -- sending ----------------------------------------------------------------------------------
     def _pin(self) -> None:
-        if self._reply_address is not None:
-            self.conn.last_address = self._reply_address
+        """On a UDP server port, write only to the autopilot's address."""
+        if self._udp_server and self._autopilot_address is not None:
+            self.conn.clients = {self._autopilot_address}
+            self.conn.clients_last_alive[self._autopilot_address] = time.time()
 
     def send(self, name: str, *args: Any) -> None:
         """Send message ``name`` (e.g. 'rc_channels_override') with its fields in order."""
@@ -160,11 +188,15 @@ class Link:
         p = list(params) + [0.0] * (7 - len(params))
         for attempt in range(retries):
             self.send("command_long", self.target[0], self.target[1], command, attempt, *p)
-            ack = self.wait_for(lambda m: m.get_type() == "COMMAND_ACK" and m.command == command,
-                                timeout_s / retries)
+            ack = self.wait_for(lambda m: m.get_type() == "COMMAND_ACK" and m.command == command
+                                and getattr(m, "target_system", 0) in (0, self.system_id), timeout_s / retries)
             if ack is not None:
                 return int(ack.result)
         return None
+
+    def read_optional_parameter(self, name: str) -> float | None:
+        """A parameter that older firmware (or a simulator) may not have: asked briefly."""
+        return self.read_parameter(name, 0.6)
 
     def read_parameter(self, name: str, timeout_s: float = 3.0) -> float | None:
         """PARAM_REQUEST_READ by name (retried); the value, or None when the autopilot does not answer."""
@@ -195,6 +227,11 @@ class Link:
         assert self.target is not None
         self.send("request_data_stream", self.target[0], self.target[1], stream_id, rate_hz, 1)
 
+    def _for_us(self, msg: Any) -> bool:
+        """A mission-protocol reply addressed to us (or broadcast), for the mission (not fence/rally)."""
+        return (getattr(msg, "target_system", 0) in (0, self.system_id)
+                and getattr(msg, "mission_type", mavlink.MAV_MISSION_TYPE_MISSION) == mavlink.MAV_MISSION_TYPE_MISSION)
+
     def download_mission(self, timeout_s: float = 2.0, retries: int = 5) -> list[Any]:
         """The autopilot's mission with the mission protocol (MISSION_REQUEST_INT per item); home is seq 0."""
         assert self.target is not None, "wait_autopilot() first"
@@ -202,7 +239,7 @@ class Link:
         count_msg = None
         for _ in range(retries):
             self.send("mission_request_list", sysid, compid, mavlink.MAV_MISSION_TYPE_MISSION)
-            count_msg = self.wait_for(lambda m: m.get_type() == "MISSION_COUNT", timeout_s)
+            count_msg = self.wait_for(lambda m: m.get_type() == "MISSION_COUNT" and self._for_us(m), timeout_s)
             if count_msg is not None:
                 break
         if count_msg is None:
@@ -212,7 +249,8 @@ class Link:
             item = None
             for _ in range(retries):
                 self.send("mission_request_int", sysid, compid, seq, mavlink.MAV_MISSION_TYPE_MISSION)
-                item = self.wait_for(lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s, timeout_s)
+                item = self.wait_for(lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s
+                                     and self._for_us(m), timeout_s)
                 if item is not None:
                     break
             if item is None:
@@ -221,12 +259,12 @@ class Link:
         self.send("mission_ack", sysid, compid, mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_TYPE_MISSION)
         return items
 
-    def rc_override(self, ch1: int, ch3: int) -> None:
-        """RC_CHANNELS_OVERRIDE of steering (ch1) and throttle (ch3); others unchanged; 0 releases a channel."""
+    def rc_override(self, channels: dict[int, int]) -> None:
+        """RC_CHANNELS_OVERRIDE of some of channels 1-8 ({channel: PWM}, 0 releases); others unchanged."""
         assert self.target is not None
         keep = 65535  # UINT16_MAX: "leave unchanged" on channels 1-8
-        self.send("rc_channels_override", self.target[0], self.target[1], ch1, keep, ch3, keep, keep, keep, keep,
-                  keep)
+        values = [channels.get(n, keep) for n in range(1, 9)]
+        self.send("rc_channels_override", self.target[0], self.target[1], *values)
 
     def attitude_target(self, time_boot_ms: int, quaternion: tuple[float, float, float, float], thrust: float,
                         type_mask: int) -> None:

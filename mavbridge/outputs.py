@@ -68,6 +68,39 @@ def inverse_skid_mix(left: float, right: float) -> tuple[float, float]:
     return 0.5 * (left + right), 0.5 * (left - right)
 
 
+# PILOT_STEER_TYPE: 0 default and 2 reverse the steering input while the throttle input is negative,
+# 3 leaves it unchanged; 1 (two paddles) is not supported by the companion.
+STEER_TYPES_REVERSING = (0, 2)
+STEER_TYPE_UNCHANGED = 3
+
+
+@dataclass(frozen=True)
+class RcSetup:
+    """How the autopilot reads the companion's RC override: channels, calibration, PILOT_STEER_TYPE."""
+
+    steering: RcCalibration = RcCalibration()
+    throttle: RcCalibration = RcCalibration()
+    steering_channel: int = 1  # RCMAP_ROLL
+    throttle_channel: int = 3  # RCMAP_THROTTLE
+    steer_type: int = 0  # PILOT_STEER_TYPE
+    steering_reversed: bool = False  # RCn_REVERSED of the steering channel
+    throttle_reversed: bool = False
+
+    def __post_init__(self) -> None:
+        if self.steer_type not in (*STEER_TYPES_REVERSING, STEER_TYPE_UNCHANGED):
+            raise ValueError(f"PILOT_STEER_TYPE: {self.steer_type} is not supported (allowed 0, 2, 3; "
+                             "1 = two paddles cannot carry the companion's steering)")
+        for name in ("steering_channel", "throttle_channel"):
+            if not 1 <= getattr(self, name) <= 8 or self.steering_channel == self.throttle_channel:
+                raise ValueError(f"RCMAP: {name} {getattr(self, name)} must be a distinct channel in [1, 8]")
+
+
+def _pwm(fraction: float, cal: RcCalibration, reversed_: bool) -> int:
+    """PWM that ArduPilot reads back as ``fraction``; a reversed channel is mirrored about trim first."""
+    pwm = pwm_from_fraction(fraction, cal)
+    return 2 * cal.trim - pwm if reversed_ else pwm
+
+
 @dataclass(frozen=True)
 class RcCommand:
     """What goes out on RC_CHANNELS_OVERRIDE, and how it was derived (for the log)."""
@@ -80,16 +113,22 @@ class RcCommand:
     steering: float
 
 
-def rc_command(params: OtterParameters, tau_x: float, tau_n: float, steering_cal: RcCalibration,
-               throttle_cal: RcCalibration) -> RcCommand:
-    """ch1/ch3 PWM for a surge force (N) and yaw moment (N·m), through the vessel's allocation."""
+def rc_command(params: OtterParameters, tau_x: float, tau_n: float, setup: RcSetup) -> RcCommand:
+    """Steering/throttle PWM for a surge force (N) and yaw moment (N·m), through the vessel's allocation and
+    the exact inverse of how ArduPilot reads the sticks and mixes them for skid steering."""
     mats = params.matrices()
     n_left, n_right = tau_to_shaft_speeds(params, tau_x, tau_n)
     left = motor_output(n_left, mats.n_max, mats.n_min)
     right = motor_output(n_right, mats.n_max, mats.n_min)
     throttle, steering = inverse_skid_mix(left, right)
-    return RcCommand(pwm_from_fraction(steering, steering_cal), pwm_from_fraction(throttle, throttle_cal),
-                     n_left, n_right, throttle, steering)
+    stick = -steering if (setup.steer_type in STEER_TYPES_REVERSING and throttle < 0) else steering
+    return RcCommand(_pwm(stick, setup.steering, setup.steering_reversed),
+                     _pwm(throttle, setup.throttle, setup.throttle_reversed), n_left, n_right, throttle, steering)
+
+
+def neutral_pwm(setup: RcSetup) -> tuple[int, int]:
+    """(steering, throttle) PWM at trim: zero thrust, no turn."""
+    return setup.steering.trim, setup.throttle.trim
 
 
 @dataclass(frozen=True)
@@ -110,6 +149,8 @@ def attitude_command(states: np.ndarray, wp_speed_mps: float, lookahead_steps: i
     if not wp_speed_mps > 0:
         raise ValueError(f"WP_SPEED: {wp_speed_mps!r} m/s must be > 0 to scale thrust")
     k = min(max(lookahead_steps, 1), len(states) - 1)
+    if not (math.isfinite(states[k, 5]) and math.isfinite(states[k, 6])):
+        raise ValueError(f"plan: non-finite heading or speed at step {k}")
     yaw = math.atan2(math.sin(states[k, 5]), math.cos(states[k, 5]))
     speed = float(states[k, 6])
     return AttitudeCommand(yaw, float(np.clip(speed / wp_speed_mps, -1.0, 1.0)), speed)

@@ -32,6 +32,7 @@ class StateEstimate:
     position_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
     velocity_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rejected: int = 0
+    max_distance_m: float = 10_000.0  # positions farther from home are rejected (no fix reports 0, 0)
     _psi_unwrapped: float | None = None
 
     def set_home(self, lat_deg: float, lon_deg: float) -> None:
@@ -41,6 +42,9 @@ class StateEstimate:
     def on_message(self, msg: Any) -> None:
         """Take ATTITUDE, GLOBAL_POSITION_INT and LOCAL_POSITION_NED; non-finite fields are rejected."""
         kind = msg.get_type()
+        stamp = getattr(msg, "time_boot_ms", None)
+        if stamp is not None and self.attitude_ms is not None and stamp < self.attitude_ms - 5000:
+            self.attitude_ms = self.position_ms = self.velocity_ms = None  # the autopilot rebooted
         if kind == "ATTITUDE":
             values = [msg.roll, msg.pitch, msg.yaw, msg.rollspeed, msg.pitchspeed, msg.yawspeed]
             if not all(math.isfinite(v) for v in values):
@@ -55,6 +59,9 @@ class StateEstimate:
             self.attitude_ms = int(msg.time_boot_ms)
         elif kind == "GLOBAL_POSITION_INT" and self.home_lat_deg is not None:
             north, east = ned_from_latlon(self.home_lat_deg, self.home_lon_deg, msg.lat / 1e7, msg.lon / 1e7)
+            if (msg.lat == 0 and msg.lon == 0) or math.hypot(north, east) > self.max_distance_m:
+                self.rejected += 1  # no position estimate yet (ArduPilot then sends 0, 0) or a wild one
+                return
             self.position_ned = np.array([north, east, -msg.relative_alt / 1000.0])
             self.position_ms = int(msg.time_boot_ms)
             if self.velocity_ms is None or self.position_ms - self.velocity_ms > 500:

@@ -81,6 +81,12 @@ class Supervisor:
             self.phase = Phase.ENGAGED
         return self.phase
 
+    def outage_s(self, now_s: float) -> float:
+        """How long the link has been lost (0 unless in LINK_LOST)."""
+        if self.phase != Phase.LINK_LOST or self.last_heartbeat_s is None:
+            return 0.0
+        return now_s - self.last_heartbeat_s
+
     def may_command(self) -> bool:
         """True while commands may be sent (or, in a dry run, computed)."""
         return self.phase == Phase.ENGAGED

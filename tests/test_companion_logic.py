@@ -9,6 +9,7 @@ import pytest
 
 from mavbridge.outputs import (
     RcCalibration,
+    RcSetup,
     attitude_command,
     fraction_from_pwm,
     inverse_skid_mix,
@@ -40,18 +41,33 @@ def _ardupilot_skid_mix(throttle: float, steering: float) -> tuple[float, float]
 
 @pytest.mark.parametrize(("tau_x", "tau_n"), [(100.0, 0.0), (60.0, 20.0), (40.0, -30.0), (-30.0, 5.0),
                                               (150.0, 73.6), (0.0, -50.0)])
-def test_rc_override_reproduces_the_requested_forces_through_the_mixer(tau_x: float, tau_n: float) -> None:
-    command = rc_command(PARAMS, tau_x, tau_n, CAL, CAL)
+@pytest.mark.parametrize("steer_type", [0, 2, 3])
+def test_rc_override_reproduces_the_requested_forces_through_the_mixer(tau_x: float, tau_n: float,
+                                                                        steer_type: int) -> None:
+    command = rc_command(PARAMS, tau_x, tau_n, RcSetup(steer_type=steer_type))
     throttle = fraction_from_pwm(command.throttle_pwm, CAL)
     steering = fraction_from_pwm(command.steering_pwm, CAL)
+    if steer_type in (0, 2) and throttle < 0:
+        steering = -steering  # ArduPilot reverses the steering stick while the throttle stick is negative
     left, right = _ardupilot_skid_mix(throttle, steering)
     mats = PARAMS.matrices()
     n = [out * mats.n_max if out >= 0 else out * abs(mats.n_min) for out in (left, right)]
     got = np.array([float(v) for v in shaft_speeds_to_tau(PARAMS, n[0], n[1])])
     want = np.array([float(v) for v in shaft_speeds_to_tau(PARAMS, command.n_left, command.n_right)])
     np.testing.assert_allclose(got, want, atol=2.0)  # PWM is whole microseconds
-    if tau_n > 1:
+    if tau_n > 1 and tau_x > 0:
         assert command.steering_pwm > CAL.trim  # more left thrust: steer right (starboard)
+
+
+def test_reversed_channels_are_mirrored_about_trim_and_two_paddles_are_refused() -> None:
+    plain = rc_command(PARAMS, 60.0, 20.0, RcSetup())
+    mirrored = rc_command(PARAMS, 60.0, 20.0, RcSetup(steering_reversed=True, throttle_reversed=True))
+    assert mirrored.steering_pwm == 2 * CAL.trim - plain.steering_pwm
+    assert mirrored.throttle_pwm == 2 * CAL.trim - plain.throttle_pwm
+    with pytest.raises(ValueError, match="PILOT_STEER_TYPE"):
+        RcSetup(steer_type=1)
+    with pytest.raises(ValueError, match="RCMAP"):
+        RcSetup(steering_channel=3, throttle_channel=3)
 
 
 def test_inverse_mix_never_saturates_the_forward_mixer() -> None:
