@@ -1,6 +1,7 @@
 """Benchmark: how much CPU sim-vehicle needs in real time, and how fast it can run unpaced.
 
-Run: python bench/sim_cpu.py [--seconds S]. Prints CPU share at --speedup 1 and the unpaced speed factor.
+Run: python bench/sim_cpu.py [--seconds S]. Prints the CPU share at --speedup 1 and 20 in the paper's waves
+with the default streams going out on both UDP outputs and the TCP server open, and the unpaced speed factor.
 """
 
 from __future__ import annotations
@@ -32,11 +33,14 @@ def main() -> None:
     opts = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         common = ["--no-tcp", "--no-out", "--params-store", str(Path(tmp) / "p.json")]
-        wall, cpu = _run([*common, "--speedup", "1", "--duration", str(opts.seconds)])
-        print(
-            f"real time, calm, no links: {opts.seconds:g} s simulated in {wall:.2f} s wall, "
-            f"CPU {cpu:.2f} s ({100 * cpu / wall:.0f} % of one core, includes start-up)"
-        )
+        for speedup in (1, 20):
+            sim_s = opts.seconds * speedup
+            wall, cpu = _run(["--no-tcp", "--params-store", str(Path(tmp) / "q.json"), "--waves", "paper",
+                              "--speedup", str(speedup), "--duration", str(sim_s)])
+            print(
+                f"--speedup {speedup}, paper waves, default streams to both UDP outputs: {sim_s:g} s simulated in "
+                f"{wall:.2f} s wall, CPU {cpu:.2f} s ({100 * cpu / wall:.0f} % of one core, includes start-up)"
+            )
         for waves in ("calm", "paper"):
             sim_s = 300.0
             wall, cpu = _run(
