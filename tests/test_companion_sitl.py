@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import math
 import os
 import random
 import select
@@ -272,3 +273,22 @@ def test_waypoint_comes_from_the_mission_and_follows_its_changes(tmp_path: Path,
         assert companion.wait(120) == 0
         metrics = companion.metrics()
         assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] < 60
+
+
+def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
+    """Shadow mode: disarmed in MANUAL, the companion plans every period and the boat stays put."""
+    with SimProcess(tmp_path / "sim", speedup=5, waves="paper", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+        out = tmp_path / "shadow"
+        cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{sim.udp_ports[0]}",
+               "--solver", "asrti", "--dry-run", "--waypoint", "85,75", "--max-time", "10", "--out", str(out)]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stdout[-2000:]
+        gcs = sim.connect(source_system=250)
+        position = wait_for(gcs, "GLOBAL_POSITION_INT", 10)
+        heartbeat = wait_for(gcs, "HEARTBEAT", 10)
+    with (out / "companion.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) >= 90 and all(r["sent"] == "0" for r in rows)  # ~10 s of 0.1 s periods, none sent
+    assert {int(r["ch3_pwm"]) for r in rows} != {1500}  # it did compute throttle commands
+    assert heartbeat.base_mode & 128 == 0  # never armed
+    assert math.hypot(position.vx, position.vy) < 30  # cm/s: only the published model's slow drift
