@@ -17,6 +17,12 @@ WPL_HEADER = "QGC WPL 110"
 WPL_FIELDS = 12
 MAV_TYPE_SURFACE_BOAT = 11
 MAV_AUTOPILOT_ARDUPILOTMEGA = 3
+# QGroundControl's AltMode: 0 mixed (global setting only), 1 relative to home, 2 AMSL
+ALT_MODE_MIXED, ALT_MODE_RELATIVE, ALT_MODE_AMSL = 0, 1, 2
+ALT_MODE_BY_FRAME = {0: ALT_MODE_AMSL, 3: ALT_MODE_RELATIVE, 5: ALT_MODE_AMSL, 6: ALT_MODE_RELATIVE}
+# Files are read as "utf-8-sig": a UTF-8 byte-order mark (Windows editors add one) is dropped, not parsed.
+READ_ENCODING = "utf-8-sig"
+WAYPOINT_SUFFIXES = (".waypoints", ".txt", ".mission")
 
 
 def _number(value: Any, where: str, allow_null: bool = False) -> float:
@@ -32,7 +38,7 @@ def read_plan(path: str | Path) -> Mission:
     """Read a QGroundControl `.plan` file (SimpleItems only; surveys and other complex items refused)."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding=READ_ENCODING))
     except OSError as exc:
         raise MissionError(f"{path}: cannot read file ({exc.strerror or exc})") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -85,14 +91,25 @@ def _json_param(value: float) -> float | None:
     return None if math.isnan(value) else value
 
 
+def _altitude_mode(frame: int) -> int:
+    """QGroundControl's AltitudeMode for a MAV_FRAME: relative (3, 6) or AMSL (0, 5); relative otherwise."""
+    return ALT_MODE_BY_FRAME.get(frame, ALT_MODE_RELATIVE)
+
+
 def write_plan(mission: Mission, path: str | Path, cruise_speed_mps: float = 2.0) -> None:
-    """Write a QGroundControl `.plan` file for an ArduPilot boat."""
+    """Write a QGroundControl `.plan` file for an ArduPilot boat.
+
+    Each item's AltitudeMode follows its frame; the plan's global mode is the items' common one, or
+    mixed when they differ (QGroundControl then keeps each item's own mode).
+    """
     items = []
+    modes = {_altitude_mode(item.frame) for item in mission.items}
+    global_mode = modes.pop() if len(modes) == 1 else ALT_MODE_MIXED
     for jump_id, item in enumerate(mission.items, start=1):
         items.append({
             "AMSLAltAboveTerrain": None,
             "Altitude": item.alt_m,
-            "AltitudeMode": 1,
+            "AltitudeMode": _altitude_mode(item.frame),
             "autoContinue": item.autocontinue,
             "command": item.command,
             "doJumpId": jump_id,
@@ -107,7 +124,7 @@ def write_plan(mission: Mission, path: str | Path, cruise_speed_mps: float = 2.0
         "mission": {
             "cruiseSpeed": cruise_speed_mps,
             "firmwareType": MAV_AUTOPILOT_ARDUPILOTMEGA,
-            "globalPlanAltitudeMode": 1,
+            "globalPlanAltitudeMode": global_mode,
             "hoverSpeed": 5,
             "items": items,
             "plannedHomePosition": [mission.home.lat_deg, mission.home.lon_deg, mission.home.alt_m],
@@ -124,7 +141,7 @@ def read_waypoints(path: str | Path) -> Mission:
     """Read a `QGC WPL 110` file: line 0 is home, the rest are items (12 tab-separated fields each)."""
     path = Path(path)
     try:
-        lines = path.read_text(encoding="utf-8").splitlines()
+        lines = path.read_text(encoding=READ_ENCODING).splitlines()
     except OSError as exc:
         raise MissionError(f"{path}: cannot read file ({exc.strerror or exc})") from None
     except UnicodeDecodeError:
@@ -170,17 +187,17 @@ def read_mission_file(path: str | Path) -> Mission:
     suffix = Path(path).suffix.lower()
     if suffix == ".plan":
         return read_plan(path)
-    if suffix in (".waypoints", ".txt", ".mission"):
+    if suffix in WAYPOINT_SUFFIXES:
         return read_waypoints(path)
     raise MissionError(f"{path}: unknown mission file type '{suffix}' (allowed: .plan, .waypoints)")
 
 
 def write_mission_file(mission: Mission, path: str | Path) -> None:
-    """Write `.plan` or `.waypoints` by extension."""
+    """Write `.plan` or `.waypoints` by extension (`.txt` and `.mission` as waypoints too)."""
     suffix = Path(path).suffix.lower()
     if suffix == ".plan":
         write_plan(mission, path)
-    elif suffix in (".waypoints", ".txt"):
+    elif suffix in WAYPOINT_SUFFIXES:
         write_waypoints(mission, path)
     else:
         raise MissionError(f"{path}: unknown mission file type '{suffix}' (allowed: .plan, .waypoints)")

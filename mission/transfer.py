@@ -20,7 +20,7 @@ from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 
 from vessel.geo import latlon_from_ned
 
-from .plan import FRAME_GLOBAL, Mission, MissionItem, validate
+from .plan import FRAME_GLOBAL, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem, validate
 
 DEFAULT_URL = "udpin://0.0.0.0:14550"
 GCS_SYSTEM_ID = 245  # MAVSDK's ground-station default; not SYSID_MYGCS, so it never takes the RC link
@@ -68,11 +68,17 @@ async def connected_system(url: str, timeout_s: float, progress: Callable[[str],
 
 
 def to_mavsdk_items(mission: Mission) -> list[object]:
-    """MAVSDK MissionItems, home at seq 0 (frame GLOBAL), current=1 on seq 1; lat/lon as degE7."""
+    """MAVSDK MissionItems, home at seq 0 (frame GLOBAL), current=1 on seq 1; lat/lon as degE7.
+
+    A NAV_WAYPOINT's param1 is ArduPilot's hold time in seconds, so an unset one (NaN, a `.plan` null)
+    goes out as 0 s; params 2-4 may stay NaN.
+    """
 
     result = []
     for seq, item in enumerate(mission.all_items()):
         p1, p2, p3, p4 = item.params
+        if item.command == MAV_CMD_NAV_WAYPOINT and math.isnan(p1):
+            p1 = 0.0
         result.append(RawItem(seq=seq, frame=item.frame, command=item.command, current=1 if seq == 1 else 0,
                               autocontinue=int(item.autocontinue), param1=p1, param2=p2, param3=p3,
                               param4=p4, x=round(item.lat_deg * 1e7), y=round(item.lon_deg * 1e7),

@@ -21,6 +21,8 @@ SEV_CRITICAL, SEV_WARNING, SEV_NOTICE, SEV_INFO = 2, 4, 5, 6  # MAV_SEVERITY
 GUIDED_TIMEOUT_S = 3.0
 RC_FRAME_TIMEOUT_S = 0.5
 THROTTLE_LEFT, THROTTLE_RIGHT = 73, 74
+# PILOT_STEER_TYPE: how the steering and throttle sticks are read (Rover's pilot_steer_type_t)
+STEER_DEFAULT, STEER_TWO_PADDLES, STEER_DIR_REVERSED_WHEN_REVERSING, STEER_DIR_UNCHANGED_WHEN_REVERSING = 0, 1, 2, 3
 
 
 class Failsafe:
@@ -169,8 +171,9 @@ class Vehicle:
         wp = self.params["WP_SPEED"]
         return wp if wp > 0 else self.params["CRUISE_SPEED"]
 
-    def _stick(self, channel: int) -> float:
-        """Pilot stick of ``channel`` (1 steering, 3 throttle) in [-1, 1] after dead zone."""
+    def _stick(self, channel: int, dead_zone: bool = True) -> float:
+        """Pilot stick of ``channel`` (1 steering, 3 throttle) in [-1, 1] after dead zone (or without it,
+        as RC_Channel::norm_input reads a channel)."""
         p = self.params
         pwm = self.rc.pwm(channel, self.now, p["RC_OVERRIDE_TIME"])
         return stick(
@@ -178,9 +181,37 @@ class Vehicle:
             p[f"RC{channel}_MIN"],
             p[f"RC{channel}_TRIM"],
             p[f"RC{channel}_MAX"],
-            p[f"RC{channel}_DZ"],
+            p[f"RC{channel}_DZ"] if dead_zone else 0.0,
             p[f"RC{channel}_REVERSED"] != 0,
         )
+
+    def _reverses_steering(self) -> bool:
+        """True if PILOT_STEER_TYPE flips the steering stick while going backwards (types 0 and 2)."""
+        return int(self.params["PILOT_STEER_TYPE"]) not in (STEER_TWO_PADDLES, STEER_DIR_UNCHANGED_WHEN_REVERSING)
+
+    def pilot_input(self) -> tuple[float, float]:
+        """The pilot's steering and throttle in [-1, 1] as Rover's Mode::get_pilot_input reads them.
+
+        PILOT_STEER_TYPE 0/2 (and unknown values) mirror the steering while the throttle stick is below
+        trim, so the boat turns like a car reversing; 3 leaves it alone; 1 reads ch1 as the left and ch3
+        as the right paddle (each -1..1, no dead zone), which the skid mixer turns back into exactly those
+        two motor outputs. (Rover also zeroes both while the radio-failsafe condition holds; not modelled.)
+        """
+        steer_type = int(self.params["PILOT_STEER_TYPE"])
+        if steer_type == STEER_TWO_PADDLES:
+            left, right = self._stick(1, dead_zone=False), self._stick(3, dead_zone=False)
+            return 0.5 * (left - right), 0.5 * (left + right)
+        steering, throttle = self._stick(1), self._stick(3)
+        if throttle < 0 and self._reverses_steering():
+            steering = -steering
+        return steering, throttle
+
+    def _slew_limited(self, throttle: float, dt: float) -> float:
+        """``throttle`` after MOT_SLEWRATE (percent of full range per second) from the last output."""
+        slew = self.params["MOT_SLEWRATE"] / 100.0 * dt
+        if slew <= 0:
+            return throttle
+        return self._slewed_throttle + max(-slew, min(slew, throttle - self._slewed_throttle))
 
     # ----- failsafes ----------------------------------------------------------------------------------------
     def _check_failsafes(self) -> None:
@@ -243,9 +274,7 @@ class Vehicle:
             self.steer.reset()
             self.speed.reset(nav.forward_speed)
         self.steering = steering
-        slew = self.params["MOT_SLEWRATE"] / 100.0 * dt
-        if slew > 0:
-            throttle = self._slewed_throttle + max(-slew, min(slew, throttle - self._slewed_throttle))
+        throttle = self._slew_limited(throttle, dt)
         self._slewed_throttle = throttle
         limit = max(0.0, min(100.0, self.params["MOT_THR_MAX"])) / 100.0
         self.throttle = max(-limit, min(limit, throttle))
@@ -257,11 +286,20 @@ class Vehicle:
         self.nav_output = None
         mode, nav, p = self.mode, self.nav, self.params
         if mode == Mode.MANUAL:
-            return self._stick(1), self._stick(3)
+            # Mode::get_pilot_desired_steering_and_throttle: while the slewed throttle still has the other
+            # sign than the stick, the boat moves the way it did, so reversing types un-mirror the steering.
+            steering, throttle = self.pilot_input()
+            if (throttle < 0) != (self._slew_limited(throttle, dt) < 0) and self._reverses_steering():
+                steering = -steering
+            return steering, throttle
         if mode in (Mode.ACRO, Mode.STEERING):
-            rate = self._stick(1) * math.radians(p["ACRO_TURN_RATE"])
+            # Mode::get_pilot_desired_steering_and_speed, with the same check on the acceleration-limited speed.
+            steering, throttle = self.pilot_input()
             max_speed = p["CRUISE_SPEED"] * 100.0 / max(1.0, p["CRUISE_THROTTLE"])
-            return self._drive_rate(rate, self._stick(3) * max_speed, dt)
+            speed = throttle * max_speed
+            if (speed < 0) != (self._accel_limited_speed(speed, dt) < 0) and self._reverses_steering():
+                steering = -steering
+            return self._drive_rate(steering * math.radians(p["ACRO_TURN_RATE"]), speed, dt)
         if mode == Mode.HOLD:
             return 0.0, 0.0
         target: NavTarget | None = None
@@ -317,6 +355,12 @@ class Vehicle:
         if self.runner.state == "complete" and behave in (2, 3):
             self._enter(Mode.ACRO if behave == 2 else Mode.MANUAL)
 
+    def _accel_limited_speed(self, speed: float, dt: float) -> float:
+        """The speed target SpeedControl will ramp to this step under ATC_ACCEL_MAX (its ramp is not stepped)."""
+        ramp = self.speed._target
+        step = max(0.1, self.params["ATC_ACCEL_MAX"]) * dt
+        return ramp + max(-step, min(step, speed - ramp))
+
     def _drive_heading(self, heading: float, speed: float, dt: float) -> tuple[float, float]:
         """Heading and speed targets -> steering and throttle."""
         return self._drive_rate(self.steer.rate_for_heading(heading, self.nav), speed, dt)
@@ -335,10 +379,7 @@ class Vehicle:
         p = self.params
         pwm = [0] * 16
         if self.armed and self.skid_config_ok():
-            if p["PILOT_STEER_TYPE"] == 1 and self.mode == Mode.MANUAL:
-                left, right = steering, throttle  # two-paddle input: ch1 left, ch3 right
-            else:
-                left, right = skid_mix(steering, throttle, p["MOT_STR_THR_MIX"], p["MOT_THST_ASYM"])
+            left, right = skid_mix(steering, throttle, p["MOT_STR_THR_MIX"], p["MOT_THST_ASYM"])
         else:
             left = right = 0.0
         outs = {THROTTLE_LEFT: 0.0, THROTTLE_RIGHT: 0.0}

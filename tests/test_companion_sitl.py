@@ -276,8 +276,11 @@ def test_waypoint_comes_from_the_mission_and_follows_its_changes(tmp_path: Path,
 
 
 def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
-    """Shadow mode: disarmed in MANUAL, the companion plans every period and the boat stays put."""
-    with SimProcess(tmp_path / "sim", speedup=5, waves="paper", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+    """Shadow mode: disarmed in MANUAL, the companion plans every period and the boat stays put.
+
+    Calm water: in the paper's waves a drifting boat surges back and forth at up to ~1 m/s by itself.
+    """
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=1) as sim:
         out = tmp_path / "shadow"
         cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{sim.udp_ports[0]}",
                "--solver", "asrti", "--dry-run", "--waypoint", "85,75", "--max-time", "10", "--out", str(out)]
