@@ -18,7 +18,7 @@ from .mission import (
     Item,
     MissionStore,
 )
-from .params import ParamTable
+from .params import ParamTable, default_speed
 
 NOT_STARTED, ACTIVE, COMPLETE = "not started", "active", "complete"
 
@@ -139,7 +139,7 @@ class MissionRunner:
 
     def _make_leg(self, seq: int, item: Item, nav: NavState, items: list[Item]) -> Leg | None:
         """Turn a nav item into a leg; unsupported nav commands are skipped (None)."""
-        speed = self.speed if self.speed is not None else self.params["WP_SPEED"]
+        speed = self.speed if self.speed is not None else default_speed(self.params)
         hold = item.param1 if math.isfinite(item.param1) and item.param1 > 0 else 0.0
         if item.command == NAV_WAYPOINT:
             north, east = self._position(item, nav)

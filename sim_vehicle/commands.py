@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import TYPE_CHECKING
 
@@ -35,6 +36,9 @@ def handle_command(gcs: Gcs, channel: Channel, msg: mavlink.MAVLink_message) -> 
     try:
         result = _run(gcs, channel, msg.command, p, follow_up)
     except (ValueError, OverflowError):  # NaN or absurd numbers where an integer is needed
+        result = FAILED
+    except Exception:  # a bug must still be answered, or the sender retries into a timeout
+        logging.getLogger(__name__).exception("command %s failed", msg.command)
         result = FAILED
     channel.send(
         M.MAVLink_command_ack_message(msg.command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent())

@@ -221,7 +221,11 @@ class Gcs:
                 ids.insert(0, 0)
             for msg_id in ids:
                 if msg_id not in built:
-                    built[msg_id] = self.telemetry.build(msg_id)
+                    try:
+                        built[msg_id] = self.telemetry.build(msg_id)
+                    except Exception:  # e.g. a diverged plant state: drop that message, keep the link alive
+                        log.exception("building message %d failed", msg_id)
+                        built[msg_id] = None
                 msg = built[msg_id]
                 if msg is not None:
                     channel.send(msg)

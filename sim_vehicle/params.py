@@ -277,3 +277,9 @@ def read_parm(path: Path) -> dict[str, float]:
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{path}: cannot read parameter file ({exc})") from None
     return parse_parm(text.splitlines(), str(path))
+
+
+def default_speed(params: ParamTable) -> float:
+    """Rover's default speed in m/s: WP_SPEED if set, else CRUISE_SPEED (older firmware's fallback)."""
+    wp = params["WP_SPEED"]
+    return wp if wp > 0 else params["CRUISE_SPEED"]

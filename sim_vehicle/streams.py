@@ -64,11 +64,8 @@ class Schedule:
 
     def set_interval(self, msg_id: int, interval_us: float) -> None:
         """SET_MESSAGE_INTERVAL: 0 restores the stream default, -1 stops, others are clamped to 1 ms..60 s."""
-        if interval_us == 0:
+        if interval_us == 0:  # back to its stream's current rate; the other messages keep theirs
             self.custom.pop(msg_id, None)
-            stream = STREAM_OF.get(msg_id)
-            if stream is not None:
-                self.stream_rate[stream] = self.params[f"SR{self.channel}_{stream}"]
         elif interval_us < 0:
             self.custom[msg_id] = None
         else:

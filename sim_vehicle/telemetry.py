@@ -18,7 +18,7 @@ from .vehicle import Vehicle
 FIRMWARE_VERSION = (4, 5, 7)  # the ArduRover release whose behaviour this simulator follows
 # MISSION_FLOAT, PARAM_FLOAT, MISSION_INT, COMMAND_INT, SET_ATTITUDE_TARGET, SET_POSITION_TARGET_LOCAL_NED and
 # _GLOBAL_INT, MAVLINK2, MISSION_FENCE, MISSION_RALLY (no FTP, terrain or compass calibration here)
-CAPABILITIES = 1 | 2 | 4 | 8 | 128 | 256 | 512 | 8192 | 16384 | 32768
+CAPABILITIES = 1 | 2 | 4 | 8 | 64 | 128 | 256 | 8192 | 16384 | 32768
 SENSORS = (
     0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x2000000
 )  # gyro, accel, mag, GPS, motors, AHRS, battery

@@ -13,7 +13,7 @@ from .guided import GuidedTarget, from_attitude
 from .mission import MissionStore
 from .mixer import output_to_pwm, pwm_to_output, skid_mix
 from .modes import MODE_INFO, Mode
-from .params import ParamTable
+from .params import ParamTable, default_speed
 from .rc import RcInput, stick
 
 ACCEPTED, DENIED, UNSUPPORTED, FAILED = 0, 2, 3, 4  # MAV_RESULT
@@ -125,7 +125,7 @@ class Vehicle:
             return "PreArm: check skid steering config"
         if p["ARMING_CHECK"] == 0:
             return ""
-        if p["WP_SPEED"] <= 0 and p["CRUISE_SPEED"] <= 0:
+        if p["WP_SPEED"] <= 0:
             return "PreArm: WP_SPEED too low"
         if int(p["RC_OPTIONS"]) & 32 and MODE_INFO[self.mode].manual_input and self._stick(3) != 0.0:
             return "Arm: Throttle (RC3) is not neutral"
@@ -168,8 +168,7 @@ class Vehicle:
 
     def default_speed(self) -> float:
         """WP_SPEED if set, else CRUISE_SPEED (Rover's default speed)."""
-        wp = self.params["WP_SPEED"]
-        return wp if wp > 0 else self.params["CRUISE_SPEED"]
+        return default_speed(self.params)
 
     def _stick(self, channel: int, dead_zone: bool = True) -> float:
         """Pilot stick of ``channel`` (1 steering, 3 throttle) in [-1, 1] after dead zone (or without it,
@@ -242,11 +241,11 @@ class Vehicle:
             fs.since = self.now
         if fs.triggered or self.now - fs.since < self.params["FS_TIMEOUT"]:
             return
+        if self.mode == Mode.RTL or (self.mode == Mode.HOLD and not int(self.params["FS_OPTIONS"]) & 1):
+            return  # Rover skips the whole failsafe in RTL and HOLD; the timer runs on for when it leaves
         fs.triggered = True
         self.text(SEV_WARNING, f"{fs.name} Failsafe")
         self.rc.clear_overrides()
-        if self.mode == Mode.RTL or (self.mode == Mode.HOLD and not int(self.params["FS_OPTIONS"]) & 1):
-            return
         continue_auto = self.mode == Mode.AUTO and (
             (fs.name == "Radio" and self.params["FS_THR_ENABLE"] == 2)
             or (fs.name == "GCS" and self.params["FS_GCS_ENABLE"] == 2)

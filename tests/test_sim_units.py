@@ -122,7 +122,7 @@ def test_stream_schedule() -> None:
     sched.set_interval(30, -1)
     assert sched.interval(30) is None and 30 not in sched.due(5.0)
     sched.set_interval(30, 0)
-    assert sched.interval(30) == 1.0
+    assert sched.interval(30) == 0.25  # back to its stream's current rate (the 4 Hz REQUEST_DATA_STREAM set)
     sched.set_stream(0, 0, False)
     assert sched.due(10.0) == []
 
