@@ -11,7 +11,7 @@ import yaml
 from mavbridge.scenario import load_scenarios
 from vessel import CalmWater, ConfigError, RegularWaves
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 
 GOOD = {
     "name": "ok",

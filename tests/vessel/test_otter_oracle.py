@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from tests import otter_oracle as o
+from tests.vessel import otter_oracle as o
 
 PAPER_WAVES = (1.75, 35.0, 6.0, -np.pi / 2)  # H_w, λ, T_w, travel direction (West)
 OBLIQUE_WAVES = (1.2, 22.0, 4.5, 2.3)  # a non-paper direction, exercises the general NED mapping

@@ -9,7 +9,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from tests.otter_oracle import oracle_xdot
+from tests.vessel.otter_oracle import oracle_xdot
 from vessel import (
     CalmWater,
     OceanCurrent,

@@ -30,7 +30,7 @@ import pytest
 from mavbridge.experiment import run_scenario
 from mavbridge.scenario import Scenario, load_scenarios
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ROLL_ORDER = ("direct", "indirect", "low_tack", "balanced")  # average roll strictly falls along this list
 ARRIVE = ("direct", "indirect", "low_tack", "balanced")
 NEVER_ARRIVE = ("low_roll", "low_q")

@@ -23,7 +23,7 @@ import pytest
 
 from sim_vehicle.harness import SimProcess, sim_vehicle_command
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PARM = ROOT / "deploy" / "otter-rover.parm"
 HOME = "--home=-35.363261,149.165230,584,90"  # heading East, as the Balanced scenario starts
 pytestmark = pytest.mark.slow

@@ -18,7 +18,7 @@ from mavbridge.scenario import Scenario
 from sim_vehicle.harness import SimProcess, wait_for
 from sim_vehicle.params import ParamTable, is_param_name, read_parm
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEPLOY = ROOT / "deploy"
 PARM = DEPLOY / "otter-rover.parm"
 UNIT = DEPLOY / "mavbridge.service"

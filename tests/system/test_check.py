@@ -17,7 +17,7 @@ from mavbridge.cli import main
 from sim_vehicle.harness import SimProcess, wait_for
 from vessel.geo import latlon_from_ned
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PARM = ROOT / "deploy" / "otter-rover.parm"
 HOME_LAT, HOME_LON = -35.363261, 149.165230  # the simulator's default home (CMAC)
 pytestmark = pytest.mark.slow

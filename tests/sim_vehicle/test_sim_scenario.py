@@ -14,7 +14,7 @@ from sim_vehicle.harness import SimProcess, wait_for
 from sim_vehicle.scenario import load_sim_scenario
 from vessel import ConfigError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_scenario_sets_sea_heading_and_a_negative_home_needs_no_equals_sign(tmp_path: Path) -> None:
