@@ -60,7 +60,7 @@ class CalmWater:
 class RegularWaves:
     """The paper's long-crested sinusoid, travelling towards NED direction ``travel_dir_rad``.
 
-    ζ = (H/2)·sin(ω t − k s), s = north·cos χ + east·sin χ, k = 2π/λ, ω = 2π/T. The paper's
+    ζ = (H/2)·sin(ω t − k s + ε), s = north·cos χ + east·sin χ, k = 2π/λ, ω = 2π/T. The paper's
     f(y, t) = (H/2)·sin(2πy/λ + 2πt/T) (its printed formula lacks the sin) is χ = −π/2: travelling West,
     coming from the East. α = atan(∂ζ/∂s) is the slope angle rising along the travel direction.
     The lateral force is the paper's (m·g/2)·sin 2α, pointing downhill.
@@ -72,6 +72,7 @@ class RegularWaves:
     travel_dir_rad: float = bounded(-math.pi / 2, -2 * math.pi, 2 * math.pi, "rad",
                                     "NED direction the waves travel towards (0 = North)")
     paper_roll_sign: bool = True
+    phase_rad: float = bounded(0.0, -1e6, 1e6, "rad", "phase offset ε of ζ = (H/2)·sin(ωt − k s + ε)")
 
     def __post_init__(self) -> None:
         if self.height_m / self.length_m > BREAKING_STEEPNESS:
@@ -95,7 +96,8 @@ class RegularWaves:
 
     def _phase(self, north: Any, east: Any, t: Any) -> Any:
         s = north * math.cos(self.travel_dir_rad) + east * math.sin(self.travel_dir_rad)
-        return self.frequency * t - self.wavenumber * s
+        phase = self.frequency * t - self.wavenumber * s
+        return phase + self.phase_rad if self.phase_rad else phase  # no extra term: paper runs bit-identical
 
     def elevation(self, north: Any, east: Any, t: Any) -> Any:
         """ζ = (H/2)·sin(ωt − k s), m."""

@@ -1,0 +1,99 @@
+"""What the companion knows about the sea: one small interface between the loop and its wave knowledge.
+
+A real boat is told nothing about the waves. The control loop therefore sees the sea only through a
+``WaveSource``: it feeds the source every motion sample the autopilot streams (``observe``) and asks it,
+once per control step, for the dominant wave it should plan against (``estimate``). Two sources exist:
+
+* ``ScenarioTruth`` — the scenario's sea, *simulation truth*, named as such in every log; it never
+  looks at the motion and always answers with full confidence;
+* an estimator (``mavbridge.waves``) that fits the dominant wave to the boat's own motion.
+
+A ``WaveEstimate`` is one regular component on the autopilot's clock, NED frame, positions relative to
+home: ζ(N, E, t) = (H/2)·sin(ω t − k (N cos χ + E sin χ) + ε), t in autopilot seconds (time_boot_ms/1000).
+``None`` from ``estimate`` means "no confident estimate": the controller then flies without its roll term.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from vessel import CalmWater, RegularWaves, WaveField
+
+SCENARIO_TRUTH = "scenario-truth"
+
+
+@dataclass(frozen=True)
+class MotionSample:
+    """One instant of what an ArduPilot Rover streams, on the autopilot's clock (SI, radians, NED).
+
+    ``attitude`` = (φ, θ, ψ) rad, ``rates`` = body (p, q, r) rad/s (ATTITUDE); ``position_ned`` m
+    relative to home and ``velocity_ned`` m/s (GLOBAL_POSITION_INT / LOCAL_POSITION_NED);
+    ``accel_body`` = specific force in the body frame, m/s² (SCALED_IMU / RAW_IMU), None if not streamed.
+    """
+
+    t_s: float
+    attitude: np.ndarray
+    rates: np.ndarray
+    position_ned: np.ndarray
+    velocity_ned: np.ndarray
+    accel_body: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class WaveEstimate:
+    """The dominant regular wave: true (not encounter) period, NED travel direction, phase on the autopilot clock."""
+
+    height_m: float
+    period_s: float
+    length_m: float
+    travel_dir_rad: float
+    phase_rad: float
+    confidence: float = 1.0  # 0 (nothing known) .. 1 (certain)
+    extras: dict[str, float] = field(default_factory=dict)  # estimator-specific figures for the log
+
+    def field(self) -> RegularWaves:
+        """The estimate as a wave field the NMPC can predict with (the paper's roll sign)."""
+        return RegularWaves(self.height_m, self.length_m, self.period_s, self.travel_dir_rad,
+                            phase_rad=self.phase_rad)
+
+    def row(self) -> dict[str, float]:
+        """Per-step log columns, units in the names."""
+        return {"wave_height_m": self.height_m, "wave_period_s": self.period_s,
+                "wave_length_m": self.length_m, "wave_dir_deg": math.degrees(self.travel_dir_rad),
+                "wave_phase_rad": self.phase_rad, "wave_confidence": self.confidence}
+
+
+class WaveSource(Protocol):
+    """Where the loop's wave knowledge comes from (see the module docstring)."""
+
+    name: str
+
+    def observe(self, sample: MotionSample) -> None:
+        """Take one motion sample (called for every ATTITUDE-rate sample, in time order)."""
+        ...
+
+    def estimate(self, t_s: float) -> WaveEstimate | None:
+        """The wave to plan against at autopilot time ``t_s``; None while not confident."""
+        ...
+
+
+@dataclass
+class ScenarioTruth:
+    """The scenario's own sea handed to the controller: simulation only, never on a real boat."""
+
+    waves: WaveField
+    name: str = SCENARIO_TRUTH
+
+    def observe(self, sample: MotionSample) -> None:
+        """Truth needs no observations."""
+
+    def estimate(self, t_s: float) -> WaveEstimate | None:
+        """The true regular wave (calm water: None, i.e. nothing to mitigate)."""
+        w = self.waves
+        if isinstance(w, CalmWater) or not isinstance(w, RegularWaves):
+            return None
+        return WaveEstimate(w.height_m, w.period_s, w.length_m, w.travel_dir_rad, w.phase_rad, 1.0)
