@@ -33,7 +33,7 @@ SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, w
 
 @dataclass
 class Options:
-    """Everything the command line (or a future scenario file) decides."""
+    """Everything the command line decides; the physical world (vessel, sea, start) is one vessel World."""
 
     home: Home = field(default_factory=Home)
     world: World = field(default_factory=lambda: world_preset("calm"))  # vessel, sea and start pose
