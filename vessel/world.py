@@ -17,6 +17,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -35,10 +36,10 @@ SCENARIO_SECTIONS: tuple[str, ...] = ("name", "description", *WORLD_SECTIONS, "w
 RUN_SET_SECTIONS: tuple[str, ...] = ("base", "description", "runs")
 """The top-level sections of a set of runs (``base`` scenario + ``runs`` overrides)."""
 
-SEA_PRESETS: dict[str, SeaState] = {
+SEA_PRESETS: Mapping[str, SeaState] = MappingProxyType({
     "paper": SeaState(),  # SeaState's defaults are the paper's sea: 1.75 m, 35 m, 6 s, travelling to -90°
     "calm": SeaState(height_m=0.0),
-}
+})
 """Named seas for ``sim-vehicle --waves NAME`` and ``sea: NAME`` in a scenario file."""
 
 
