@@ -11,8 +11,7 @@ import time
 
 import numpy as np
 
-from vessel import Plant, RegularWaves, otter_parameters, plant_ode
-from vessel.waves import CalmWater
+from vessel import SEA_PRESETS, Plant, otter_parameters, plant_ode
 
 
 def time_run(waves: object, integrator: str, duration: float, dt: float, repeats: int) -> float:
@@ -32,7 +31,7 @@ def time_run(waves: object, integrator: str, duration: float, dt: float, repeats
 
 def time_dynamics_evaluation(evaluations: int = 200_000) -> float:
     """Cost of one ẋ evaluation (µs) through the zero-overhead buffer interface."""
-    ode = plant_ode(otter_parameters(), RegularWaves())
+    ode = plant_ode(otter_parameters(), SEA_PRESETS["paper"].waves())
     x, u, t, out = np.zeros(14), np.array([50.0, 40.0]), np.zeros(1), np.zeros(14)
     x[6] = 1.0
     buffer, evaluate = ode.buffer()
@@ -55,7 +54,8 @@ def main() -> None:
     print(f"plant: {args.duration:g} s simulated at dt {args.dt:g} s, best of {args.repeats}")
     print(f"{'integrator':<10} {'sea':<6} {'wall s':>8} {'x real time':>12} {'us/step':>8}")
     for integrator in ("rk4", "euler"):
-        for name, waves in (("calm", CalmWater()), ("paper", RegularWaves())):
+        for name in ("calm", "paper"):
+            waves = SEA_PRESETS[name].waves()
             wall = time_run(waves, integrator, args.duration, args.dt, args.repeats)
             per_step_us = wall / (args.duration / args.dt) * 1e6
             print(f"{integrator:<10} {name:<6} {wall:8.3f} {args.duration / wall:12.0f} {per_step_us:8.2f}")

@@ -110,4 +110,4 @@ def demo_command(args: argparse.Namespace) -> int:
     scenario = _scenario(args.scenario, args.solver)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(args.scenario, scenario, out, speedup, args.output, args.solver)
+    return run_demo(scenario, out, speedup, args.output)

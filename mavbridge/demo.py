@@ -1,8 +1,10 @@
 """`mavbridge demo`: the whole system in one command, as separate processes over UDP loopback.
 
-Starts `sim-vehicle` in the scenario's sea, uploads the waypoint with `mission upload` (MAVSDK), runs
-`mavbridge run` (which arms and sets the mode), waits for the arrival or t_max, stops every process it
-started by its own handles, prints the figures and leaves a run folder with tlogs, CSVs, metrics and plots.
+Parses the scenario once and writes it, resolved, to ``<run folder>/scenario.yaml``; both children read
+that one file with the one loader: `sim-vehicle --scenario` its world (vessel, sea, start), `mavbridge run
+--scenario` all of it. Then it uploads the waypoint with `mission upload` (MAVSDK), runs `mavbridge run`
+(which arms and sets the mode), waits for the arrival or t_max, stops every process it started by its own
+handles, prints the figures and leaves a run folder with tlogs, CSVs, metrics and plots.
 """
 
 from __future__ import annotations
@@ -18,11 +20,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
+
+from vessel.geo import Home
 
 from .plots import plot_path, plot_timeseries
 from .scenario import Scenario
-
-HOME = (-35.363261, 149.165230, 584.0)  # ArduPilot SITL's CMAC
 
 
 def free_udp_port() -> int:
@@ -74,25 +77,27 @@ def _plot(scenario: Scenario, out: Path, metrics: dict) -> None:
                     np.degrees(col["pitch_rad"]), tau_x, tau_n, "demo (true plant state; τ from shaft speeds)")
 
 
-def run_demo(scenario_path: str | None, scenario: Scenario, out: Path, speedup: float, output: str,
-             solver: str | None) -> int:
+def write_resolved(scenario: Scenario, out: Path) -> Path:
+    """The scenario as the children read it: every section resolved, one file in the run folder."""
+    path = out / "scenario.yaml"
+    path.write_text(yaml.safe_dump(scenario.to_mapping(), sort_keys=False), encoding="utf-8")
+    return path
+
+
+def run_demo(scenario: Scenario, out: Path, speedup: float, output: str) -> int:
     """Run the demo; returns 0 when the boat reached the waypoint."""
     out.mkdir(parents=True, exist_ok=True)
+    resolved = str(write_resolved(scenario, out))
     gcs_port, companion_port, tcp_port = free_udp_port(), free_udp_port(), free_tcp_port()
     python = sys.executable
-    heading_deg = scenario.start.heading_deg
-    sea = ["--scenario", scenario_path] if scenario_path else ["--waves", "paper"]  # the default is the paper's
+    home = Home(heading_deg=scenario.start.heading_deg)  # CMAC; the boat's pose itself comes from the file
     sim_cmd = [python, "-m", "sim_vehicle.cli", "--tcp", str(tcp_port), "--out", f"udp:127.0.0.1:{gcs_port}",
-               "--out", f"udp:127.0.0.1:{companion_port}", *sea,
-               f"--home={HOME[0]},{HOME[1]},{HOME[2]},{heading_deg}", "--params-store",
-               str(out / "sim_state" / "params.json"), "--wipe", "--log-dir", str(out / "sim"),
+               "--out", f"udp:127.0.0.1:{companion_port}", "--scenario", resolved, f"--home={home.text()}",
+               "--params-store", str(out / "sim_state" / "params.json"), "--wipe", "--log-dir", str(out / "sim"),
                "--speedup", f"{speedup:g}"]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
-                     "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode"]
-    if scenario_path:
-        companion_cmd += ["--scenario", scenario_path]
-    if solver:
-        companion_cmd += ["--solver", solver]
+                     "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
+                     "--scenario", resolved]
     print(f"demo: simulator TCP {tcp_port}, ground station UDP {gcs_port}, companion UDP {companion_port}, "
           f"speedup {speedup:g}, output {output}")
     children: list[tuple[subprocess.Popen, str]] = []

@@ -25,12 +25,11 @@ from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
-import casadi as ca
 import numpy as np
 import yaml
 
-from vessel import Plant, rigid_body_ode, tau_to_shaft_speeds
-from vessel.plant import rk4_step
+from vessel import tau_to_shaft_speeds
+from vessel.closed_loop import PropellerPlant, TauPlant
 
 from .nmpc import RollAwareNmpc
 from .scenario import Scenario
@@ -38,61 +37,6 @@ from .scenario import Scenario
 STATE_COLUMNS = ("north", "east", "down", "phi", "theta", "psi", "u", "v", "w", "p", "q", "r")
 CSV_COLUMNS = ("t", *STATE_COLUMNS, "n1", "n2", "tau_x", "tau_n", "n1_cmd", "n2_cmd", "alpha",
                "wave_force", "solve_ms", "iterations", "status", "fallback")
-
-
-class TauPlant:
-    """The rigid-body model driven by (τ_X, τ_N), RK4 at dt, input held over one control period."""
-
-    def __init__(self, scenario: Scenario) -> None:
-        ode = rigid_body_ode(scenario.params(), scenario.sea.waves(), scenario.sea.current())
-        self.dt = scenario.plant_dt_s
-        self.substeps = round(scenario.controller.period_s / self.dt)
-        self._period = rk4_step(ode, self.dt).mapaccum(self.substeps)
-        self.x = scenario.start.state()
-
-    @property
-    def rigid_state(self) -> np.ndarray:
-        """The 12 rigid-body states."""
-        return self.x.copy()
-
-    @property
-    def shaft_speeds(self) -> tuple[float, float] | None:
-        """Not modelled in this plant."""
-        return None
-
-    def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:
-        """One control period from time t."""
-        times = ca.DM(t + self.dt * np.arange(self.substeps)).T
-        out = np.asarray(self._period(self.x, ca.repmat(ca.DM(tau), 1, self.substeps), times))
-        x_next = out[:, -1]
-        if not np.all(np.isfinite(x_next)):
-            raise FloatingPointError(f"plant state became non-finite at t = {t:.2f} s")
-        self.x = x_next
-
-
-class PropellerPlant:
-    """``vessel.Plant`` (shaft dynamics, saturation) driven by the shaft-speed commands."""
-
-    def __init__(self, scenario: Scenario) -> None:
-        x0 = np.concatenate([scenario.start.state(), [0.0, 0.0]])
-        self.plant = Plant(scenario.params(), scenario.sea.waves(), scenario.sea.current(),
-                           dt=scenario.plant_dt_s, integrator="rk4", x0=x0)
-        self.substeps = round(scenario.controller.period_s / scenario.plant_dt_s)
-
-    @property
-    def rigid_state(self) -> np.ndarray:
-        """The 12 rigid-body states."""
-        return self.plant.state[0:12]
-
-    @property
-    def shaft_speeds(self) -> tuple[float, float] | None:
-        """Actual shaft speeds (rad/s)."""
-        s = self.plant.state
-        return float(s[12]), float(s[13])
-
-    def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:
-        """One control period with the shaft-speed commands held."""
-        self.plant.advance(n_cmd, self.substeps)
 
 
 @dataclass
@@ -158,7 +102,8 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     params = scenario.params()
     cfg = scenario.controller
     nmpc = RollAwareNmpc(cfg, params, waves, scenario.sea.current())
-    plant = TauPlant(scenario) if scenario.plant == "tau" else PropellerPlant(scenario)
+    plant_class = TauPlant if scenario.plant == "tau" else PropellerPlant
+    plant = plant_class(scenario.world, cfg.period_s, scenario.plant_dt_s)
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
     n_steps_max = math.floor(scenario.t_max_s / cfg.period_s + 1e-9)
     rows: list[list] = []

@@ -1,9 +1,11 @@
-"""Scenarios: YAML files describing a vessel, a sea state, a start, a waypoint and the controller.
+"""Scenarios: a world (vessel, sea, start) plus the mission, the controller and the experiment settings.
 
 A file is either one scenario (a mapping of the sections below) or a set: ``base`` (a scenario) plus
-``runs`` (name -> overrides merged into the base, section by section). Degrees appear only in fields
-whose names end in ``_deg``; everything inside is SI with radians. Unknown keys, non-finite numbers and
-out-of-range values are errors naming the file, the field and the allowed range.
+``runs`` (name -> overrides merged into the base, section by section). The world sections are read by
+``vessel.world`` — the same loader and the same rule for unknown sections as ``sim-vehicle --scenario``.
+Degrees appear only in fields whose names end in ``_deg``; everything inside is SI with radians. Unknown
+keys, non-finite numbers and out-of-range values are errors naming the file, the field and the allowed
+range; so is an empty file.
 """
 
 from __future__ import annotations
@@ -16,10 +18,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vessel import ConfigError, otter_parameters
-from vessel.config import bounded, from_mapping, read_yaml, to_mapping
-from vessel.params import PARAMETER_SETS
+from vessel import ConfigError
+from vessel.config import bounded, from_mapping, to_mapping
+from vessel.params import OtterParameters
 from vessel.sea_state import SeaState, Start
+from vessel.world import (
+    RUN_SET_SECTIONS,
+    SCENARIO_SECTIONS,
+    WORLD_SECTIONS,
+    World,
+    check_sections,
+    is_run_set,
+    read_scenario_file,
+    world_from_mapping,
+)
 
 from .nmpc import NmpcConfig
 from .nmpc.config import choice
@@ -48,13 +60,11 @@ class Reference:
 
 @dataclass(frozen=True)
 class Scenario:
-    """One closed-loop run."""
+    """One closed-loop run: the world, then what the companion and the experiment runner need."""
 
     name: str = "run"
     description: str = ""
-    vessel: str = choice("published", PARAMETER_SETS, "Otter parameter set")
-    sea: SeaState = dataclasses.field(default_factory=SeaState)
-    start: Start = dataclasses.field(default_factory=Start)
+    world: World = dataclasses.field(default_factory=World)
     waypoint: Waypoint = dataclasses.field(default_factory=Waypoint)
     controller: NmpcConfig = dataclasses.field(default_factory=NmpcConfig)
     t_max_s: float = bounded(180.0, 0.1, 1e5, "s", "episode length limit")
@@ -64,8 +74,6 @@ class Scenario:
     reference: Reference = dataclasses.field(default_factory=Reference)
 
     def __post_init__(self) -> None:
-        if self.vessel not in PARAMETER_SETS:
-            raise ConfigError(f"vessel: {self.vessel!r} is not one of {', '.join(PARAMETER_SETS)}")
         if self.plant not in PLANTS:
             raise ConfigError(f"plant: {self.plant!r} is not one of {', '.join(PLANTS)}")
         if not RUN_NAME.match(self.name):
@@ -74,19 +82,48 @@ class Scenario:
         if abs(ratio - round(ratio)) > 1e-6:
             raise ConfigError(f"plant_dt_s: {self.plant_dt_s:g} s must divide controller.period_s "
                               f"{self.controller.period_s:g} s")
-        gap = math.hypot(self.waypoint.north_m - self.start.north_m, self.waypoint.east_m - self.start.east_m)
+        start = self.world.start
+        gap = math.hypot(self.waypoint.north_m - start.north_m, self.waypoint.east_m - start.east_m)
         if gap <= self.waypoint.acceptance_radius_m:
             raise ConfigError(f"waypoint: ({self.waypoint.north_m:g}, {self.waypoint.east_m:g}) m is within "
                               f"the acceptance radius {self.waypoint.acceptance_radius_m:g} m of the start; "
                               f"allowed: farther than acceptance_radius_m")
 
-    def params(self):
+    @property
+    def vessel(self) -> str:
+        """The world's Otter parameter set name."""
+        return self.world.vessel
+
+    @property
+    def sea(self) -> SeaState:
+        """The world's sea (simulation truth)."""
+        return self.world.sea
+
+    @property
+    def start(self) -> Start:
+        """The world's start pose and velocity."""
+        return self.world.start
+
+    def params(self) -> OtterParameters:
         """The vessel's parameter set."""
-        return otter_parameters(self.vessel)
+        return self.world.params()
 
     def to_mapping(self) -> dict:
-        """The resolved scenario as plain data (for saving as YAML)."""
-        return to_mapping(self)
+        """The resolved scenario as plain data in the file's own layout (for saving as YAML)."""
+        data = {f.name: to_mapping(getattr(self, f.name)) for f in dataclasses.fields(self) if f.name != "world"}
+        data.update(self.world.to_mapping())
+        return {name: data[name] for name in SCENARIO_SECTIONS}
+
+
+def _check_sections_match() -> None:
+    """The scenario sections vessel.world knows are exactly this Scenario's fields (world split in three)."""
+    fields = [f.name for f in dataclasses.fields(Scenario) if f.name != "world"]
+    if sorted([*fields, *WORLD_SECTIONS]) != sorted(SCENARIO_SECTIONS):
+        raise RuntimeError(f"vessel.world.SCENARIO_SECTIONS {SCENARIO_SECTIONS} does not match "
+                           f"mavbridge.scenario.Scenario's fields {fields} + {WORLD_SECTIONS}")
+
+
+_check_sections_match()
 
 
 def _merge(base: Any, override: Any) -> Any:
@@ -117,33 +154,30 @@ def scenario_from_mapping(data: Any, where: str, name: str | None = None) -> Sce
         raise ConfigError(f"{where}: expected a mapping of scenario sections, got {type(data).__name__}")
     if name is not None:
         data = {**data, "name": name}
-    return _parse(Scenario, data, where)
+    world = world_from_mapping(data, where)  # also rejects unknown sections, as the simulator does
+    settings = {key: value for key, value in data.items() if key not in WORLD_SECTIONS}
+    # The world goes in resolved (already validated, so it cannot fail here): the cross-field checks of
+    # Scenario.__post_init__ then see the real start, never a default one.
+    return _parse(Scenario, {**settings, "world": world.to_mapping()}, where)
 
 
 def load_scenarios(path: str | Path) -> list[Scenario]:
     """Every run a scenario file defines (one for a single scenario, the named runs for a set)."""
     path = Path(path)
-    if path.is_dir():
-        raise ConfigError(f"{path}: is a directory, expected a scenario YAML file")
-    data = read_yaml(path)
-    if isinstance(data, dict) and ("runs" in data or "base" in data):
-        unknown = sorted(set(data) - {"base", "runs", "description"})
-        if unknown:
-            raise ConfigError(f"{path}: unknown key '{unknown[0]}' (allowed: base, description, runs)")
-        base = data.get("base") or {}
-        runs = data.get("runs")
-        if not isinstance(base, dict):
-            raise ConfigError(f"{path}: base: expected a mapping of scenario sections")
-        if not isinstance(runs, dict) or not runs:
-            raise ConfigError(f"{path}: runs: expected a mapping of run names to overrides (at least one)")
-        scenarios = []
-        for run_name, override in runs.items():
-            if override is not None and not isinstance(override, dict):
-                raise ConfigError(f"{path}: runs.{run_name}: expected a mapping of overrides")
-            merged = _merge(base, override or {})
-            scenarios.append(scenario_from_mapping(merged, f"{path}: runs.{run_name}", str(run_name)))
-        return scenarios
-    if data is None:
-        data = {}
-    default_name = data.get("name") if isinstance(data, dict) and "name" in data else path.stem
-    return [scenario_from_mapping(data, str(path), default_name)]
+    data = read_scenario_file(path)
+    if not is_run_set(data):
+        return [scenario_from_mapping(data, str(path), data.get("name", path.stem))]
+    check_sections(data, str(path), RUN_SET_SECTIONS)
+    base = data.get("base") or {}
+    runs = data.get("runs")
+    if not isinstance(base, dict):
+        raise ConfigError(f"{path}: base: expected a mapping of scenario sections")
+    if not isinstance(runs, dict) or not runs:
+        raise ConfigError(f"{path}: runs: expected a mapping of run names to overrides (at least one)")
+    scenarios = []
+    for run_name, override in runs.items():
+        if override is not None and not isinstance(override, dict):
+            raise ConfigError(f"{path}: runs.{run_name}: expected a mapping of overrides")
+        merged = _merge(base, override or {})
+        scenarios.append(scenario_from_mapping(merged, f"{path}: runs.{run_name}", str(run_name)))
+    return scenarios

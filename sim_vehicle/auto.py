@@ -6,8 +6,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from vessel.geo import Home
+
 from .control import NavState, NavTarget
-from .geo import Home
 from .mission import (
     DO_CHANGE_SPEED,
     GLOBAL_FRAMES,

@@ -11,13 +11,12 @@ import sys
 from pathlib import Path
 from typing import NoReturn
 
-from vessel import RegularWaves
 from vessel.config import ConfigError
+from vessel.geo import Home, parse_home
+from vessel.world import SEA_PRESETS
 
-from .geo import parse_home
 from .params import ParamTable, is_param_name, read_parm
-from .physics import WAVE_CHOICES, parse_current, parse_sea
-from .scenario import load_sim_scenario
+from .scenario import sim_world
 from .sim import Options, Simulator
 
 DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
@@ -129,9 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--waves",
-        choices=WAVE_CHOICES,
+        choices=tuple(SEA_PRESETS),
         default=None,
-        help="sea state: calm (default), or the paper's 1.75 m / 35 m / 6 s waves",
+        help="named sea (vessel.world presets): calm (default), or paper, the paper's regular waves",
     )
     p.add_argument(
         "--scenario",
@@ -230,15 +229,16 @@ def main(argv: list[str] | None = None) -> int:
         stream=sys.stderr,
     )
     try:
+        home = args.home or Home()
+        world = sim_world(args.scenario, args.waves, args.sea, args.current, home)  # before anything is written
         params = _load_params(args)
         if args.log_dir is not None:
             args.log_dir.mkdir(parents=True, exist_ok=True)
             if shutil.disk_usage(args.log_dir).free < 1 << 20:
                 raise ConfigError(f"{args.log_dir}: less than 1 MB free for logs")
-        scenario = load_sim_scenario(args.scenario) if args.scenario is not None else None
-        explicit_sea = args.sea is not None or args.waves is not None
         opts = Options(
-            waves=args.waves or "calm",
+            home=home,
+            world=world,
             speedup=args.speedup,
             params=params,
             log_dir=args.log_dir,
@@ -247,20 +247,8 @@ def main(argv: list[str] | None = None) -> int:
             outputs=[] if args.no_out else (args.out or [_output(o) for o in DEFAULT_OUTPUTS]),
             duration_s=args.duration,
             mission_store=mission_store(args.params_store),
-            sea=None if args.sea is None else parse_sea(args.sea),
-            current=None if args.current is None else parse_current(args.current),
             serial=args.serial,
         )
-        if scenario is not None:
-            opts.vessel = scenario.vessel
-            opts.x0 = scenario.initial_state()
-            if not explicit_sea:
-                waves = scenario.sea.waves()
-                opts.sea = waves if isinstance(waves, RegularWaves) else None
-            if args.current is None:
-                opts.current = scenario.sea.current()
-        if args.home is not None:
-            opts.home = args.home
         sim = Simulator(opts)
     except ConfigError as exc:
         print(f"sim-vehicle: error: {exc}", file=sys.stderr)

@@ -9,7 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .geo import wrap_pi
+from vessel.geo import wrap_pi
+
 from .params import ParamTable
 
 PIVOT_ANGLE_RAD = math.radians(60.0)  # heading error beyond which a skid-steered boat turns on the spot

@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from vessel.geo import Home
+
 from .control import NavState, NavTarget
-from .geo import Home
 
 ATT_YAW_RATE_IGNORE, ATT_THROTTLE_IGNORE = 4, 64
 POS_XY_IGNORE, VEL_XY_IGNORE, YAW_IGNORE, YAW_RATE_IGNORE = 0b11, 0b11 << 3, 1 << 10, 1 << 11

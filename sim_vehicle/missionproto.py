@@ -8,8 +8,9 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from vessel.geo import Home
+
 from .auto import MissionRunner
-from .geo import Home
 from .link import Channel
 from .mission import (
     ALL_TYPES,

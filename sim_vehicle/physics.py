@@ -1,4 +1,4 @@
-"""The boat in its sea: builds the vessel plant and converts between plant state and autopilot views."""
+"""The boat in its world: builds the vessel plant and converts between plant state and autopilot views."""
 
 from __future__ import annotations
 
@@ -7,51 +7,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vessel import CalmWater, OceanCurrent, Plant, RegularWaves, otter_parameters
-from vessel.config import ConfigError, validate
+from vessel import Plant, World
 
 from .control import NavState
 from .mixer import output_to_shaft_speed
 
 PHYSICS_DT_S = 0.01
-WAVE_CHOICES = ("calm", "paper")
-
-
-def make_waves(name: str) -> CalmWater | RegularWaves:
-    """The sea state by name: 'calm' or 'paper' (H 1.75 m, λ 35 m, T 6 s, travelling West)."""
-    if name == "paper":
-        return RegularWaves(height_m=1.75, length_m=35.0, period_s=6.0, travel_dir_rad=-math.pi / 2)
-    return CalmWater()
-
-
-def parse_numbers(text: str, count: int, what: str) -> list[float]:
-    """``count`` comma-separated finite numbers, or a one-line ConfigError naming ``what``."""
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise ConfigError(f"{what}: expected {count} comma-separated numbers, got {text!r}")
-    return values
-
-
-def parse_sea(text: str) -> RegularWaves:
-    """``H_M,LENGTH_M,PERIOD_S,DIR_DEG`` -> validated regular waves travelling towards DIR_DEG (0 = North)."""
-    height, length, period, direction = parse_numbers(text, 4, "--sea")
-    try:
-        waves = RegularWaves(height, length, period, math.radians(direction))
-    except ConfigError as exc:
-        raise ConfigError(f"--sea.{exc}") from None
-    validate(waves, "--sea")
-    return waves
-
-
-def parse_current(text: str) -> OceanCurrent:
-    """``SPEED_M_S,DIR_DEG`` -> a validated uniform current flowing towards DIR_DEG."""
-    speed, direction = parse_numbers(text, 2, "--current")
-    current = OceanCurrent(speed, math.radians(direction))
-    validate(current, "--current")
-    return current
 
 
 @dataclass
@@ -63,20 +24,11 @@ class Physics:
     n_min: float
 
     @classmethod
-    def create(
-        cls,
-        waves: CalmWater | RegularWaves,
-        heading_deg: float,
-        current: OceanCurrent | None = None,
-        vessel: str = "published",
-        x0: np.ndarray | None = None,
-    ) -> Physics:
-        """An Otter stepped at 100 Hz: at rest at the origin pointing ``heading_deg``, or at state ``x0``."""
-        params = otter_parameters(vessel)
-        if x0 is None:
-            x0 = np.zeros(14)
-            x0[5] = math.radians(heading_deg)
-        plant = Plant(params, waves, current or OceanCurrent(), dt=PHYSICS_DT_S, integrator="rk4", x0=x0)
+    def create(cls, world: World) -> Physics:
+        """An Otter stepped at 100 Hz in the world's sea, from the world's start (propellers stopped)."""
+        params = world.params()
+        plant = Plant(params, world.sea.waves(), world.sea.current(), dt=PHYSICS_DT_S, integrator="rk4",
+                      x0=world.plant_state())
         limits = params.matrices()
         return cls(plant, float(limits.n_max), float(limits.n_min))
 

@@ -1,46 +1,73 @@
-"""`sim-vehicle --scenario FILE`: the simulator's part of a scenario YAML (vessel, sea, start).
+"""The simulator's world from its command line: ``--scenario``, ``--waves``, ``--sea``, ``--current``, ``--home``.
 
-The simulator reads and validates only the sections that describe the boat's world; the other
-sections (waypoint, controller, ...) belong to the companion, which validates the whole file.
+The world (vessel, sea, start) comes from ``vessel.world`` — ``load_world`` for a scenario file (the loader
+``mavbridge`` uses too, with the same rule for unknown sections), a named preset for ``--waves`` — and the
+flags given on top replace parts of it: ``--waves``/``--sea`` the waves, ``--current`` the current. Without
+a scenario the boat starts at rest at home, pointing the home heading.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import dataclasses
+import math
 from pathlib import Path
 
-import numpy as np
-
-from vessel.config import ConfigError, from_mapping, read_yaml
-from vessel.params import PARAMETER_SETS
+from vessel.config import ConfigError, validate
+from vessel.geo import Home
 from vessel.sea_state import SeaState, Start
+from vessel.world import World, load_world, sea_preset, world_preset
 
 
-@dataclass(frozen=True)
-class SimScenario:
-    """What the simulator takes from a scenario: parameter set, sea state and initial state."""
+def parse_numbers(text: str, count: int, what: str) -> list[float]:
+    """``count`` comma-separated finite numbers, or a one-line ConfigError naming ``what``."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != count:
+        raise ConfigError(f"{what}: expected {count} comma-separated numbers, got {text!r}")
+    if not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"{what}: every number must be finite, got {text!r}")
+    return values
 
-    vessel: str = "published"
-    sea: SeaState = field(default_factory=SeaState)
-    start: Start = field(default_factory=Start)
 
-    def initial_state(self) -> np.ndarray:
-        """The 14 plant states at the start: the scenario's pose and velocity, propellers stopped."""
-        return np.concatenate([self.start.state(), np.zeros(2)])
+def _checked(sea: SeaState, what: str) -> SeaState:
+    """Ranges first (so a zero wavelength is a range error, not a division), then the wave field itself."""
+    validate(sea, what)
+    try:
+        sea.waves()
+    except ConfigError as exc:
+        raise ConfigError(f"{what}.{exc}") from None
+    return sea
 
 
-def load_sim_scenario(path: str | Path) -> SimScenario:
-    """Read ``vessel``, ``sea`` and ``start`` from a single-run scenario file; one-line errors."""
-    data = read_yaml(path)
-    if data is None:
-        data = {}
-    if not isinstance(data, dict):
-        raise ConfigError(f"{path}: expected a mapping of scenario sections")
-    if "runs" in data or "base" in data:
-        raise ConfigError(f"{path}: a set of runs; give the simulator a single-run scenario")
-    vessel = data.get("vessel", "published")
-    if vessel not in PARAMETER_SETS:
-        raise ConfigError(f"{path}: vessel: {vessel!r} is not one of {', '.join(PARAMETER_SETS)}")
-    sea = from_mapping(SeaState, data.get("sea"), f"{path}: sea")
-    start = from_mapping(Start, data.get("start"), f"{path}: start")
-    return SimScenario(vessel, sea, start)
+def parse_sea(text: str, base: SeaState) -> SeaState:
+    """``H_M,LENGTH_M,PERIOD_S,DIR_DEG`` -> ``base`` with these regular waves, travelling towards DIR_DEG."""
+    height, length, period, direction = parse_numbers(text, 4, "--sea")
+    sea = dataclasses.replace(base, height_m=height, length_m=length, period_s=period, travel_dir_deg=direction)
+    return _checked(sea, "--sea")
+
+
+def parse_current(text: str, base: SeaState) -> SeaState:
+    """``SPEED_M_S,DIR_DEG`` -> ``base`` with this uniform current flowing towards DIR_DEG."""
+    speed, direction = parse_numbers(text, 2, "--current")
+    sea = dataclasses.replace(base, current_speed_mps=speed, current_dir_deg=direction)
+    validate(sea, "--current")
+    return sea
+
+
+def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current: str | None,
+              home: Home) -> World:
+    """The world the simulator runs in, from the flags as given (None: not given); one-line ConfigErrors."""
+    if scenario is not None:
+        world = load_world(scenario)
+        if waves is not None:
+            world = dataclasses.replace(world, sea=world.sea.with_waves_of(sea_preset(waves, "--waves")))
+    else:
+        world = world_preset(waves or "calm")
+        world = dataclasses.replace(world, start=Start(heading_deg=home.heading_deg))
+    if sea is not None:
+        world = dataclasses.replace(world, sea=parse_sea(sea, world.sea))
+    if current is not None:
+        world = dataclasses.replace(world, sea=parse_current(current, world.sea))
+    return world

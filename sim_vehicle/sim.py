@@ -10,19 +10,19 @@ from pathlib import Path
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from vessel import OceanCurrent, RegularWaves
+from vessel import World, world_preset
 from vessel.config import ConfigError
+from vessel.geo import Home
 
 from .clock import Pacer
 from .gcs import Gcs
-from .geo import Home
 from .guided import to_location
 from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
 from .missionproto import MissionServer
 from .modes import Mode
 from .params import ParamTable, baud_from_code
-from .physics import PHYSICS_DT_S, Physics, make_waves, nav_state
+from .physics import PHYSICS_DT_S, Physics, nav_state
 from .telemetry import FIRMWARE_VERSION, Battery, Telemetry
 from .vehicle import Vehicle
 
@@ -33,12 +33,10 @@ SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, w
 
 @dataclass
 class Options:
-    """Everything the command line (or a future scenario file) decides."""
+    """Everything the command line decides; the physical world (vessel, sea, start) is one vessel World."""
 
     home: Home = field(default_factory=Home)
-    waves: str = "calm"
-    sea: RegularWaves | None = None  # overrides ``waves`` when given
-    current: OceanCurrent | None = None
+    world: World = field(default_factory=lambda: world_preset("calm"))  # vessel, sea and start pose
     speedup: float = 1.0
     tcp_port: int | None = 5760
     tcp_host: str = "0.0.0.0"
@@ -51,8 +49,6 @@ class Options:
     rc_receiver: bool = True
     duration_s: float | None = None
     serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
-    vessel: str = "published"  # Otter parameter set
-    x0: np.ndarray | None = None  # initial plant state (14); None: at rest at home, pointing home.heading_deg
 
 
 class Simulator:
@@ -62,8 +58,7 @@ class Simulator:
         self.opts = opts
         self.params = opts.params
         self.home = opts.home
-        waves = opts.sea if opts.sea is not None else make_waves(opts.waves)
-        self.physics = Physics.create(waves, opts.home.heading_deg, opts.current, opts.vessel, opts.x0)
+        self.physics = Physics.create(opts.world)
         self.store = MissionStore(opts.mission_store)
         self.boot_unix_us = int(time.time() * 1e6)
         self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None

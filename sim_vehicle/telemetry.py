@@ -7,8 +7,9 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from vessel.geo import Home, wrap_pi
+
 from .auto import MissionRunner
-from .geo import Home, wrap_pi
 from .mission import MissionStore
 from .modes import MODE_INFO, Mode, base_mode
 from .params import ParamTable

@@ -5,10 +5,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+from vessel.geo import Home
+
 from . import modes
 from .auto import MissionRunner
 from .control import NavCommand, NavState, NavTarget, SpeedControl, SteeringControl, loiter, navigate
-from .geo import Home
 from .guided import GuidedTarget, from_attitude
 from .mission import MissionStore
 from .mixer import output_to_pwm, pwm_to_output, skid_mix

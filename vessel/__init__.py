@@ -1,6 +1,8 @@
 """The Otter USV and the sea: Fossen's 6-DOF model, wave fields, thrust allocation, a numeric plant.
 
-No MAVLink and no I/O here; both the simulator and the NMPC build on this package.
+No MAVLink here; both the simulator and the NMPC build on this package. The world of a run (vessel,
+sea, start) is described once in :mod:`vessel.world`; latitude/longitude and angle wraps live in
+:mod:`vessel.geo`.
 """
 
 from .allocation import (
@@ -13,11 +15,14 @@ from .config import ConfigError
 from .dynamics import NX_PLANT, NX_RIGID, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
 from .params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
 from .plant import Plant, plant_step
+from .sea_state import SeaState, Start
 from .waves import CalmWater, RegularWaves, WaveField
+from .world import SEA_PRESETS, World, load_world, world_preset
 
 __all__ = [
     "NX_PLANT",
     "NX_RIGID",
+    "SEA_PRESETS",
     "STATE_NAMES",
     "CalmWater",
     "ConfigError",
@@ -26,8 +31,12 @@ __all__ = [
     "OtterParameters",
     "Plant",
     "RegularWaves",
+    "SeaState",
+    "Start",
     "WaveField",
+    "World",
     "load_parameters",
+    "load_world",
     "otter_parameters",
     "plant_ode",
     "plant_step",
@@ -36,4 +45,5 @@ __all__ = [
     "shaft_speeds_to_tau",
     "tau_limits",
     "tau_to_shaft_speeds",
+    "world_preset",
 ]

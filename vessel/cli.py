@@ -12,7 +12,7 @@ from .config import ConfigError
 from .maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
 from .params import PARAMETER_SETS, load_parameters, otter_parameters
 from .plant import INTEGRATORS
-from .waves import CalmWater, RegularWaves
+from .world import SEA_PRESETS
 
 EXIT_USAGE = 2
 
@@ -52,8 +52,8 @@ def build_parser() -> OneLineParser:
     group.add_argument("--parameter-set", choices=PARAMETER_SETS, default="published",
                        help="named Otter parameter set (default: published, quirks included)")
     group.add_argument("--params", metavar="FILE", help="YAML parameter file (base set + overrides)")
-    man.add_argument("--waves", choices=("calm", "paper"), default="calm",
-                     help="calm water or the paper's 1.75 m / 35 m / 6 s waves from the East")
+    man.add_argument("--waves", choices=tuple(SEA_PRESETS), default="calm",
+                     help="named sea (vessel.world presets): calm, or paper, the paper's waves from the East")
     man.add_argument("--csv", metavar="PATH", help="write t,x,y,z,phi,theta,psi,u,v,w,p,q,r,n1,n2")
     man.add_argument("--plot", metavar="PATH", help="write a PNG of the track and time series")
     return parser
@@ -71,7 +71,7 @@ def _maneuver_from_args(args: argparse.Namespace) -> Maneuver:
     if not args.preset and (args.left is None or args.right is None):
         raise ConfigError("--left and --right are required without --preset (percent of n_max, [-100, 100])")
     params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
-    waves = RegularWaves() if args.waves == "paper" else CalmWater()
+    waves = SEA_PRESETS[args.waves].waves()
     return Maneuver(**settings, integrator=args.integrator, params=params, waves=waves)
 
 

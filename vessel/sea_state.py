@@ -1,11 +1,20 @@
-"""The sections of a scenario that describe the boat's world, shared by the simulator and the controller.
+"""The ``sea`` and ``start`` sections of a world (see ``vessel.world``), as scenario YAML spells them.
 
-``SeaState`` (waves and current) and ``Start`` (initial pose and velocity) are read from scenario YAML
-by both ``sim_vehicle --scenario`` and ``mavbridge``; degrees only in fields whose names end in ``_deg``.
+``SeaState`` (waves and current) and ``Start`` (initial pose and velocity) are read by the one world
+loader for both ``sim-vehicle --scenario`` and ``mavbridge``; degrees only in fields whose names end in
+``_deg``, radians inside. ``SeaState``'s defaults are the paper's sea (the ``paper`` preset), so a partial
+``sea:`` section means "the paper's sea, except ...".
+
+Growing the sea: the wave field is built in one place only, :meth:`SeaState.waves`; everything else
+(simulator plant, in-process plants, NMPC truth, plots) calls it. An irregular sea joins as one more
+optional field (e.g. ``spectrum: Spectrum | None = None``, a nested JONSWAP/PM section with its seed) that
+``waves()`` turns into its wave field when set; :meth:`SeaState.with_waves_of` copies it along with the
+regular-wave fields, and the current is unaffected.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -18,7 +27,7 @@ from .waves import CalmWater, RegularWaves
 
 @dataclass(frozen=True)
 class SeaState:
-    """The paper's regular waves; height 0 is calm water."""
+    """Regular waves (height 0 is calm water) and a uniform current; defaults are the paper's sea."""
 
     height_m: float = bounded(1.75, 0.0, 30.0, "m", "crest-to-trough height H")
     length_m: float = bounded(35.0, 1.0, 2000.0, "m", "wavelength λ")
@@ -28,7 +37,7 @@ class SeaState:
     current_dir_deg: float = bounded(0.0, -360.0, 360.0, "deg", "direction the current flows to")
 
     def waves(self) -> RegularWaves | CalmWater:
-        """The wave field (radians inside)."""
+        """The wave field (radians inside): the only place a SeaState becomes one."""
         if self.height_m == 0:
             return CalmWater()
         return RegularWaves(self.height_m, self.length_m, self.period_s, math.radians(self.travel_dir_deg))
@@ -36,6 +45,23 @@ class SeaState:
     def current(self) -> OceanCurrent:
         """The ocean current."""
         return OceanCurrent(self.current_speed_mps, math.radians(self.current_dir_deg))
+
+    def with_waves_of(self, other: SeaState) -> SeaState:
+        """This sea's current with ``other``'s waves (``sim-vehicle --waves`` over a scenario's sea)."""
+        current = {name: getattr(self, name) for name in CURRENT_FIELDS}
+        return dataclasses.replace(other, **current)
+
+    def describe(self) -> str:
+        """One line for logs and start-up messages, e.g. 'regular waves H 1.75 m, λ 35 m, T 6 s to -90°'."""
+        waves = "calm water" if self.height_m == 0 else (
+            f"regular waves H {self.height_m:g} m, λ {self.length_m:g} m, T {self.period_s:g} s "
+            f"travelling to {self.travel_dir_deg:g}°")
+        if self.current_speed_mps == 0:
+            return waves
+        return f"{waves}; current {self.current_speed_mps:g} m/s to {self.current_dir_deg:g}°"
+
+
+CURRENT_FIELDS = ("current_speed_mps", "current_dir_deg")
 
 
 @dataclass(frozen=True)
@@ -50,7 +76,7 @@ class Start:
     yaw_rate_deg_s: float = bounded(0.0, -180.0, 180.0, "deg/s", "r")
 
     def state(self) -> np.ndarray:
-        """The 12 rigid-body states."""
+        """The 12 rigid-body states η = [N, E, D, φ, θ, ψ] (NED, rad), ν = [u, v, w, p, q, r] (body)."""
         x = np.zeros(12)
         x[0], x[1], x[5] = self.north_m, self.east_m, math.radians(self.heading_deg)
         x[6], x[7], x[11] = self.surge_mps, self.sway_mps, math.radians(self.yaw_rate_deg_s)

@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from mavbridge.scenario import load_scenarios
+from mavbridge.scenario import Scenario, load_scenarios
 from vessel import CalmWater, ConfigError, RegularWaves
+from vessel.world import SCENARIO_SECTIONS, SEA_PRESETS, World
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 
@@ -116,3 +117,21 @@ def test_missing_and_malformed_files(tmp_path: Path) -> None:
         load_scenarios(_write(tmp_path, "sea: [unclosed"))
     with pytest.raises(ConfigError, match="expected a mapping"):
         load_scenarios(_write(tmp_path, "- 1\n- 2\n"))
+    with pytest.raises(ConfigError, match=r"s\.yaml: empty scenario file"):  # not silently the Balanced run
+        load_scenarios(_write(tmp_path, "# only a comment\n"))
+
+
+def test_scenario_is_the_world_plus_the_companion_sections() -> None:
+    """The section names vessel.world knows (and the simulator checks) are this Scenario's, in file order."""
+    scenario = Scenario()
+    assert scenario.world == World() and scenario.sea is SEA_PRESETS["paper"]
+    assert tuple(scenario.to_mapping()) == SCENARIO_SECTIONS
+
+
+def test_the_waypoint_check_sees_the_files_start(tmp_path: Path) -> None:
+    """A waypoint near the default start but far from the file's start is fine; one at the start is not."""
+    data = {**GOOD, "start": {"north_m": 50.0}, "waypoint": {"north_m": 0.5, "east_m": 0.0}}
+    (sc,) = load_scenarios(_write(tmp_path, data))
+    assert sc.start.north_m == 50.0
+    with pytest.raises(ConfigError, match="within the acceptance radius"):
+        load_scenarios(_write(tmp_path, {**data, "waypoint": {"north_m": 50.5, "east_m": 0.0}}))

@@ -1,0 +1,147 @@
+"""One world: the physical world of a run — vessel parameter set, sea (waves + current), start pose.
+
+The simulator (``sim-vehicle --waves/--scenario``), the in-process experiment plants and the plots all
+read the world from here, and the NMPC's simulation truth is the same ``World.sea``. Named presets are
+the only place a sea is spelled out in code: ``paper`` (the paper's regular sea, H 1.75 m, λ 35 m,
+T 6 s, travelling West, −90°) and ``calm``.
+
+A scenario file is a world plus the companion's sections (mission, controller, experiment settings).
+This module knows every top-level section name as data (:data:`SCENARIO_SECTIONS`), so the simulator,
+which reads only the world, rejects a misspelled section (``sae:``, ``waypont:``) with the same rule and
+the same message as ``mavbridge``, whose ``Scenario`` checks on import that its fields are these.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from .config import ConfigError, from_mapping, read_yaml, to_mapping
+from .params import PARAMETER_SETS, OtterParameters, otter_parameters
+from .sea_state import SeaState, Start
+
+WORLD_SECTIONS: tuple[str, ...] = ("vessel", "sea", "start")
+"""The top-level scenario sections that describe the world (read by the simulator and mavbridge)."""
+
+SCENARIO_SECTIONS: tuple[str, ...] = ("name", "description", *WORLD_SECTIONS, "waypoint", "controller",
+                                      "t_max_s", "plant", "plant_dt_s", "deadline_s", "reference")
+"""Every top-level section of a single-run scenario file; mavbridge's ``Scenario`` has exactly these."""
+
+RUN_SET_SECTIONS: tuple[str, ...] = ("base", "description", "runs")
+"""The top-level sections of a set of runs (``base`` scenario + ``runs`` overrides)."""
+
+SEA_PRESETS: Mapping[str, SeaState] = MappingProxyType({
+    "paper": SeaState(),  # SeaState's defaults are the paper's sea: 1.75 m, 35 m, 6 s, travelling to -90°
+    "calm": SeaState(height_m=0.0),
+})
+"""Named seas for ``sim-vehicle --waves NAME`` and ``sea: NAME`` in a scenario file."""
+
+
+@dataclass(frozen=True)
+class World:
+    """The physical world of one run; the default is the paper's (published Otter, paper's sea, East)."""
+
+    vessel: str = PARAMETER_SETS[0]
+    sea: SeaState = dataclasses.field(default_factory=lambda: SEA_PRESETS["paper"])
+    start: Start = dataclasses.field(default_factory=Start)
+
+    def __post_init__(self) -> None:
+        if self.vessel not in PARAMETER_SETS:
+            raise ConfigError(f"vessel: {self.vessel!r} is not one of {', '.join(PARAMETER_SETS)}")
+
+    def params(self) -> OtterParameters:
+        """The vessel's parameter set."""
+        return otter_parameters(self.vessel)
+
+    def rigid_state(self) -> np.ndarray:
+        """The 12 rigid-body states at the start (η NED and rad, ν body)."""
+        return self.start.state()
+
+    def plant_state(self) -> np.ndarray:
+        """The 14 plant states at the start: the rigid-body states, propellers stopped."""
+        return np.concatenate([self.start.state(), np.zeros(2)])
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The world as the three scenario sections, plain data (for a resolved scenario file)."""
+        return {name: to_mapping(getattr(self, name)) for name in WORLD_SECTIONS}
+
+
+def sea_preset(name: str, where: str = "sea") -> SeaState:
+    """A named sea, or a one-line ConfigError naming ``where`` and the names allowed."""
+    try:
+        return SEA_PRESETS[name]
+    except KeyError:
+        raise ConfigError(f"{where}: {name!r} is not one of {', '.join(SEA_PRESETS)}") from None
+
+
+def world_preset(name: str) -> World:
+    """The default world with a named sea (``paper`` or ``calm``)."""
+    return World(sea=sea_preset(name))
+
+
+def check_sections(data: Mapping[str, Any], where: str, allowed: tuple[str, ...] = SCENARIO_SECTIONS) -> None:
+    """Reject an unknown top-level key (a misspelled section) with the loaders' one-line message."""
+    unknown = sorted(set(map(str, data)) - set(allowed))
+    if unknown:
+        prefix = f"{where}: " if where else ""
+        raise ConfigError(f"{prefix}unknown key '{unknown[0]}' (allowed: {', '.join(sorted(allowed))})")
+
+
+def _sea(value: Any, where: str) -> SeaState:
+    """``sea:`` as a preset name or a mapping of SeaState fields; the wave field is built to check it."""
+    sea = sea_preset(value, f"{where}sea") if isinstance(value, str) else from_mapping(SeaState, value,
+                                                                                     f"{where}sea")
+    try:
+        sea.waves()
+    except ConfigError as exc:  # e.g. a breaking wave: a cross-field check of the wave field
+        raise ConfigError(f"{where}sea.{exc}") from None
+    return sea
+
+
+def world_from_mapping(data: Mapping[str, Any], where: str) -> World:
+    """The world of a single-run scenario mapping; unknown sections and bad values are one-line errors.
+
+    ``where`` prefixes every message (a file name, or ``file: runs.NAME``); fields are named as
+    ``sea.height_m``. The other (companion) sections are allowed but not read.
+    """
+    check_sections(data, where)
+    prefix = f"{where}: " if where else ""
+    vessel = data.get("vessel", World.vessel)
+    if not isinstance(vessel, str) or vessel not in PARAMETER_SETS:
+        raise ConfigError(f"{prefix}vessel: {vessel!r} is not one of {', '.join(PARAMETER_SETS)}")
+    sea = _sea(data["sea"], prefix) if "sea" in data else SEA_PRESETS["paper"]
+    start = from_mapping(Start, data.get("start"), f"{prefix}start")
+    return World(vessel, sea, start)
+
+
+def read_scenario_file(path: str | Path) -> dict[str, Any]:
+    """A scenario file's top-level mapping (one run, or a set); empty or non-mapping files are errors."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, expected a scenario YAML file")
+    data = read_yaml(path)
+    if data is None or data == {}:
+        raise ConfigError(f"{path}: empty scenario file (expected sections such as "
+                          f"{', '.join(WORLD_SECTIONS)}, waypoint, controller)")
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping of scenario sections, got {type(data).__name__}")
+    return data
+
+
+def is_run_set(data: Mapping[str, Any]) -> bool:
+    """True for a set of runs (``base`` + ``runs``) rather than a single scenario."""
+    return "runs" in data or "base" in data
+
+
+def load_world(path: str | Path) -> World:
+    """The world of a single-run scenario file (``sim-vehicle --scenario``); one-line errors."""
+    data = read_scenario_file(path)
+    if is_run_set(data):
+        raise ConfigError(f"{path}: a set of runs; give the simulator a single-run scenario")
+    return world_from_mapping(data, str(path))
