@@ -150,3 +150,48 @@ def test_interrupted_sweep_resumes_with_only_the_missing_cases(tmp_path: Path) -
     assert f"{len(first)} case(s) already done" in again.stderr
     assert {p.name: p.read_bytes() for p in cases.glob("*.json") if p.name in first} == first
     assert len(list(cases.glob("*.json"))) == 5
+
+
+SHORT_WAVY = """name: short_wavy
+sea: {height_m: 1.75, length_m: 35.0, period_s: 6.0, travel_dir_deg: -90.0}
+start: {heading_deg: 90.0}
+waypoint: {north_m: 25.0, east_m: 12.0, acceptance_radius_m: 2.0}
+t_max_s: 60.0
+controller: {q: 5, r: 0, s: 2, horizon: 20, solver: asrti}
+"""
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    ([], "--min-reduction / --max-time"),
+    (["--min-reduction", "1.5"], "--min-reduction"),
+    (["--min-reduction", "nan"], "--min-reduction"),
+    (["--max-time", "-3"], "--max-time"),
+    (["--max-time", "60", "--headings", "90,x"], "--headings"),
+])
+def test_tune_bad_flags_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture, flags: list[str],
+                                     named: str) -> None:
+    """tune refuses a missing or out-of-range target before any run."""
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(SHORT_WAVY, encoding="utf-8")
+    code = main(["tune", str(scenario), "--out", str(tmp_path / "o"), *flags])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and named in err and len(err.splitlines()) == 1, err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.integration
+def test_tune_finds_weights_that_meet_the_target_and_reruns_them(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture) -> None:
+    """On a short mission in the paper's sea: chosen weights cut roll by >= 15 %, arrive, and are re-run."""
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text(SHORT_WAVY, encoding="utf-8")
+    out = tmp_path / "tune"
+    code = main(["tune", str(scenario), "--min-reduction", "0.15", "--jobs", "2", "--out", str(out),
+                 "--headings", "90,60"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    chosen = next(line for line in text.splitlines() if line.startswith("Chosen:"))
+    reduction = float(chosen.split("(")[1].split(" %")[0])
+    assert reduction >= 15, chosen
+    assert "| 90 |" in text and "| 60 |" in text  # the robustness re-runs
+    assert (out / "tune.md").read_text(encoding="utf-8") == text
