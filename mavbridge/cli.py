@@ -14,6 +14,7 @@ from vessel import ConfigError
 from .check import add_check_parser, check_command
 from .cli_run import add_demo_parser, add_run_parser, demo_command, run_command
 from .nmpc.config import SOLVERS
+from .sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.scenario.PLANTS (kept import-light)
 
@@ -54,6 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_run_parser(sub)
     add_demo_parser(sub)
     add_check_parser(sub)
+    add_sweep_parser(sub)
+    add_tune_parser(sub)
     return parser
 
 
@@ -92,6 +95,10 @@ def main(argv: list[str] | None = None) -> int:
             return demo_command(args)
         if args.command == "check":
             return check_command(args)
+        if args.command == "sweep":
+            return sweep_command(args)
+        if args.command == "tune":
+            return tune_command(args)
     except (ConfigError, ValueError) as exc:
         sys.stderr.write(f"mavbridge: error: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
         return 2

@@ -1,0 +1,69 @@
+"""Sweep throughput: closed-loop Balanced-like runs per minute on local (1 and 2 workers) and dask-local:2.
+
+    OMP_NUM_THREADS=1 python bench/sweep_throughput.py [--cases 32] [--solver asrti]
+
+A fixed sweep of Balanced-like cases (R around 1550, four wave directions; each case's R = 0 reference
+runs too) in the paper's sea, each run on a fresh output folder so nothing is skipped. Prints runs per
+minute and per hour for each executor and the speed-up of 2 workers over 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+from mavbridge.sweep import load_spec, open_executor, run_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def write_spec(folder: Path, cases: int, solver: str) -> Path:
+    """cases = 4 directions × (cases / 4) values of R."""
+    per_dir = max(1, cases // 4)
+    r_values = [1200 + 100 * i for i in range(per_dir)]
+    spec = folder / "throughput.yaml"
+    spec.write_text(
+        f"base: {ROOT / 'scenarios' / 'balanced.yaml'}\n"
+        f"axes:\n  controller.r: {r_values}\n  sea.travel_dir_deg: [-100, -95, -90, -85]\n"
+        f"  controller.solver: [{solver}]\n", encoding="utf-8")
+    return spec
+
+
+def measure(spec_path: Path, executor: str, jobs: int, out: Path) -> tuple[int, float]:
+    """(runs, wall seconds) for the whole sweep, executor start-up included."""
+    spec = load_spec(spec_path)
+    start = time.perf_counter()
+    with open_executor(executor, jobs) as pool:
+        outcome = run_sweep(spec, pool, out, say=lambda line: None)
+    wall = time.perf_counter() - start
+    if outcome.failed:
+        raise SystemExit(f"{executor}: {len(outcome.failed)} runs failed: {next(iter(outcome.failed.values()))}")
+    return outcome.ran, wall
+
+
+def main() -> None:
+    """Print the throughput table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=32)
+    parser.add_argument("--solver", default="asrti")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        spec = write_spec(folder, args.cases, args.solver)
+        rows = []
+        for label, executor, jobs in (("local, 1 worker", "local", 1), ("local, 2 workers", "local", 2),
+                                      ("dask-local:2", "dask-local:2", 2)):
+            runs, wall = measure(spec, executor, jobs, folder / label.replace(" ", "_").replace(",", ""))
+            rows.append((label, runs, wall))
+            print(f"  {label}: {runs} runs in {wall:.1f} s", flush=True)
+    base = rows[0][2]
+    print("\n| executor | runs | wall s | runs/min | runs/hour | speed-up vs 1 worker |\n|---|---|---|---|---|---|")
+    for label, runs, wall in rows:
+        print(f"| {label} | {runs} | {wall:.1f} | {60 * runs / wall:.1f} | {3600 * runs / wall:.0f} "
+              f"| {base / wall:.2f}× |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,230 @@
+"""``mavbridge tune``: the paper's tuning procedure as an algorithm, run as batches of sweep cases.
+
+The paper (and the README's "Tuning") tunes by hand: (1) Q and S for a good direct path (R = 0);
+(2) raise R until the wanted behaviour appears or the boat stops aiming for the waypoint; (3) if it stops
+aiming for the waypoint, raise Q; (4) if progress is slow, raise S. Here each step is one batch of
+closed loops on the chosen executor:
+
+1. *direct*: Q × S on a small grid with R = 0; the fastest arrival is the direct tuning (Q₀, S₀) and
+   the reference every reduction is measured against;
+2. *roll weight*: R over a geometric ladder with (Q₀, S₀);
+3. *repair*: for each R that meets the roll target but does not arrive, Q raised; for each that arrives
+   but is slower than the time target (or than the best so far), S raised;
+4. *refine*: R ± 10 %, ± 20 % around the best candidate, with its Q and S.
+
+The answer is the fastest-arriving weights that meet the target (``min_reduction`` and/or ``max_time``),
+with every run that led there; then the chosen weights are re-run from several start headings (each
+against its own direct reference) and the mean and worst case are reported.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..scenario import Scenario, scenario_from_mapping
+from .runner import run_sweep
+from .spec import Case, SweepSpec, case_id
+
+DIRECT_Q = (3.0, 5.0, 8.0)
+DIRECT_S = (1.0, 2.0, 4.0)
+R_LADDER = (250.0, 500.0, 750.0, 1000.0, 1250.0, 1550.0, 2000.0, 2500.0, 3200.0, 4000.0)
+RAISE = (1.5, 2.0)
+REFINE = (0.8, 0.9, 1.1, 1.2)
+ROBUST_HEADINGS_DEG = (90.0, 60.0, 120.0, 30.0, 150.0)
+
+
+@dataclass(frozen=True)
+class Target:
+    """What the tuning must achieve: a roll reduction against Direct and/or an arrival time."""
+
+    min_reduction: float | None = None
+    max_time_s: float | None = None
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One closed loop of the procedure: weights, step, figures."""
+
+    step: str
+    q: float
+    r: float
+    s: float
+    avg_roll_deg: float
+    arrival_s: float | None
+    reduction: float | None
+
+
+@dataclass
+class TuneResult:
+    """The chosen weights (None if no trial met the target), the trials, and the robustness re-runs."""
+
+    direct: Trial
+    best: Trial | None
+    trials: list[Trial] = field(default_factory=list)
+    robustness: list[tuple[float, Trial]] = field(default_factory=list)
+
+
+def _with(base: Scenario, q: float, r: float, s: float, heading_deg: float | None = None) -> Scenario:
+    data = copy.deepcopy(base.to_mapping())
+    data["controller"].update(q=q, r=r, s=s)
+    if heading_deg is not None:
+        data["start"]["heading_deg"] = heading_deg
+    return scenario_from_mapping(data, "tune", f"q{q:g}-r{r:g}-s{s:g}")
+
+
+def _meets(trial: Trial, target: Target) -> bool:
+    if trial.arrival_s is None:
+        return False
+    if target.min_reduction is not None and (trial.reduction is None or trial.reduction < target.min_reduction):
+        return False
+    return target.max_time_s is None or trial.arrival_s <= target.max_time_s
+
+
+class Procedure:
+    """Runs batches of scenarios through the sweep runner (resumable in ``out``) and keeps the trials."""
+
+    def __init__(self, base: Scenario, executor: Executor, out: Path, say: Callable[[str], None]) -> None:
+        self.base, self.executor, self.out, self.say = base, executor, out, say
+        self.trials: list[Trial] = []
+        self.direct_roll: float | None = None
+
+    def batch(self, step: str, weights: Sequence[tuple[float, float, float]],
+              heading_deg: float | None = None) -> list[Trial]:
+        """Run every (Q, R, S) of a batch; a trial per weight set, in order."""
+        scenarios = [_with(self.base, q, r, s, heading_deg) for q, r, s in weights]
+        spec = SweepSpec(f"tune:{step}", {}, [Case({}, sc) for sc in scenarios])
+        outcome = run_sweep(spec, self.executor, self.out, say=self.say)
+        if outcome.interrupted:
+            raise KeyboardInterrupt
+        trials = []
+        for (q, r, s), sc in zip(weights, scenarios, strict=True):
+            record = outcome.results.get(case_id(sc))
+            if record is None:
+                continue  # the run failed: reported by the runner, left out of the choice
+            m = record["metrics"]
+            reduction = 1 - m["avg_roll_deg"] / self.direct_roll if self.direct_roll else None
+            trials.append(Trial(step, q, r, s, m["avg_roll_deg"], m["time_to_waypoint_s"], reduction))
+        self.trials.extend(trials)
+        self.say(f"tune: {step}: {len(trials)} runs, " + _best_line(trials))
+        return trials
+
+
+def _best_line(trials: Sequence[Trial]) -> str:
+    arrived = [t for t in trials if t.arrival_s is not None]
+    if not arrived:
+        return "none arrived"
+    t = min(arrived, key=lambda t: t.arrival_s)
+    return f"fastest Q, R, S = {t.q:g}, {t.r:g}, {t.s:g} at {t.arrival_s:.1f} s"
+
+
+def _direct_step(proc: Procedure) -> Trial:
+    trials = proc.batch("direct", [(q, 0.0, s) for q in DIRECT_Q for s in DIRECT_S])
+    arrived = [t for t in trials if t.arrival_s is not None]
+    if not arrived:
+        raise RuntimeError("tune: no direct tuning (R = 0) reached the waypoint; check the mission")
+    direct = min(arrived, key=lambda t: t.arrival_s)
+    proc.direct_roll = direct.avg_roll_deg
+    return direct
+
+
+def _repair_weights(trials: Sequence[Trial], target: Target, best_time: float | None) -> list[tuple]:
+    """Step 3: raise Q where the roll target is met without arriving; raise S where progress is slow."""
+    out: list[tuple[float, float, float]] = []
+    for t in trials:
+        rolls_ok = target.min_reduction is None or (t.reduction or 0) >= target.min_reduction
+        slow = t.arrival_s is not None and (
+            (target.max_time_s is not None and t.arrival_s > target.max_time_s)
+            or (best_time is not None and t.arrival_s > best_time))
+        if rolls_ok and t.arrival_s is None:
+            out += [(t.q * k, t.r, t.s) for k in RAISE]
+        elif rolls_ok and slow:
+            out += [(t.q, t.r, t.s * k) for k in RAISE]
+    return list(dict.fromkeys(out))
+
+
+def _choose(trials: Sequence[Trial], target: Target) -> Trial | None:
+    ok = [t for t in trials if _meets(t, target)]
+    return min(ok, key=lambda t: (t.arrival_s, -(t.reduction or 0))) if ok else None
+
+
+def tune(base: Scenario, target: Target, executor: Executor, out: Path,
+         say: Callable[[str], None] = print, headings_deg: Sequence[float] = ROBUST_HEADINGS_DEG) -> TuneResult:
+    """Run the procedure; then the robustness re-runs of the chosen weights from ``headings_deg``."""
+    proc = Procedure(base, executor, out, say)
+    direct = _direct_step(proc)
+    q0, s0 = direct.q, direct.s
+    ladder = proc.batch("roll weight", [(q0, r, s0) for r in R_LADDER])
+    best = _choose(proc.trials, target)
+    repairs = _repair_weights(ladder, target, best.arrival_s if best else None)
+    if repairs:
+        proc.batch("repair", repairs)
+        best = _choose(proc.trials, target)
+    if best is not None:
+        proc.batch("refine", [(best.q, best.r * k, best.s) for k in REFINE])
+        best = _choose(proc.trials, target)
+    result = TuneResult(direct, best, proc.trials)
+    if best is not None:
+        result.robustness = _robustness(proc, direct, best, headings_deg)
+    return result
+
+
+def _robustness(proc: Procedure, direct: Trial, best: Trial, headings_deg: Sequence[float]) -> list[tuple]:
+    """The chosen weights from each start heading, each against the direct tuning from the same heading."""
+    rows = []
+    for heading in headings_deg:
+        pair = proc.batch(f"robustness {heading:g}°", [(direct.q, 0.0, direct.s), (best.q, best.r, best.s)],
+                          heading_deg=heading)
+        if len(pair) != 2:
+            continue  # a run failed (reported by the runner)
+        ref, chosen = pair
+        reduction = 1 - chosen.avg_roll_deg / ref.avg_roll_deg if ref.avg_roll_deg else None
+        rows.append((heading, Trial("robustness", best.q, best.r, best.s, chosen.avg_roll_deg, chosen.arrival_s,
+                                    reduction)))
+    return rows
+
+
+def report(result: TuneResult, target: Target) -> str:
+    """Markdown: the choice, the robustness re-runs (mean and worst), and every trial."""
+    d = result.direct
+    lines = [f"Direct tuning: Q, S = {d.q:g}, {d.s:g}: avg roll {d.avg_roll_deg:.2f}°, arrival {_t(d.arrival_s)}", ""]
+    b = result.best
+    if b is None:
+        lines.append(f"No trial met the target ({_target(target)}).")
+    else:
+        lines.append(f"Chosen: Q, R, S = {b.q:g}, {b.r:g}, {b.s:g}: avg roll {b.avg_roll_deg:.2f}° "
+                     f"({100 * (b.reduction or 0):.0f} % below Direct), arrival {_t(b.arrival_s)} "
+                     f"(target: {_target(target)})")
+    if result.robustness:
+        reds = [t.reduction for _, t in result.robustness if t.reduction is not None]
+        times = [t.arrival_s for _, t in result.robustness]
+        reached = [x for x in times if x is not None]
+        lines += ["", "| start heading ° | avg roll ° | reduction vs Direct from there | arrival s |",
+                  "|---|---|---|---|"]
+        lines += [f"| {h:g} | {t.avg_roll_deg:.2f} | {100 * (t.reduction or 0):.0f} % | {_t(t.arrival_s)} |"
+                  for h, t in result.robustness]
+        if reds:
+            timing = f", mean {sum(reached) / len(reached):.1f} s, worst {max(reached):.1f} s" if reached else ""
+            lines.append(f"\nReduction mean {100 * sum(reds) / len(reds):.0f} %, worst {100 * min(reds):.0f} %; "
+                         f"arrived {len(reached)}/{len(times)}{timing}")
+    lines += ["", "| step | Q | R | S | avg roll ° | reduction | arrival s |", "|---|---|---|---|---|---|---|"]
+    lines += [f"| {t.step} | {t.q:g} | {t.r:g} | {t.s:g} | {t.avg_roll_deg:.2f} | "
+              f"{'' if t.reduction is None else f'{100 * t.reduction:.0f} %'} | {_t(t.arrival_s)} |"
+              for t in result.trials]
+    return "\n".join(lines) + "\n"
+
+
+def _t(value: float | None) -> str:
+    return "not reached" if value is None else f"{value:.1f} s"
+
+
+def _target(target: Target) -> str:
+    parts = []
+    if target.min_reduction is not None:
+        parts.append(f"reduction >= {100 * target.min_reduction:.0f} %")
+    if target.max_time_s is not None:
+        parts.append(f"arrival <= {target.max_time_s:g} s")
+    return ", ".join(parts)
