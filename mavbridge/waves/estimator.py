@@ -64,7 +64,7 @@ class EstimatorSettings:
     position_lag_s: float = bounded(0.0, 0.0, 2.0, "s", "known lag of the GPS position/velocity, compensated")
     settle_s: float = bounded(6.0, 0.0, 120.0, "s", "quiet time needed after a start, gap or turn")
     min_confidence: float = bounded(0.5, 0.0, 1.0, "", "below this, estimate() answers None")
-    min_height_m: float = bounded(0.05, 0.0, 10.0, "m", "smallest wave height that counts as heave")
+    min_height_m: float = bounded(0.1, 0.0, 10.0, "m", "smallest wave height that counts as heave")
     min_slope_rad: float = bounded(0.004, 0.0, 1.0, "rad", "smallest slope amplitude that counts")
     wavelength_min_m: float = bounded(3.0, 0.1, 1e4, "m", "shortest plausible wavelength")
     wavelength_max_m: float = bounded(1000.0, 1.0, 1e5, "m", "longest plausible wavelength")
@@ -119,7 +119,7 @@ class WaveEstimator:
         self._omega_lo = s.omega_init_rad_s
         self._dw = 0.0
         self._dw_inst = 0.0
-        self._w_mean = s.omega_init_rad_s
+        self._w_mean = self._w_fast = s.omega_init_rad_s
         self._w_var = 0.01
         self._cov = [1e-6, 0.0, 1e-6]
         self._axis = (1.0, 0.0)
@@ -226,7 +226,7 @@ class WaveEstimator:
         omega = self._tracker.update(u[0] * slope_n + u[1] * slope_e, dt)
         # frequency-locked loop: the slope phasors' rotation pulls the oscillator, the tracker guides it
         if self._coarse_disagrees(omega):  # (re)acquisition: jump to the coarse tracker
-            self._omega_lo = omega
+            self._omega_lo = self._w_fast = self._w_mean = omega
             self._dw = self._dw_inst = 0.0
         else:
             q = self._fit_quality() ** 2
@@ -257,9 +257,10 @@ class WaveEstimator:
         self._dw_inst = cmath.phase(cross) / dt if abs(cross) > 0 else 0.0
         self._dw += lpf_gain(dt, 1.5) * (self._dw_inst - self._dw)
         w = self._omega_lo + self._dw
-        g = lpf_gain(dt, 2.0)
-        self._w_mean += g * (w - self._w_mean)
-        self._w_var += g * ((w - self._w_mean) ** 2 - self._w_var)
+        g = lpf_gain(dt, 2.0)  # two stages: averages out the phase wobble of a surging hull
+        self._w_fast += g * (w - self._w_fast)
+        self._w_mean += g * (self._w_fast - self._w_mean)
+        self._w_var += lpf_gain(dt, 3.0) * ((self._w_fast - self._w_mean) ** 2 - self._w_var)
 
     def _update_doppler(self, t: float) -> None:
         """Once a second, when locked: a point (u·V, ω_e) for the slope-only Doppler fit."""
