@@ -151,7 +151,7 @@ class WaveEstimator:
         if att is None:
             return
         self._last_att_t = t
-        self._update_heading(att[2], _finite(sample.rates, 3), dt)
+        self._update_heading(att[2], dt)
         slope_n, slope_e = self._slopes(att, dt)
         self._advance_oscillator(slope_n, slope_e, dt)
         prev = (self._fit["sn"].X, self._fit["se"].X)
@@ -195,13 +195,13 @@ class WaveEstimator:
             return None
         return att
 
-    def _update_heading(self, psi: float, rates: tuple[float, ...] | None, dt: float) -> None:
-        """Watch the heading: a turn (yaw rate) or a jump changes ω_e, so the settling clock restarts."""
-        jump = self._psi_prev is not None and abs(math.remainder(psi - self._psi_prev, 2 * math.pi)) > 0.35
-        if rates is not None:
-            self._turn_rate += lpf_gain(dt, 1.0) * (rates[2] - self._turn_rate)
-        if jump or abs(self._turn_rate) > self.s.turn_rate_rad_s:
-            self._quiet_since = self._t or 0.0
+    def _update_heading(self, psi: float, dt: float) -> None:
+        """Watch the heading: a turn or a jump changes ω_e, so the settling clock restarts."""
+        if self._psi_prev is not None:
+            step = math.remainder(psi - self._psi_prev, 2 * math.pi)
+            self._turn_rate += lpf_gain(dt, 1.0) * (step / dt - self._turn_rate)
+            if abs(step) > 0.35 or abs(self._turn_rate) > self.s.turn_rate_rad_s:
+                self._quiet_since = self._t or 0.0
         self._psi_prev = psi
 
     def _slopes(self, att: tuple[float, ...], dt: float) -> tuple[float, float]:
@@ -274,9 +274,9 @@ class WaveEstimator:
     def _coarse_disagrees(self, omega: float) -> bool:
         """True while the coarse tracker has few crossings yet, or has left the oscillator far behind."""
         crossings = getattr(self._tracker, "crossings", 99)
-        if crossings < 3:
+        if 1 <= crossings < 3:
             return True
-        return abs(omega - self._omega_lo - self._dw) > 0.15 * omega
+        return crossings >= 3 and abs(omega - self._omega_lo - self._dw) > 0.15 * omega
 
     def _fit_quality(self) -> float:
         """Share of the slope signal the sinusoid fits explain (0 = none .. 1 = all)."""
@@ -381,5 +381,12 @@ class WaveEstimator:
         return est
 
     def encounter_frequency(self) -> float:
-        """The tracked encounter frequency ω_e in rad/s (for logs and the slope-only case)."""
-        return self._omega_lo + self._dw
+        """The tracked (averaged) encounter frequency ω_e in rad/s."""
+        return self._w_mean
+
+    def diagnostics(self) -> dict[str, float]:
+        """What is seen even without a wave solution: ω_e, the slope axis (° NED, mod 180), lock, slope."""
+        fit_n, fit_e = self._fit["sn"], self._fit["se"]
+        return {"encounter_freq_rad_s": self._w_mean, "lock": self._lock_quality(),
+                "axis_deg": math.degrees(math.atan2(self._axis[1], self._axis[0])),
+                "fit_quality": self._fit_quality(), "slope_amp_rad": math.hypot(abs(fit_n.X), abs(fit_e.X))}

@@ -59,21 +59,35 @@ class KinematicBoat:
         p = self._position_at(t)
         return -float(self.waves.elevation(p[0], p[1], t)) if self.heave else 0.0
 
-    def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        """(t, η, ν, body specific force) now."""
-        t, (n, e) = self._t, self._pos
+    def _attitude(self, t: float) -> np.ndarray:
+        """(φ, θ, ψ) riding the surface at time ``t`` near the integrated time."""
+        p = self._position_at(t)
         psi = self.heading(t)
-        a_n, a_e = self.waves.slope_angles(n, e, t)
+        a_n, a_e = self.waves.slope_angles(p[0], p[1], t)
         pitch = a_n * math.cos(psi) + a_e * math.sin(psi)
         roll = self.roll_sign * (a_e * math.cos(psi) - a_n * math.sin(psi))
+        return np.array([roll, pitch, psi])
+
+    def state(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """(t, η, ν, body specific force) now; rates and accelerations by central differences."""
+        t, (n, e) = self._t, self._pos
         h = 1e-3
+        att = self._attitude(t)
+        d_att = (self._attitude(t + h) - self._attitude(t - h)) / (2 * h)
+        d_att[2] = math.remainder(self._attitude(t + h)[2] - self._attitude(t - h)[2], 2 * math.pi) / (2 * h)
+        roll, pitch, psi = att
+        rates = np.array([d_att[0] - d_att[2] * math.sin(pitch),
+                          d_att[1] * math.cos(roll) + d_att[2] * math.cos(pitch) * math.sin(roll),
+                          -d_att[1] * math.sin(roll) + d_att[2] * math.cos(pitch) * math.cos(roll)])
         z0, zp, zm = self._down(t), self._down(t + h), self._down(t - h)
         w_down = (zp - zm) / (2 * h)
         a_down = (zp - 2 * z0 + zm) / (h * h)
         eta = np.array([n, e, z0, roll, pitch, psi])
         v_ned = np.array([self.speed_mps * math.cos(psi), self.speed_mps * math.sin(psi), w_down])
-        nu = np.concatenate([rotation_body_to_ned(roll, pitch, psi).T @ v_ned, np.zeros(3)])
-        f = specific_force_from_acceleration(np.array([0.0, 0.0, a_down]), eta[3:6])
+        nu = np.concatenate([rotation_body_to_ned(roll, pitch, psi).T @ v_ned, rates])
+        turn = self.speed_mps * d_att[2]  # centripetal acceleration of the path, m/s²
+        a_ned = np.array([-turn * math.sin(psi), turn * math.cos(psi), a_down])
+        f = specific_force_from_acceleration(a_ned, eta[3:6])
         return t, eta, nu, f
 
     def advance(self, seconds: float) -> None:
