@@ -264,7 +264,7 @@ class WaveEstimator:
 
     def _update_doppler(self, t: float) -> None:
         """Once a second, when locked: a point (u·V, ω_e) for the slope-only Doppler fit."""
-        if t - self._doppler_t < 1.0 or self._lock_quality() < 0.8 or t - self._quiet_since < self.s.settle_s:
+        if t - self._doppler_t < 1.0 or self._lock_quality() < 0.5 or t - self._quiet_since < self.s.settle_s:
             return
         u = self._axis
         dt = t - self._doppler_t if math.isfinite(self._doppler_t) else 1.0
@@ -351,7 +351,7 @@ class WaveEstimator:
         conf = self._lock_quality() * settle * (snr / (snr + 100.0)) * strong
         conf *= math.exp(-((sol.consistency / 0.3) ** 2))
         if extras.get("mode") == 2.0:
-            conf *= math.exp(-((extras.get("doppler_rel_err", 1.0) / 0.1) ** 2))
+            conf *= math.exp(-((extras.get("doppler_rel_err", 1.0) / 0.15) ** 2))
         extras.update(lock=self._lock_quality(), settle=settle, snr=snr, consistency=sol.consistency)
         return max(0.0, min(1.0, conf))
 

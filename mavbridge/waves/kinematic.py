@@ -37,10 +37,10 @@ def paper_sea(phase_rad: float = 0.0) -> RegularWaves:
 
 @dataclass
 class KinematicBoat:
-    """A point on the surface of ``waves`` at speed ``speed_mps`` along ``heading(t)`` (rad, NED)."""
+    """A point on the surface of ``waves`` at speed ``speed_mps`` (m/s, or a schedule of t) along ``heading(t)``."""
 
     waves: RegularWaves
-    speed_mps: float
+    speed_mps: float | Heading
     heading: Heading
     roll_sign: float = 1.0
     heave: bool = True
@@ -50,10 +50,14 @@ class KinematicBoat:
         self._t = 0.0
         self._pos = np.zeros(2)
 
+    def speed(self, t: float) -> float:
+        """Over-ground speed at time ``t``, m/s."""
+        return float(self.speed_mps(t)) if callable(self.speed_mps) else float(self.speed_mps)
+
     def _position_at(self, t: float) -> np.ndarray:
         """Position at a time slightly ahead of or behind the integrated one (straight-line extrapolation)."""
         psi = self.heading(self._t)
-        return self._pos + self.speed_mps * (t - self._t) * np.array([math.cos(psi), math.sin(psi)])
+        return self._pos + self.speed(self._t) * (t - self._t) * np.array([math.cos(psi), math.sin(psi)])
 
     def _down(self, t: float) -> float:
         p = self._position_at(t)
@@ -83,9 +87,10 @@ class KinematicBoat:
         w_down = (zp - zm) / (2 * h)
         a_down = (zp - 2 * z0 + zm) / (h * h)
         eta = np.array([n, e, z0, roll, pitch, psi])
-        v_ned = np.array([self.speed_mps * math.cos(psi), self.speed_mps * math.sin(psi), w_down])
+        speed = self.speed(t)
+        v_ned = np.array([speed * math.cos(psi), speed * math.sin(psi), w_down])
         nu = np.concatenate([rotation_body_to_ned(roll, pitch, psi).T @ v_ned, rates])
-        turn = self.speed_mps * d_att[2]  # centripetal acceleration of the path, m/s²
+        turn = speed * d_att[2]  # centripetal acceleration of the path, m/s²
         a_ned = np.array([-turn * math.sin(psi), turn * math.cos(psi), a_down])
         f = specific_force_from_acceleration(a_ned, eta[3:6])
         return t, eta, nu, f
@@ -96,7 +101,7 @@ class KinematicBoat:
         h = seconds / steps
         for _ in range(steps):
             psi = self.heading(self._t + h / 2)
-            self._pos = self._pos + self.speed_mps * h * np.array([math.cos(psi), math.sin(psi)])
+            self._pos = self._pos + self.speed(self._t + h / 2) * h * np.array([math.cos(psi), math.sin(psi)])
             self._t += h
 
 
