@@ -124,6 +124,7 @@ class WaveEstimator:
         self._cov = [1e-6, 0.0, 1e-6]
         self._axis = (1.0, 0.0)
         self._vel = (0.0, 0.0)
+        self._vel_two = ((0.0, 0.0), (0.0, 0.0))
         self._pos = (0.0, 0.0)
         self._last_att: tuple[float, ...] | None = None
         self._frozen_s = 0.0
@@ -175,6 +176,13 @@ class WaveEstimator:
         if vel is not None:
             g = lpf_gain(dt, 3.0)
             self._vel = (self._vel[0] + g * (vel[0] - self._vel[0]), self._vel[1] + g * (vel[1] - self._vel[1]))
+            # the Doppler line pairs ω_e with the velocity averaged by the same two 2 s stages as ω_e:
+            # the mean speed, not the surge within each wave
+            g = lpf_gain(dt, 2.0)
+            v1 = self._vel_two[0]
+            v1 = (v1[0] + g * (vel[0] - v1[0]), v1[1] + g * (vel[1] - v1[1]))
+            v2 = self._vel_two[1]
+            self._vel_two = (v1, (v2[0] + g * (v1[0] - v2[0]), v2[1] + g * (v1[1] - v2[1])))
         pos = _finite(sample.position_ned, 2)
         if pos is not None:
             self._pos = pos
@@ -264,11 +272,14 @@ class WaveEstimator:
 
     def _update_doppler(self, t: float) -> None:
         """Once a second, when locked: a point (u·V, ω_e) for the slope-only Doppler fit."""
-        if t - self._doppler_t < 1.0 or self._lock_quality() < 0.5 or t - self._quiet_since < self.s.settle_s:
+        if t - self._doppler_t < 1.0 or self._lock_quality() < 0.7 or t - self._quiet_since < self.s.settle_s:
             return
         u = self._axis
         dt = t - self._doppler_t if math.isfinite(self._doppler_t) else 1.0
-        self._doppler.add(u[0] * self._vel[0] + u[1] * self._vel[1], self._omega_lo + self._dw, dt)
+        v1, v = self._vel_two
+        if math.hypot(v1[0] - v[0], v1[1] - v[1]) > 0.05 or abs(self._w_fast - self._w_mean) > 0.01 * self._w_mean:
+            return  # speed or ω_e still settling: no point
+        self._doppler.add(u[0] * v[0] + u[1] * v[1], self._w_mean, dt)
         self._doppler_t = t
 
     def _coarse_disagrees(self, omega: float) -> bool:
