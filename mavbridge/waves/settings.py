@@ -41,5 +41,7 @@ class EstimatorSettings:
 
     def __post_init__(self) -> None:
         validate(self)
+        if self.roll_sign not in (-1.0, 1.0):
+            raise ConfigError(f"roll_sign: {self.roll_sign!r} is not one of -1, 1")
         if self.tracker not in TRACKERS:
             raise ConfigError(f"tracker: {self.tracker!r} is not one of {', '.join(TRACKERS)}")

@@ -15,8 +15,11 @@ import pytest
 
 from mavbridge.seasource import MotionSample, WaveEstimate
 from mavbridge.waves import EstimatorSettings, WaveEstimator
-from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples, paper_sea
+from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples, paper_sea, to_motion_sample
+from vessel import Plant, otter_parameters
 from vessel.config import ConfigError
+from vessel.imu import ImuModel
+from vessel.sensors import SensorModel, SensorParams
 
 HORIZON_S = 4.0  # the NMPC's horizon end (P = 40 at T = 0.1 s)
 REST = np.array([0.0, 0.0, -9.81])  # specific force at rest, level
@@ -222,9 +225,45 @@ def test_garbage_samples_never_raise_or_give_nan() -> None:
             _assert_finite(est.estimate(t))
 
 
+# ---------------------------------------------------------------- (b) the real plant (paper's hull: no heave)
+def test_plant_heading_east_tracks_encounter_frequency_and_wave_axis() -> None:
+    """vessel.Plant in the paper's sea, equal shaft speeds for ≈ 1.5 m/s East, the default sensors.
+
+    The paper's hull does not heave with the waves, so only the slopes are seen: the estimator must
+    find the encounter frequency and the wave's axis, and must not claim a wavelength on a steady course.
+    """
+    sea = paper_sea(0.8)
+    x0 = np.zeros(14)
+    x0[5] = math.pi / 2
+    plant = Plant(otter_parameters(), sea, dt=0.01, x0=x0)
+    imu = ImuModel.for_plant(plant)
+    sensors = SensorModel(SensorParams(), np.random.default_rng(4))
+    est = WaveEstimator()
+    true_phase, answers = [], []
+    for k in range(int(60.0 / 0.05)):
+        x, t = plant.state, 700.0 + plant.time  # the autopilot booted 700 s before the run
+        est.observe(to_motion_sample(sensors.sample(t, x[0:6], x[6:12], imu.measure(x, plant.time)[0])))
+        true_phase.append(sea.frequency * plant.time - sea.wavenumber * (x[0] * math.cos(sea.travel_dir_rad)
+                                                                          + x[1] * math.sin(sea.travel_dir_rad)))
+        if k % 2:
+            answers.append(est.estimate(t))
+        plant.advance((70.0, 70.0), 5)
+    mean_speed = plant.state[1] / plant.time
+    assert 1.2 < mean_speed < 1.8, f"mean eastward speed {mean_speed:.2f} m/s"
+    omega_e_true = (true_phase[-1] - true_phase[-401]) / 20.0  # mean encounter frequency, last 20 s
+    seen = est.diagnostics()
+    assert seen["encounter_freq_rad_s"] == pytest.approx(omega_e_true, rel=0.03), (seen, omega_e_true)
+    axis_error = math.remainder(math.radians(seen["axis_deg"]) - sea.travel_dir_rad, math.pi)
+    assert abs(math.degrees(axis_error)) < 10, seen
+    assert seen["lock"] > 0.5, seen
+    assert all(a is None for a in answers), "claimed a wavelength without heave or a speed change"
+
+
 def test_bad_settings_name_the_field() -> None:
     with pytest.raises(ConfigError, match="fit_tau_s"):
         EstimatorSettings(fit_tau_s=0.0)
+    with pytest.raises(ConfigError, match="roll_sign"):
+        EstimatorSettings(roll_sign=0.5)
     with pytest.raises(ConfigError, match="tracker"):
         EstimatorSettings(tracker="fft")
 
