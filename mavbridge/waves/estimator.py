@@ -73,7 +73,8 @@ class WaveEstimator:
                                              s.omega_min_rad_s, s.omega_max_rad_s)
         else:
             self._tracker = ZeroCrossingTracker(s.omega_init_rad_s, s.omega_min_rad_s, s.omega_max_rad_s)
-        self._fit = {key: SinusoidFit(s.fit_tau_s) for key in ("sn", "se", "acc", "z")}
+        self._fit = {key: SinusoidFit(s.fit_tau_s) for key in ("sn", "se", "roll", "pitch", "acc", "z")}
+        self._heading = (1.0, 0.0)  # low-passed (cos ψ, sin ψ)
         self._doppler = DopplerLine(s.doppler_memory_s, s.doppler_spread_mps)
         self._t: float | None = None
         self._dt = 0.05
@@ -115,12 +116,12 @@ class WaveEstimator:
             return
         self._last_att_t = t
         self._update_heading(att[2], dt)
-        slope_n, slope_e = self._slopes(att, dt)
+        roll, pitch, slope_n, slope_e = self._slopes(att, dt)
         self._advance_oscillator(slope_n, slope_e, dt)
         prev = (self._fit["sn"].X, self._fit["se"].X)
         rotor = cmath.exp(1j * self._theta)
-        self._fit["sn"].update(slope_n, rotor, dt)
-        self._fit["se"].update(slope_e, rotor, dt)
+        for key, value in (("sn", slope_n), ("se", slope_e), ("roll", roll), ("pitch", pitch)):
+            self._fit[key].update(value, rotor, dt)
         self._update_heave(sample, att, rotor, t, dt)
         self._update_lock(prev, dt)
         self._update_doppler(t)
@@ -174,12 +175,29 @@ class WaveEstimator:
                 self._quiet_since = self._t or 0.0
         self._psi_prev = psi
 
-    def _slopes(self, att: tuple[float, ...], dt: float) -> tuple[float, float]:
-        """NED surface slope (α_N, α_E) from high-passed roll and pitch rotated by ψ."""
+    def _slopes(self, att: tuple[float, ...], dt: float) -> tuple[float, float, float, float]:
+        """High-passed slope across and along the hull (roll × roll_sign, pitch) and rotated by ψ into NED."""
         roll = self._hp["roll"].update(att[0], dt) * self.s.roll_sign
         pitch = self._hp["pitch"].update(att[1], dt)
         c, s = math.cos(att[2]), math.sin(att[2])
-        return pitch * c - roll * s, pitch * s + roll * c
+        g = lpf_gain(dt, self.s.fit_tau_s)
+        self._heading = (self._heading[0] + g * (c - self._heading[0]), self._heading[1] + g * (s - self._heading[1]))
+        return roll, pitch, pitch * c - roll * s, pitch * s + roll * c
+
+    def _slope_phasors(self, comp: complex) -> tuple[complex, complex]:
+        """NED slope phasors from the hull's roll and pitch phasors, the hull's response undone.
+
+        The hull's roll and pitch follow the surface slope through its own dynamics: near ω_e the
+        ratio attitude/slope is ``roll_response``/``pitch_response`` (gain, phase), which the
+        calibration measures on the vessel model (1, 0°: the hull follows the slope exactly).
+        """
+        s = self.s
+        roll = self._fit["roll"].X * comp / cmath.rect(s.roll_gain, math.radians(s.roll_phase_deg))
+        pitch = self._fit["pitch"].X * comp / cmath.rect(s.pitch_gain, math.radians(s.pitch_phase_deg))
+        c, sn = self._heading
+        norm = math.hypot(c, sn) or 1.0
+        c, sn = c / norm, sn / norm
+        return pitch * c - roll * sn, pitch * sn + roll * c
 
     def _advance_oscillator(self, slope_n: float, slope_e: float, dt: float) -> None:
         """Principal slope axis → tracker → oscillator phase at the (low-passed) tracked ω_e."""
@@ -285,8 +303,7 @@ class WaveEstimator:
     def _solve(self, omega_e: float) -> tuple[WaveSolution | None, dict[str, float]]:
         """The wave from the phasors: with heave if the heave is real, else from the Doppler line."""
         comp = self._compensation(omega_e)
-        att_lag = lag_correction(omega_e, self.s.attitude_lag_s)
-        sn, se = self._fit["sn"].X * comp * att_lag, self._fit["se"].X * comp * att_lag
+        sn, se = self._slope_phasors(comp * lag_correction(omega_e, self.s.attitude_lag_s))
         extras = {"mode": 0.0, "heave_source": G_HEAVE_NONE}
         elev = self._elevation(omega_e, comp)
         if elev is not None and 2 * abs(elev[0]) >= self.s.min_height_m:

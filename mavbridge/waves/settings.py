@@ -15,6 +15,10 @@ class EstimatorSettings:
 
     roll_sign: float = bounded(1.0, -1.0, 1.0, "", "+1: roll = +slope across the hull (the paper's plant); "
                                "−1: geometric (a real hull)")
+    roll_gain: float = bounded(1.0, 0.1, 10.0, "", "hull roll / slope across the hull near ω_e (calibration)")
+    roll_phase_deg: float = bounded(0.0, -90.0, 90.0, "deg", "phase of hull roll against that slope")
+    pitch_gain: float = bounded(1.0, 0.1, 10.0, "", "hull pitch / slope along the hull near ω_e (calibration)")
+    pitch_phase_deg: float = bounded(0.0, -90.0, 90.0, "deg", "phase of hull pitch against that slope")
     fit_tau_s: float = bounded(2.0, 0.2, 30.0, "s", "time constant of the sinusoid fits")
     mean_tau_s: float = bounded(10.0, 1.0, 300.0, "s", "running-mean (high-pass) time constant")
     omega_init_rad_s: float = bounded(1.0, 0.2, 5.0, "rad/s", "tracker's first guess of ω_e")

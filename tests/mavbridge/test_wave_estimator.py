@@ -6,6 +6,7 @@ the motion can tell the estimator where the crests are. Sensors are the defaults
 
 from __future__ import annotations
 
+import cmath
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -15,6 +16,7 @@ import pytest
 
 from mavbridge.seasource import MotionSample, WaveEstimate
 from mavbridge.waves import EstimatorSettings, WaveEstimator
+from mavbridge.waves.calibration import hull_response, record_plant, settings_for
 from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples, paper_sea, to_motion_sample
 from vessel import Plant, otter_parameters
 from vessel.config import ConfigError
@@ -295,3 +297,27 @@ def test_without_heave_speed_changes_reveal_k_and_direction_by_doppler() -> None
     assert all(e.extras["mode"] == 2.0 for _, e, _ in confident)
     bad = [(t, err) for t, _, err in confident if not err.within()]
     assert not bad, f"confident but wrong: {bad[:3]}"
+
+
+# ---------------------------------------------------------------- calibration of the hull's response
+def test_hull_response_recovers_a_known_gain_and_lag() -> None:
+    t = np.arange(0.0, 10 * 2 * math.pi / 1.3, 0.05)
+    phase = 1.3 * t + 0.4
+    along, across = 0.15 * np.cos(phase + 0.2), 0.05 * np.cos(phase - 1.0)
+    pitch, roll = 1.1 * 0.15 * np.cos(phase + 0.2 - 0.3), 0.9 * 0.05 * np.cos(phase - 1.0 + 0.1)
+    h_roll, h_pitch = hull_response(roll, pitch, across, along, phase)
+    assert h_pitch == pytest.approx(cmath.rect(1.1, -0.3), abs=0.01)
+    assert h_roll == pytest.approx(cmath.rect(0.9, 0.1), abs=0.01)
+    s = settings_for(h_roll, h_pitch)
+    assert s.pitch_gain == pytest.approx(1.1, abs=0.01) and s.pitch_phase_deg == pytest.approx(-17.2, abs=0.6)
+
+
+def test_plant_pitch_lags_the_slope_and_calibration_measures_it() -> None:
+    sea = paper_sea(0.8)
+    x0 = np.zeros(14)
+    x0[5] = math.radians(45)
+    plant = Plant(otter_parameters(), sea, dt=0.01, x0=x0)
+    h_roll, h_pitch = hull_response(*record_plant(plant, sea, (70.0, 70.0), 80.0))
+    assert h_roll is not None and h_pitch is not None
+    assert 0.8 < abs(h_pitch) < 1.3 and -40 < math.degrees(cmath.phase(h_pitch)) < -5, h_pitch
+    assert 0.8 < abs(h_roll) < 1.3 and abs(math.degrees(cmath.phase(h_roll))) < 10, h_roll
