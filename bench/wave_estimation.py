@@ -1,7 +1,7 @@
 """How well and how fast the wave estimator finds the paper's wave, and what it costs per control step.
 
 Run: python bench/wave_estimation.py [--seeds 3] [--duration 60] [--speeds 0.5,1,1.5] [--no-imu]
-     [--ideal-sensors] [--cost-only]
+     [--ideal-sensors] [--cost-only] [--plant] [--no-calibration]
 
 Kinematic truth (``mavbridge.waves.kinematic``): a point riding the paper's regular sea (1.75 m, 35 m,
 6 s, travelling West, a hidden random phase, a random autopilot boot time), seen through the default
@@ -11,6 +11,11 @@ were confident at the end, and the median absolute errors at the end: direction 
 wavelength %, height % and the predicted phase 4 s ahead (the horizon end) °; "ok" counts the seeds
 inside the issue's bounds (10°, 5 %, 15 %, 15 %, 30°). The relative wave heading μ is 180° for head
 seas, 0° for following seas. Irregular seas: a row follows once ``vessel`` has them (issue 11).
+``--plant``: the same table from ``vessel.Plant`` (equal shaft speeds of 70 rad/s, ≈ 1.5 m/s) with the
+IMU computed from the plant's own ẋ; if the vessel model offers heave that follows the sea
+(``Plant(surface_heave=True)``, issue 11) it is switched on, else the paper's hull does not heave and
+only ω_e and the wave's axis can be seen (the table then says so). The hull's roll/pitch response is
+calibrated once (``mavbridge.waves.calibration``, heading 45°, another phase) unless ``--no-calibration``.
 The closed-loop roll reduction part needs the in-process runner and is added by the lead.
 Cost: ``observe`` twice (20 Hz) plus ``estimate`` once (10 Hz) per 0.1 s control step, median and p99.
 """
@@ -25,9 +30,11 @@ import time
 
 import numpy as np
 
-from mavbridge.waves import WaveEstimator
-from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples, paper_sea
-from vessel.sensors import SensorParams
+from mavbridge.waves import EstimatorSettings, WaveEstimator
+from mavbridge.waves.calibration import hull_response, record_plant, settings_for
+from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples, paper_sea, to_motion_sample
+from vessel import Plant, otter_parameters
+from vessel.sensors import SensorModel, SensorParams
 
 HORIZON_S = 4.0
 
@@ -54,6 +61,91 @@ def one_run(heading_deg: float, speed: float, seed: int, duration: float, with_i
     north = sample.position_ned[0] + speed * HORIZON_S * math.cos(psi)
     east = sample.position_ned[1] + speed * HORIZON_S * math.sin(psi)
     return first, estimate_errors(last, sea, sample.t_s + HORIZON_S, north, east, t0)
+
+
+def _plant_and_imu(sea: object, heading: float, heave: bool) -> tuple[Plant, object]:
+    """A plant heading ``heading`` rad in ``sea`` and its ideal IMU (x, t) -> specific force."""
+    import casadi as ca
+
+    from vessel.dynamics import OceanCurrent, plant_ode
+    from vessel.imu import specific_force
+
+    params = otter_parameters()
+    x0 = np.zeros(14)
+    x0[5] = heading
+    options = {"surface_heave": True} if heave else {}
+    plant = Plant(params, sea, dt=0.01, x0=x0, **options)
+    ode = plant_ode(params, sea, OceanCurrent(), **options)
+    x, t = ca.SX.sym("x", 14), ca.SX.sym("t")
+    xdot = ode(x, ca.DM.zeros(2), t)
+    imu = ca.Function("imu", [x, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)])
+    return plant, imu
+
+
+def heave_available() -> bool:
+    """True if the vessel model can make the hull heave with the sea (issue 11's option)."""
+    import inspect
+
+    return "surface_heave" in inspect.signature(Plant.__init__).parameters
+
+
+def calibrated_settings(heave: bool) -> EstimatorSettings:
+    """The hull's roll/pitch response measured once: heading 45°, 80 s, another wave phase."""
+    sea = paper_sea(2.0)
+    plant, _ = _plant_and_imu(sea, math.radians(45), heave)
+    return settings_for(*hull_response(*record_plant(plant, sea, (70.0, 70.0), 80.0)))
+
+
+def one_plant_run(heading_deg: float, seed: int, duration: float, settings: EstimatorSettings | None,
+                  heave: bool) -> tuple[float | None, object | None, float]:
+    """(time to first confidence, errors at the end or None, encounter-frequency error %)."""
+    rng = np.random.default_rng(2000 + seed)
+    sea = paper_sea(float(rng.uniform(-math.pi, math.pi)))
+    t0 = float(rng.uniform(50.0, 5000.0))
+    plant, imu = _plant_and_imu(sea, math.radians(heading_deg), heave)
+    sensors = SensorModel(SensorParams(), np.random.default_rng(seed))
+    est = WaveEstimator(settings)
+    first, last, phases = None, None, []
+    chi = sea.travel_dir_rad
+    for i in range(round(duration / 0.05)):
+        x, t = plant.state, plant.time
+        f = np.asarray(imu(x, t)).ravel()
+        est.observe(to_motion_sample(sensors.sample(t0 + t, x[0:6], x[6:12], f)))
+        phases.append(sea.frequency * t - sea.wavenumber * (x[0] * math.cos(chi) + x[1] * math.sin(chi)))
+        if i % 2 == 1:
+            last = est.estimate(t0 + t)
+            first = t if first is None and last is not None else first
+        plant.advance((70.0, 70.0), 5)
+    n = min(len(phases) - 1, 400)
+    omega_e = (phases[-1] - phases[-1 - n]) / (0.05 * n)
+    we_err = 100 * (est.encounter_frequency() / omega_e - 1)
+    if last is None:
+        return first, None, we_err
+    x = plant.state
+    speed = math.hypot(x[0], x[1]) / plant.time
+    north, east = x[0] + speed * HORIZON_S * math.cos(x[5]), x[1] + speed * HORIZON_S * math.sin(x[5])
+    return first, estimate_errors(last, sea, t0 + plant.time + HORIZON_S, north, east, t0), we_err
+
+
+def plant_table(args: argparse.Namespace) -> None:
+    """The table from the vessel plant (heave if the model has it)."""
+    heave = heave_available()
+    settings = None if args.no_calibration else calibrated_settings(heave)
+    cal = ("no calibration" if settings is None else
+           f"calibrated roll {settings.roll_gain:.3f}/{settings.roll_phase_deg:+.1f}°, "
+           f"pitch {settings.pitch_gain:.3f}/{settings.pitch_phase_deg:+.1f}°")
+    print(f"# vessel.Plant in the paper's sea, shaft speeds 70 rad/s, {args.seeds} seeds, {args.duration:g} s, "
+          f"{'heave follows the sea' if heave else 'paper hull: no heave (only ω_e and the axis are seen)'}, {cal}")
+    print(" hdg°   μ°  ω_e err%  t_conf s  conf  dir°   T%    λ%    H%  phase°  ok")
+    for heading in range(0, 360, 30):
+        mu = math.degrees(math.remainder(paper_sea().travel_dir_rad - math.radians(heading), 2 * math.pi))
+        runs = [one_plant_run(heading, s, args.duration, settings, heave) for s in range(args.seeds)]
+        firsts = [f for f, _, _ in runs if f is not None]
+        errs = [e for _, e, _ in runs if e is not None]
+        cols = [_median([abs(getattr(e, name)) for e in errs])
+                for name in ("direction_deg", "period_pct", "length_pct", "height_pct", "phase_deg")]
+        print(f"{heading:4d} {abs(mu):5.0f} {_median([abs(w) for _, _, w in runs]):>9} {_median(firsts):>9} "
+              f"{len(errs):3d}/{len(runs)} " + " ".join(cols) + f" {sum(e.within() for e in errs):2d}/{len(runs)}")
 
 
 def _median(values: list[float]) -> str:
@@ -107,6 +199,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--no-imu", action="store_true", help="no SCALED_IMU stream: heave from GPS height")
     parser.add_argument("--ideal-sensors", action="store_true", help="exact sensors (no noise, lag)")
     parser.add_argument("--cost-only", action="store_true", help="only the cost per control step")
+    parser.add_argument("--plant", action="store_true", help="the table from vessel.Plant instead of kinematics")
+    parser.add_argument("--no-calibration", action="store_true", help="with --plant: no hull-response calibration")
     args = parser.parse_args(argv)
     try:
         args.speeds = [float(v) for v in args.speeds.split(",")]
@@ -124,7 +218,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
     sensors = SensorParams.ideal() if args.ideal_sensors else SensorParams()
-    if not args.cost_only:
+    if args.plant and not args.cost_only:
+        plant_table(args)
+    elif not args.cost_only:
         table(args, sensors)
     median, p99 = cost()
     print(f"# cost per control step (2 × observe at 20 Hz + estimate at 10 Hz): median {median:.3f} ms, "
