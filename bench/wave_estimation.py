@@ -97,21 +97,22 @@ def calibrated_settings(heave: bool) -> EstimatorSettings:
 
 
 def one_plant_run(heading_deg: float, seed: int, duration: float, settings: EstimatorSettings | None,
-                  heave: bool) -> tuple[float | None, object | None, float]:
-    """(time to first confidence, errors at the end or None, encounter-frequency error %)."""
+                  heave: bool) -> tuple[float | None, object | None, float, float]:
+    """(time to first confidence, errors at the end or None, encounter-frequency error %, yaw drift °)."""
     rng = np.random.default_rng(2000 + seed)
     sea = paper_sea(float(rng.uniform(-math.pi, math.pi)))
     t0 = float(rng.uniform(50.0, 5000.0))
     plant, imu = _plant_and_imu(sea, math.radians(heading_deg), heave)
     sensors = SensorModel(SensorParams(), np.random.default_rng(seed))
     est = WaveEstimator(settings)
-    first, last, phases = None, None, []
+    first, last, phases, drift = None, None, [], 0.0
     chi = sea.travel_dir_rad
     for i in range(round(duration / 0.05)):
         x, t = plant.state, plant.time
         f = np.asarray(imu(x, t)).ravel()
         est.observe(to_motion_sample(sensors.sample(t0 + t, x[0:6], x[6:12], f)))
         phases.append(sea.frequency * t - sea.wavenumber * (x[0] * math.cos(chi) + x[1] * math.sin(chi)))
+        drift = max(drift, abs(math.degrees(math.remainder(x[5] - math.radians(heading_deg), 2 * math.pi))))
         if i % 2 == 1:
             last = est.estimate(t0 + t)
             first = t if first is None and last is not None else first
@@ -120,11 +121,11 @@ def one_plant_run(heading_deg: float, seed: int, duration: float, settings: Esti
     omega_e = (phases[-1] - phases[-1 - n]) / (0.05 * n)
     we_err = 100 * (est.encounter_frequency() / omega_e - 1)
     if last is None:
-        return first, None, we_err
+        return first, None, we_err, drift
     x = plant.state
     speed = math.hypot(x[0], x[1]) / plant.time
     north, east = x[0] + speed * HORIZON_S * math.cos(x[5]), x[1] + speed * HORIZON_S * math.sin(x[5])
-    return first, estimate_errors(last, sea, t0 + plant.time + HORIZON_S, north, east, t0), we_err
+    return first, estimate_errors(last, sea, t0 + plant.time + HORIZON_S, north, east, t0), we_err, drift
 
 
 def plant_table(args: argparse.Namespace) -> None:
@@ -136,15 +137,17 @@ def plant_table(args: argparse.Namespace) -> None:
            f"pitch {settings.pitch_gain:.3f}/{settings.pitch_phase_deg:+.1f}°")
     print(f"# vessel.Plant in the paper's sea, shaft speeds 70 rad/s, {args.seeds} seeds, {args.duration:g} s, "
           f"{'heave follows the sea' if heave else 'paper hull: no heave (only ω_e and the axis are seen)'}, {cal}")
-    print(" hdg°   μ°  ω_e err%  t_conf s  conf  dir°   T%    λ%    H%  phase°  ok")
+    print("# open loop, no heading controller: away from head/following seas the hull yaws freely (ψ drift)")
+    print(" hdg°   μ°  ψ drift°  ω_e err%  t_conf s  conf  dir°   T%    λ%    H%  phase°  ok")
     for heading in range(0, 360, 30):
         mu = math.degrees(math.remainder(paper_sea().travel_dir_rad - math.radians(heading), 2 * math.pi))
         runs = [one_plant_run(heading, s, args.duration, settings, heave) for s in range(args.seeds)]
-        firsts = [f for f, _, _ in runs if f is not None]
-        errs = [e for _, e, _ in runs if e is not None]
+        firsts = [f for f, _, _, _ in runs if f is not None]
+        errs = [e for _, e, _, _ in runs if e is not None]
         cols = [_median([abs(getattr(e, name)) for e in errs])
                 for name in ("direction_deg", "period_pct", "length_pct", "height_pct", "phase_deg")]
-        print(f"{heading:4d} {abs(mu):5.0f} {_median([abs(w) for _, _, w in runs]):>9} {_median(firsts):>9} "
+        print(f"{heading:4d} {abs(mu):5.0f} {_median([d for *_, d in runs]):>9} "
+              f"{_median([abs(w) for _, _, w, _ in runs]):>9} {_median(firsts):>9} "
               f"{len(errs):3d}/{len(runs)} " + " ".join(cols) + f" {sum(e.within() for e in errs):2d}/{len(runs)}")
 
 
