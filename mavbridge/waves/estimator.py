@@ -4,13 +4,22 @@ Driven only by what an ArduPilot Rover streams (``MotionSample``: ATTITUDE, GPS 
 optionally the IMU's specific force), on the autopilot's clock. Per sample (``observe``), in scalar
 Python: roll and pitch are high-passed and rotated by ψ into the NED surface slope (the hull's roll and
 pitch follow the slope; ``roll_sign`` says which roll sign the hull has), the vertical acceleration
-a_D = (R·f)_D + g and the GPS down position are high-passed; a normalised Belleter tracker follows the
-encounter frequency ω_e on the slope along its principal axis; an oscillator at that frequency
-demodulates every signal (recursive LMS sinusoid fits) and the common rotation of the slope phasors
-refines ω_e (a frequency-locked loop, open loop). Per estimate, ``solve`` turns the phasors into the
-wave: with heave (IMU, else GPS height), k = |slope|/|heave| and the travel direction from the quadrature
-of slope against heave, ω = ω_e + k·(V·d); without heave (the paper's hull), k, ω and the sign of the
-direction come from the Doppler line (``doppler``) once the boat's speed along the wave has varied.
+a_D = (R·f)_D + g and the GPS down position are high-passed; a coarse tracker (zero crossings by default,
+a normalised Belleter observer as an option) finds the encounter frequency ω_e on the slope along its
+principal axis; an oscillator at ω_e demodulates every signal (recursive LMS sinusoid fits) and a
+frequency-locked loop on the common rotation of the slope phasors pulls the oscillator onto ω_e (what
+rotation is left is added to ω_e and undone in the phasors). The hull's own roll/pitch response to
+the slope (gain, phase; ``calibration``) is divided out of the roll and pitch phasors. Per estimate,
+``solve`` turns the phasors into the wave: with heave (IMU, else GPS height), k = |slope|/|heave| and
+the travel direction from the quadrature of slope against heave, ω = ω_e + k·(V·d); without heave (the
+paper's hull), k, ω and the sign of the direction come from the Doppler line (``doppler``) once the
+boat's speed along the wave has varied and settled (legs of ≈ 30 s at each speed).
+
+Confidence (0..1) is the product of: the lock (ω_e steady, the phasors barely rotating, coarse and fine
+trackers agreeing), the time since the last start, gap, turn or heading jump (``settle_s``), the slope's
+signal-to-noise and size, the one-wave consistency (slope in quadrature with heave), and in the Doppler
+case the line's standard error. ``estimate`` answers None below ``min_confidence``; ``latest`` always
+answers (for logs) and ``diagnostics`` gives ω_e and the wave's axis even without a solution.
 
 What it cannot see: a boat at rest without heave (no Doppler, no k); following seas at speeds near the
 wave's phase speed (ω_e → 0); waves shorter than a few hull lengths (the hull does not follow them);
@@ -38,7 +47,7 @@ from .settings import EstimatorSettings
 from .solve import WaveSolution, phase_offset, principal_axis, solve_slope_only, solve_with_heave
 
 GRAVITY = 9.81
-G_HEAVE_NONE, G_HEAVE_IMU, G_HEAVE_GPS = 0.0, 1.0, 2.0
+HEAVE_NONE, HEAVE_IMU, HEAVE_GPS = 0.0, 1.0, 2.0  # extras['heave_source']
 
 
 def _finite(values: object, n: int) -> tuple[float, ...] | None:
@@ -102,7 +111,8 @@ class WaveEstimator:
     # ------------------------------------------------------------------ observe
     def observe(self, sample: MotionSample) -> None:
         """Take one motion sample (any rate, in time order); bad samples only lower the confidence."""
-        t = float(sample.t_s) if math.isfinite(float(sample.t_s)) else None
+        stamp = _finite((sample.t_s,), 1)
+        t = stamp[0] if stamp is not None else None
         if t is None or (self._t is not None and t <= self._t):
             return
         if self._t is None or t - self._t > self.s.max_gap_s:
@@ -188,8 +198,8 @@ class WaveEstimator:
         """NED slope phasors from the hull's roll and pitch phasors, the hull's response undone.
 
         The hull's roll and pitch follow the surface slope through its own dynamics: near ω_e the
-        ratio attitude/slope is ``roll_response``/``pitch_response`` (gain, phase), which the
-        calibration measures on the vessel model (1, 0°: the hull follows the slope exactly).
+        ratio attitude/slope is (``roll_gain``, ``roll_phase_deg``) and (``pitch_gain``,
+        ``pitch_phase_deg``), which ``calibration`` measures on the vessel model (1, 0°: exact following).
         """
         s = self.s
         roll = self._fit["roll"].X * comp / cmath.rect(s.roll_gain, math.radians(s.roll_phase_deg))
@@ -295,16 +305,16 @@ class WaveEstimator:
         """Elevation phasor (from the IMU if streaming, else from the GPS height) and its source."""
         t = self._t or 0.0
         if t - self._last_acc_t < 1.0 and self._fit["acc"].samples > 0:
-            return self._fit["acc"].X * comp / (omega_e * omega_e), G_HEAVE_IMU
+            return self._fit["acc"].X * comp / (omega_e * omega_e), HEAVE_IMU
         if t - self._last_z_t < 1.0 and self._fit["z"].samples > 0:
-            return -self._fit["z"].X * comp * lag_correction(omega_e, self.s.position_lag_s), G_HEAVE_GPS
+            return -self._fit["z"].X * comp * lag_correction(omega_e, self.s.position_lag_s), HEAVE_GPS
         return None
 
     def _solve(self, omega_e: float) -> tuple[WaveSolution | None, dict[str, float]]:
         """The wave from the phasors: with heave if the heave is real, else from the Doppler line."""
         comp = self._compensation(omega_e)
         sn, se = self._slope_phasors(comp * lag_correction(omega_e, self.s.attitude_lag_s))
-        extras = {"mode": 0.0, "heave_source": G_HEAVE_NONE}
+        extras = {"mode": 0.0, "heave_source": HEAVE_NONE}
         elev = self._elevation(omega_e, comp)
         if elev is not None and 2 * abs(elev[0]) >= self.s.min_height_m:
             sol = solve_with_heave(sn, se, elev[0], omega_e, self._vel[0], self._vel[1], self._theta)
