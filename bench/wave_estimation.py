@@ -11,6 +11,7 @@ were confident at the end, and the median absolute errors at the end: direction 
 wavelength %, height % and the predicted phase 4 s ahead (the horizon end) °; "ok" counts the seeds
 inside the issue's bounds (10°, 5 %, 15 %, 15 %, 30°). The relative wave heading μ is 180° for head
 seas, 0° for following seas. Irregular seas: a row follows once ``vessel`` has them (issue 11).
+``--no-imu`` tells the estimator the GPS height stream's lag (fix lag + half the fix interval).
 ``--plant``: the same table from ``vessel.Plant`` (equal shaft speeds of 70 rad/s, ≈ 1.5 m/s) with the
 IMU computed from the plant's own ẋ; if the vessel model offers heave that follows the sea
 (``Plant(surface_heave=True)``, issue 11) it is switched on, else the paper's hull does not heave and
@@ -47,7 +48,9 @@ def one_run(heading_deg: float, speed: float, seed: int, duration: float, with_i
     t0 = float(rng.uniform(50.0, 5000.0))
     psi = math.radians(heading_deg)
     boat = KinematicBoat(sea, speed, lambda t: psi)
-    est = WaveEstimator()
+    # without the IMU the heave comes from GPS height: tell the estimator the stream's lag (fix lag + hold)
+    lag = sensors.gps_lag_ms / 1000 + (0.5 / sensors.gps_hz if sensors.gps_hz > 0 else 0.0)
+    est = WaveEstimator(None if with_imu else EstimatorSettings(position_lag_s=lag))
     first, last, sample = None, None, None
     for i, sample in enumerate(motion_samples(boat, duration, seed=seed, t0=t0, with_imu=with_imu,
                                               sensors=sensors)):
