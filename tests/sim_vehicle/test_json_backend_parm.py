@@ -87,3 +87,28 @@ def test_boat_values_are_the_boat_files(parm: dict[str, float]) -> None:
     missing = sorted(set(boat) - set(parm))
     different = sorted(name for name in boat if name in parm and parm[name] != boat[name])
     assert not missing and not different, f"missing {missing}, different {different}"
+
+
+def test_the_readme_commands_parse() -> None:
+    """The middle-step commands in deploy/README.md use flags that exist, with values that validate."""
+    import shlex
+
+    from mavbridge.cli import build_parser as mavbridge_parser
+    from sim_vehicle.json_backend_cli import build_parser as backend_parser
+
+    text = (DEPLOY / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## 5a."):text.index("## 6.")]
+    commands = [shlex.split(line.split("#")[0]) for line in section.replace("\\\n", " ").splitlines()
+                if line.startswith(("sim-vehicle ", "mavbridge ", "Tools/autotest/sim_vehicle.py "))]
+    kinds = [c[0] for c in commands]
+    assert kinds.count("sim-vehicle") == 1 and kinds.count("mavbridge") == 2
+    assert kinds.count("Tools/autotest/sim_vehicle.py") == 1
+    for argv in commands:
+        if argv[0] == "sim-vehicle":
+            args = backend_parser().parse_args(argv[1:])
+            assert args.json_backend == ("127.0.0.1", 9002)
+        elif argv[0] == "mavbridge":
+            assert mavbridge_parser().parse_args(argv[1:]).connect == "tcp:127.0.0.1:5763"
+        else:
+            assert "--model" in argv and "JSON:127.0.0.1" in argv
+            assert f"--add-param-file=/path/to/this/repo/deploy/{JSON_PARM.name}" in argv
