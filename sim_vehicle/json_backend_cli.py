@@ -31,7 +31,7 @@ from .scenario import load_sim_scenario
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9002
-SEED_MAX = 2**63 - 1
+SEED_MAX = 2**32 - 1  # as the irregular seas' seeds
 
 log = logging.getLogger("sim_vehicle")
 
@@ -59,13 +59,13 @@ def parse_endpoint(text: str) -> tuple[str, int]:
 
 
 def _seed(text: str) -> int:
-    """A sea seed: a whole number in [0, 2^63 − 1]."""
+    """A sea seed: a whole number in [0, 2^32 − 1]."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"seed must be a whole number, got {text!r}") from None
     if not 0 <= value <= SEED_MAX:
-        raise argparse.ArgumentTypeError(f"seed must be in [0, 2^63 - 1], got {value}")
+        raise argparse.ArgumentTypeError(f"seed must be in [0, {SEED_MAX}], got {value}")
     return value
 
 
@@ -158,7 +158,7 @@ def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent,
 def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
     """World, run folder and socket; ConfigError/OSError for the caller to report."""
     vessel, waves, current, x0 = build_world(args)
-    seed = args.seed if args.seed is not None else secrets.randbits(63)
+    seed = args.seed if args.seed is not None else secrets.randbits(32)
     waves = seeded_waves(waves, seed)
     state_csv = None
     if args.log_dir is not None:

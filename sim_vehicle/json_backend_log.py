@@ -69,9 +69,17 @@ class JsonStateCsv:
 
 
 def _plain(value: Any) -> Any:
-    """Dataclasses as dicts with their type name, for the record."""
+    """Dataclasses as dicts with their type name (public fields only), arrays as lists, for the record."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {"type": type(value).__name__, **dataclasses.asdict(value)}
+        fields = {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)
+                  if not f.name.startswith("_")}
+        return {"type": type(value).__name__, **fields}
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (bool, int, float, str)) or value is None:
+        return value
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
     return repr(value)
 
 

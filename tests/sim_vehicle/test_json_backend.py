@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from sim_vehicle.json_backend import JsonBackend
+from sim_vehicle.json_backend_cli import seeded_waves
+from sim_vehicle.json_backend_log import write_sea_record
 from sim_vehicle.json_backend_model import JsonPhysics, substeps_for
 from sim_vehicle.json_backend_protocol import encode_servo_packet, motor_output_to_pwm, pwm_to_motor_output
 from sim_vehicle.physics import PHYSICS_DT_S, Physics, make_waves, ned_velocity
@@ -127,3 +132,48 @@ def test_pwm_means_what_the_boat_outputs_mean() -> None:
     params = otter_parameters()
     backend.handle(encode_servo_packet(400, 0, [1100, 0, 1900]))
     assert backend.physics.n_cmd == pytest.approx((params.matrices().n_min, params.matrices().n_max))
+
+
+def test_the_seed_sets_the_regular_seas_phase_and_nothing_else() -> None:
+    """Same seed, same phase; another seed, another phase; the rest of the sea and other fields untouched."""
+    paper = make_waves("paper")
+    a, b, c = seeded_waves(paper, 7), seeded_waves(paper, 7), seeded_waves(paper, 8)
+    assert a == b and a.phase_rad != c.phase_rad and 0 <= a.phase_rad < 2 * math.pi
+    assert dataclasses.replace(a, phase_rad=0.0) == paper
+    calm = CalmWater()
+    assert seeded_waves(calm, 7) is calm
+
+
+@dataclasses.dataclass(frozen=True)
+class _ArrayField:
+    """A wave field description holding arrays, as an irregular sea does."""
+
+    amplitude_m: np.ndarray
+    seed: int
+    _cache: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+
+    def elevation(self, north: float, east: float, t: float) -> float:
+        return 0.0
+
+
+def test_sea_record_holds_any_dataclass_sea(tmp_path: Path) -> None:
+    """sea.json: seed, every public field (arrays as lists), the current and the start state."""
+    path = tmp_path / "sea.json"
+    write_sea_record(path, 3, _ArrayField(np.array([0.5, 0.25]), 3), OceanCurrent(0.2, 1.0),  # type: ignore[arg-type]
+                     "published", _x0())
+    record = json.loads(path.read_text())
+    assert record["seed"] == 3
+    assert record["waves"] == {"type": "_ArrayField", "amplitude_m": [0.5, 0.25], "seed": 3}
+    assert record["current"]["speed_mps"] == 0.2
+    assert record["x0"][5] == pytest.approx(math.radians(HEADING_DEG))
+
+
+def test_a_gap_in_frame_counts_is_counted_and_stepped_once() -> None:
+    """Frames 0, 1, 5: three frames the backend never saw are counted; frame 5 still steps one period."""
+    backend = _backend("calm")
+    pwm = [motor_output_to_pwm(0.5), 0, motor_output_to_pwm(0.5)]
+    for count in (0, 1, 5):
+        reply = parse_reply(backend.handle(encode_servo_packet(400, count, pwm)) or b"")
+    assert backend.stats.skipped == 3 and backend.stats.stepped == 3
+    assert reply.timestamp == pytest.approx(3 / 400, abs=1e-12)
+    assert backend.handle(encode_servo_packet(400, 5, pwm)) == reply.raw and backend.stats.repeats == 1
