@@ -163,6 +163,10 @@ def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
     state_csv = None
     if args.log_dir is not None:
         args.log_dir.mkdir(parents=True, exist_ok=True)
+        earlier = [name for name in ("state.csv", "sea.json") if (args.log_dir / name).exists()]
+        if earlier:
+            raise ConfigError(f"--log-dir: {args.log_dir} already holds a run ({', '.join(earlier)}); "
+                              "give an empty or new folder, runs are never overwritten")
         write_sea_record(args.log_dir / "sea.json", seed, waves, current, vessel, x0)
         state_csv = JsonStateCsv(args.log_dir / "state.csv", waves)
     physics = JsonPhysics(otter_parameters(vessel), waves, current, x0)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sim_vehicle.json_backend import JsonBackend
-from sim_vehicle.json_backend_cli import seeded_waves
+from sim_vehicle.json_backend_cli import build_parser, build_world, seeded_waves
 from sim_vehicle.json_backend_log import write_sea_record
 from sim_vehicle.json_backend_model import JsonPhysics, substeps_for
 from sim_vehicle.json_backend_protocol import encode_servo_packet, motor_output_to_pwm, pwm_to_motor_output
@@ -177,3 +177,17 @@ def test_a_gap_in_frame_counts_is_counted_and_stepped_once() -> None:
     assert backend.stats.skipped == 3 and backend.stats.stepped == 3
     assert reply.timestamp == pytest.approx(3 / 400, abs=1e-12)
     assert backend.handle(encode_servo_packet(400, 5, pwm)) == reply.raw and backend.stats.repeats == 1
+
+
+def test_world_from_a_scenario_and_flags_as_the_simulator_reads_it() -> None:
+    """--scenario gives vessel, sea and start pose; --waves and --heading given too override their parts."""
+    root = Path(__file__).resolve().parents[2]
+    args = build_parser().parse_args(["--json-backend", "9002", "--scenario", str(root / "scenarios/balanced.yaml")])
+    vessel, waves, current, x0 = build_world(args)
+    assert vessel == "published" and waves == make_waves("paper") and current == OceanCurrent()
+    assert x0[5] == pytest.approx(math.radians(90.0)) and x0.shape == (14,)
+    args = build_parser().parse_args(["--scenario", str(root / "scenarios/balanced.yaml"), "--waves", "calm",
+                                      "--heading", "-45", "--json-backend", "0.0.0.0:9100"])
+    _, waves, _, x0 = build_world(args)
+    assert waves == CalmWater() and x0[5] == pytest.approx(math.radians(-45.0))
+    assert args.json_backend == ("0.0.0.0", 9100)

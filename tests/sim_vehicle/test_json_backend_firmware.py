@@ -336,3 +336,13 @@ def test_bad_flags_are_one_line_and_exit_2(args: list[str], field: str) -> None:
                           text=True, timeout=60)
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and field in done.stderr, done.stderr
+
+
+def test_a_used_run_folder_is_refused(tmp_path: Path) -> None:
+    """A folder that already holds a run is never overwritten: one line naming --log-dir, exit 2."""
+    (tmp_path / "state.csv").write_text("t_s\n")
+    done = subprocess.run([sys.executable, "-m", "sim_vehicle.cli", "--json-backend", str(free_udp_port()),
+                           "--log-dir", str(tmp_path)], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "--log-dir" in done.stderr and "already holds a run" in done.stderr
+    assert (tmp_path / "state.csv").read_text() == "t_s\n"
