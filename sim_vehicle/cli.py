@@ -164,6 +164,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--duration", type=_duration, metavar="S", help="stop after S simulated seconds")
     p.add_argument("-v", "--verbose", action="store_true", help="log STATUSTEXT and connections to stderr")
+    p.add_argument("--json-backend", nargs="?", metavar="[HOST:]PORT",
+                   help="instead: physics only, for the real ArduPilot firmware (--model JSON:HOST), default "
+                        "port 9002; options: sim-vehicle --json-backend --help")
     return p
 
 
@@ -222,7 +225,12 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     """Parse the command line, build the simulator and run it until a signal or --duration."""
-    args = build_parser().parse_args(_join_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
+    if any(a == "--json-backend" or a.startswith("--json-backend=") for a in argv):
+        from .json_backend_cli import main as json_backend_main  # its own mode with its own options
+
+        return json_backend_main(argv)
+    args = build_parser().parse_args(argv)
     logging.basicConfig(
         level=logging.INFO if args.verbose else logging.WARNING,
         format="sim-vehicle: %(message)s",

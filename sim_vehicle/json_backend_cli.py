@@ -1,0 +1,217 @@
+"""Command line of ``sim-vehicle --json-backend [HOST:]PORT``: the world, the run folder, the UDP loop.
+
+``sim-vehicle`` hands its whole argument list here when ``--json-backend`` is present, so the normal
+simulator's parser stays as it is. Bad input gives one line on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import math
+import secrets
+import signal
+import socket
+import sys
+from pathlib import Path
+from typing import NoReturn
+
+import numpy as np
+
+from vessel import OceanCurrent, RegularWaves, WaveField, otter_parameters
+from vessel.config import ConfigError
+
+from .geo import Home
+from .json_backend import JsonBackend, open_socket, serve
+from .json_backend_log import JsonStateCsv, write_sea_record
+from .json_backend_model import JsonPhysics
+from .physics import WAVE_CHOICES, make_waves, parse_current, parse_sea
+from .scenario import load_sim_scenario
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 9002
+SEED_MAX = 2**32 - 1  # as the irregular seas' seeds
+
+log = logging.getLogger("sim_vehicle")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports errors in one line."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``prog: error: message`` and exit 2."""
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def parse_endpoint(text: str) -> tuple[str, int]:
+    """``[HOST:]PORT`` -> (host, port); host defaults to 127.0.0.1, port must be in [1, 65535]."""
+    host, _, port_text = text.rpartition(":")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected [HOST:]PORT, got {text!r}") from None
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be in [1, 65535], got {port}")
+    if ":" in text and not host:
+        raise argparse.ArgumentTypeError(f"empty host in {text!r}")
+    return host or DEFAULT_HOST, port
+
+
+def _seed(text: str) -> int:
+    """A sea seed: a whole number in [0, 2^32 − 1]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seed must be a whole number, got {text!r}") from None
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"seed must be in [0, {SEED_MAX}], got {value}")
+    return value
+
+
+def _float(text: str) -> float:
+    """A finite number, or an argparse error."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def _heading(text: str) -> float:
+    """An initial heading in [-360, 360] deg."""
+    value = _float(text)
+    if not -360.0 <= value <= 360.0:
+        raise argparse.ArgumentTypeError(f"heading must be in [-360, 360] deg, got {text}")
+    return value
+
+
+def _duration(text: str) -> float:
+    """A positive physics duration in s."""
+    value = _float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"duration must be > 0 s, got {text}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of the JSON-backend mode (also documents every option)."""
+    p = _Parser(prog="sim-vehicle --json-backend",
+                description="Physics of the Otter for ArduPilot's JSON SITL (`--model JSON:HOST`): no MAVLink "
+                            "of its own, the firmware speaks it.")
+    p.add_argument("--json-backend", type=parse_endpoint, nargs="?", const=f"{DEFAULT_HOST}:{DEFAULT_PORT}",
+                   default=f"{DEFAULT_HOST}:{DEFAULT_PORT}", metavar="[HOST:]PORT",
+                   help=f"UDP address the firmware sends servo packets to (default {DEFAULT_HOST}:{DEFAULT_PORT}; "
+                        "0.0.0.0:PORT for a firmware on another machine)")
+    p.add_argument("--waves", choices=WAVE_CHOICES, default=None,
+                   help="sea state: calm (default), or the paper's 1.75 m / 35 m / 6 s waves")
+    p.add_argument("--sea", metavar="H,LENGTH,PERIOD,DIR",
+                   help="regular waves: height m, wavelength m, period s, travel direction deg")
+    p.add_argument("--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg")
+    p.add_argument("--scenario", type=Path, metavar="FILE",
+                   help="scenario YAML: vessel parameter set, sea and start pose; --waves/--sea/--current override")
+    p.add_argument("--heading", type=_heading, default=None, metavar="DEG",
+                   help=f"initial heading, deg (default {Home().heading_deg:g}, the simulator's home heading)")
+    p.add_argument("--seed", type=_seed, default=None, metavar="N",
+                   help="seed of the sea's phase origin (default: a fresh one, written to the run folder)")
+    p.add_argument("--log-dir", type=Path, metavar="DIR", help="write state.csv and sea.json here")
+    p.add_argument("--duration", type=_duration, metavar="S",
+                   help="stop after S s of physics time")
+    p.add_argument("-v", "--verbose", action="store_true", help="log restarts and rate changes to stderr")
+    return p
+
+
+def seeded_waves(waves: WaveField, seed: int) -> WaveField:
+    """The sea with its phase origin drawn from ``seed`` (regular waves: a phase in [0, 2π))."""
+    if isinstance(waves, RegularWaves):
+        phase = float(np.random.default_rng(seed).uniform(0.0, 2 * math.pi))
+        return dataclasses.replace(waves, phase_rad=phase)
+    return waves
+
+
+def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent, np.ndarray]:
+    """(vessel set, waves, current, x0) from the flags and the optional scenario, as ``sim-vehicle`` does."""
+    scenario = load_sim_scenario(args.scenario) if args.scenario is not None else None
+    vessel = scenario.vessel if scenario is not None else "published"
+    if args.sea is not None:
+        waves: WaveField = parse_sea(args.sea)
+    elif args.waves is not None or scenario is None:
+        waves = make_waves(args.waves or "calm")
+    else:
+        waves = scenario.sea.waves()
+    if args.current is not None:
+        current = parse_current(args.current)
+    else:
+        current = scenario.sea.current() if scenario is not None else OceanCurrent()
+    if scenario is not None:
+        x0 = scenario.initial_state()
+    else:
+        x0 = np.zeros(14)
+        x0[5] = math.radians(Home().heading_deg)
+    if args.heading is not None:
+        x0[5] = math.radians(args.heading)
+    return vessel, waves, current, x0
+
+
+def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
+    """World, run folder and socket; ConfigError/OSError for the caller to report."""
+    vessel, waves, current, x0 = build_world(args)
+    seed = args.seed if args.seed is not None else secrets.randbits(32)
+    waves = seeded_waves(waves, seed)
+    state_csv = None
+    if args.log_dir is not None:
+        args.log_dir.mkdir(parents=True, exist_ok=True)
+        earlier = [name for name in ("state.csv", "sea.json") if (args.log_dir / name).exists()]
+        if earlier:
+            raise ConfigError(f"--log-dir: {args.log_dir} already holds a run ({', '.join(earlier)}); "
+                              "give an empty or new folder, runs are never overwritten")
+        write_sea_record(args.log_dir / "sea.json", seed, waves, current, vessel, x0)
+        state_csv = JsonStateCsv(args.log_dir / "state.csv", waves)
+    physics = JsonPhysics(otter_parameters(vessel), waves, current, x0)
+    host, port = args.json_backend
+    try:
+        sock = open_socket(host, port)
+    except OSError as exc:
+        if state_csv is not None:
+            state_csv.close()
+        raise ConfigError(f"--json-backend: cannot bind UDP {host}:{port} ({exc.strerror or exc}); "
+                          "is another physics backend or a stale SITL still running?") from None
+    log.info("json-backend: listening on UDP %s:%d, sea seed %d", host, port, seed)
+    return JsonBackend(physics, state_csv), sock
+
+
+def main(argv: list[str]) -> int:
+    """Run the backend until a signal or --duration; print a one-line summary at the end."""
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="sim-vehicle: %(message)s", stream=sys.stderr)
+    try:
+        backend, sock = _prepare(args)
+    except ConfigError as exc:
+        print(f"sim-vehicle: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"sim-vehicle: error: cannot write the run folder: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    flag = {"running": True}
+
+    def stop(signum: int, frame: object) -> None:
+        """SIGTERM/SIGINT: answer no more frames, then close the log."""
+        flag["running"] = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    status = 0
+    try:
+        serve(backend, sock, lambda: flag["running"], args.duration)
+    except FloatingPointError as exc:
+        print(f"sim-vehicle: error: {exc}", file=sys.stderr)
+        status = 1
+    finally:
+        sock.close()
+        if backend.csv is not None:
+            backend.csv.close()
+        print(backend.stats.summary(backend.physics.time), file=sys.stderr)
+    return status
