@@ -26,8 +26,8 @@ import numpy as np
 from sim_vehicle.json_backend import JsonBackend
 from sim_vehicle.json_backend_model import JsonPhysics
 from sim_vehicle.json_backend_protocol import encode_reply, encode_servo_packet, motor_output_to_pwm
-from sim_vehicle.physics import make_waves
 from vessel import OceanCurrent, otter_parameters
+from vessel.world import sea_preset
 
 RATE_HZ = 400
 PWM = [motor_output_to_pwm(0.7), 0, motor_output_to_pwm(0.3)]
@@ -49,7 +49,7 @@ def per_call_us(work: Callable[[int], None], frames: int, batches: int) -> tuple
 
 def in_process(frames: int, batches: int) -> None:
     """The backend's own cost per frame, and its three parts."""
-    physics = JsonPhysics(otter_parameters(), make_waves("paper"), OceanCurrent(), np.zeros(14))
+    physics = JsonPhysics(otter_parameters(), sea_preset("paper").waves(), OceanCurrent(), np.zeros(14))
     backend = JsonBackend(physics)
     packets = [encode_servo_packet(RATE_HZ, i, PWM) for i in range(frames * batches)]
 

@@ -21,13 +21,13 @@ import numpy as np
 
 from vessel import OceanCurrent, RegularWaves, WaveField, otter_parameters
 from vessel.config import ConfigError
+from vessel.geo import Home
+from vessel.world import SEA_PRESETS
 
-from .geo import Home
 from .json_backend import JsonBackend, open_socket, serve
 from .json_backend_log import JsonStateCsv, write_sea_record
 from .json_backend_model import JsonPhysics
-from .physics import WAVE_CHOICES, make_waves, parse_current, parse_sea
-from .scenario import load_sim_scenario
+from .scenario import sim_world
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9002
@@ -105,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
                    default=f"{DEFAULT_HOST}:{DEFAULT_PORT}", metavar="[HOST:]PORT",
                    help=f"UDP address the firmware sends servo packets to (default {DEFAULT_HOST}:{DEFAULT_PORT}; "
                         "0.0.0.0:PORT for a firmware on another machine)")
-    p.add_argument("--waves", choices=WAVE_CHOICES, default=None,
+    p.add_argument("--waves", choices=tuple(SEA_PRESETS), default=None,
                    help="sea state: calm (default), or the paper's 1.75 m / 35 m / 6 s waves")
     p.add_argument("--sea", metavar="H,LENGTH,PERIOD,DIR",
                    help="regular waves: height m, wavelength m, period s, travel direction deg")
@@ -132,27 +132,12 @@ def seeded_waves(waves: WaveField, seed: int) -> WaveField:
 
 
 def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent, np.ndarray]:
-    """(vessel set, waves, current, x0) from the flags and the optional scenario, as ``sim-vehicle`` does."""
-    scenario = load_sim_scenario(args.scenario) if args.scenario is not None else None
-    vessel = scenario.vessel if scenario is not None else "published"
-    if args.sea is not None:
-        waves: WaveField = parse_sea(args.sea)
-    elif args.waves is not None or scenario is None:
-        waves = make_waves(args.waves or "calm")
-    else:
-        waves = scenario.sea.waves()
-    if args.current is not None:
-        current = parse_current(args.current)
-    else:
-        current = scenario.sea.current() if scenario is not None else OceanCurrent()
-    if scenario is not None:
-        x0 = scenario.initial_state()
-    else:
-        x0 = np.zeros(14)
-        x0[5] = math.radians(Home().heading_deg)
+    """(vessel set, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s one route."""
+    world = sim_world(args.scenario, args.waves, args.sea, args.current, Home())
+    x0 = world.plant_state()
     if args.heading is not None:
         x0[5] = math.radians(args.heading)
-    return vessel, waves, current, x0
+    return world.vessel, world.sea.waves(), world.sea.current(), x0
 
 
 def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:

@@ -15,10 +15,12 @@ from sim_vehicle.json_backend_cli import build_parser, build_world, seeded_waves
 from sim_vehicle.json_backend_log import write_sea_record
 from sim_vehicle.json_backend_model import JsonPhysics, substeps_for
 from sim_vehicle.json_backend_protocol import encode_servo_packet, motor_output_to_pwm, pwm_to_motor_output
-from sim_vehicle.physics import PHYSICS_DT_S, Physics, make_waves, ned_velocity
+from sim_vehicle.physics import PHYSICS_DT_S, Physics, ned_velocity
 from tests.sim_vehicle.test_json_backend_firmware import parse_reply
 from vessel import CalmWater, OceanCurrent, otter_parameters
 from vessel.dynamics import rotation_body_to_ned
+from vessel.sea_state import Start
+from vessel.world import World, sea_preset
 
 HEADING_DEG = 30.0
 
@@ -30,7 +32,7 @@ def _x0() -> np.ndarray:
 
 
 def _backend(sea: str, vessel: str = "published") -> JsonBackend:
-    return JsonBackend(JsonPhysics(otter_parameters(vessel), make_waves(sea), OceanCurrent(), _x0()))
+    return JsonBackend(JsonPhysics(otter_parameters(vessel), sea_preset(sea).waves(), OceanCurrent(), _x0()))
 
 
 def _run_backend(backend: JsonBackend, left: float, right: float, rate: int, seconds: float,
@@ -47,7 +49,7 @@ def _run_backend(backend: JsonBackend, left: float, right: float, rate: int, sec
 
 def _run_simulator(sea: str, left: float, right: float, seconds: float) -> np.ndarray:
     """The normal simulator's plant path: Physics.create, shaft_commands from motor outputs, 100 Hz steps."""
-    physics = Physics.create(make_waves(sea), HEADING_DEG, OceanCurrent(), "published", None)
+    physics = Physics.create(World(sea=sea_preset(sea), start=Start(heading_deg=HEADING_DEG)))
     n_cmd = physics.shaft_commands((left, right))
     physics.plant.advance(n_cmd, round(seconds / PHYSICS_DT_S))
     return physics.plant.state
@@ -136,7 +138,7 @@ def test_pwm_means_what_the_boat_outputs_mean() -> None:
 
 def test_the_seed_sets_the_regular_seas_phase_and_nothing_else() -> None:
     """Same seed, same phase; another seed, another phase; the rest of the sea and other fields untouched."""
-    paper = make_waves("paper")
+    paper = sea_preset("paper").waves()
     a, b, c = seeded_waves(paper, 7), seeded_waves(paper, 7), seeded_waves(paper, 8)
     assert a == b and a.phase_rad != c.phase_rad and 0 <= a.phase_rad < 2 * math.pi
     assert dataclasses.replace(a, phase_rad=0.0) == paper
@@ -184,7 +186,7 @@ def test_world_from_a_scenario_and_flags_as_the_simulator_reads_it() -> None:
     root = Path(__file__).resolve().parents[2]
     args = build_parser().parse_args(["--json-backend", "9002", "--scenario", str(root / "scenarios/balanced.yaml")])
     vessel, waves, current, x0 = build_world(args)
-    assert vessel == "published" and waves == make_waves("paper") and current == OceanCurrent()
+    assert vessel == "published" and waves == sea_preset("paper").waves() and current == OceanCurrent()
     assert x0[5] == pytest.approx(math.radians(90.0)) and x0.shape == (14,)
     args = build_parser().parse_args(["--scenario", str(root / "scenarios/balanced.yaml"), "--waves", "calm",
                                       "--heading", "-45", "--json-backend", "0.0.0.0:9100"])
