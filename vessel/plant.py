@@ -16,6 +16,7 @@ import numpy as np
 from .allocation import saturate_shaft_speed
 from .config import ConfigError
 from .dynamics import NX_PLANT, OceanCurrent, kinematics, plant_ode
+from .jit import compiled, worth_compiling
 from .params import OtterParameters
 from .waves import CalmWater, WaveField
 
@@ -71,7 +72,8 @@ class Plant:
 
     def __init__(self, params: OtterParameters, waves: WaveField | None = None,
                  current: OceanCurrent | None = None, dt: float = 0.01, integrator: Integrator = "rk4",
-                 x0: np.ndarray | None = None, t0: float = 0.0, surface_heave: bool = False) -> None:
+                 x0: np.ndarray | None = None, t0: float = 0.0, surface_heave: bool = False,
+                 compile_step: bool | None = None) -> None:
         if not dt > 0:
             raise ConfigError(f"dt: {dt!r} s is outside the allowed range > 0 s")
         if integrator not in INTEGRATORS:
@@ -83,6 +85,9 @@ class Plant:
         self.integrator = integrator
         self.surface_heave = surface_heave  # heave follows the sea (off: the paper's model)
         self._function = plant_step(params, self.waves, self.current, dt, integrator, surface_heave)
+        # compile_step: None = compile large steps (irregular seas) when a C compiler exists; see vessel.jit
+        if compile_step or (compile_step is None and worth_compiling(self._function)):
+            self._function = compiled(self._function)
         self._x = np.zeros(NX_PLANT)
         self._u = np.zeros(2)
         self._t = np.zeros(1)
