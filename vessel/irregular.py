@@ -33,6 +33,7 @@ from .mathops import is_symbolic
 from .spectra import sample_cos2s, spectrum, wavenumber
 
 SLOPE_EPSILON = 1e-12  # keeps |∇ζ| away from 0 so atan(ρ)/ρ stays smooth (and differentiable) there
+BIN_NODES = 17  # trapezoid nodes per bin for the bin energy ∫ S dω
 CHUNK = 4096  # numeric evaluation: samples per block (bounds memory at samples × components)
 
 
@@ -156,8 +157,10 @@ def hull_averaging_factor(k_rad_m: np.ndarray, length_m: float, beam_m: float) -
 def synthesise(spectrum_name: str, hs_m: float, tp_s: float, gamma: float, travel_dir_rad: float,
                spreading_s: float, n_components: int, seed: int, depth_m: float | None = None,
                band: tuple[float, float] = (0.5, 4.0), g: float = 9.81, roll_sign: float = -1.0) -> IrregularWaves:
-    """Draw a sea from a spectrum: N equal bins over ``band`` × ωp, one random ω per bin, aᵢ = √(2 S(ωᵢ) Δω).
+    """Draw a sea from a spectrum: N equal bins over ``band`` × ωp, one random ω per bin, aᵢ = √(2 ∫_bin S dω).
 
+    Each amplitude carries its bin's exact energy (the integral, not S(ωᵢ)·Δω), so m0 of the
+    synthesised sea equals the spectrum's m0 over the band whatever frequencies are drawn.
     Frequencies, then phases, then (when ``spreading_s`` > 0) directions are drawn from one
     ``numpy.random.default_rng(seed)``, so a long- and a short-crested sea of one seed share ωᵢ and εᵢ.
     ``spreading_s`` = 0 is long-crested (every component travels towards ``travel_dir_rad``).
@@ -172,5 +175,8 @@ def synthesise(spectrum_name: str, hs_m: float, tp_s: float, gamma: float, trave
         direction = sample_cos2s(rng, n_components, travel_dir_rad, spreading_s)
     else:
         direction = np.full(n_components, float(travel_dir_rad))
-    amplitude = np.sqrt(2 * spectrum(spectrum_name, omega, hs_m, tp_s, gamma) * d_omega)
+    fine = np.linspace(0.0, 1.0, BIN_NODES)[None, :] * d_omega + edges[:-1, None]  # nodes inside each bin
+    density = spectrum(spectrum_name, fine, hs_m, tp_s, gamma)
+    bin_energy = np.sum(0.5 * (density[:, 1:] + density[:, :-1]), axis=1) * (d_omega / (BIN_NODES - 1))
+    amplitude = np.sqrt(2 * bin_energy)
     return IrregularWaves(amplitude, omega, wavenumber(omega, depth_m, g), direction, phase, roll_sign)

@@ -25,7 +25,7 @@ from .waves import BREAKING_STEEPNESS, CalmWater
 SPECTRA: tuple[str, ...] = ("jonswap", "pm")
 DEFAULT_HS_M = 1.75  # the paper's wave height, used when neither hs_m nor sea_state is given
 DEFAULT_TP_S = 6.0  # the paper's wave period
-MAX_SEED = 2**63 - 1
+MAX_SEED = 2**32 - 1
 
 
 def _choice(default: str, choices: tuple[str, ...], doc: str) -> str:
@@ -55,8 +55,8 @@ class IrregularSea:
             value = getattr(self, f.name)
             if "lo" in f.metadata and value is not None:
                 if f.type in ("int", "int | None") and (isinstance(value, bool) or not isinstance(value, int)):
-                    raise ConfigError(f"{f.name}: expected an integer in [{f.metadata['lo']:g}, "
-                                      f"{f.metadata['hi']:g}], got {value!r}")
+                    raise ConfigError(f"{f.name}: expected an integer in [{f.metadata['lo']:d}, "
+                                      f"{f.metadata['hi']:d}], got {value!r}")
                 check_number(value, f.name, f.metadata)
         if self.spectrum not in SPECTRA:
             raise ConfigError(f"spectrum: {self.spectrum!r} is not one of {', '.join(SPECTRA)}")
