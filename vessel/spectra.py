@@ -124,7 +124,7 @@ def wavenumber(omega: Any, depth_m: float | None = None, g: float = 9.81) -> np.
         return k_deep
     h = float(depth_m)
     kh0 = k_deep * h
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # cosh(kh) → inf is harmless here
         kh = np.where(kh0 > 0, kh0 / np.tanh(kh0**0.75) ** (2 / 3), 0.0)  # Fenton (1990) start
         for _ in range(50):
             f = kh * np.tanh(kh) - kh0
