@@ -43,7 +43,7 @@ class IrregularSea:
     tp_s: float | None = _bounded(None, 1.0, 30.0, "s", "peak period Tp (default: sea state modal, else 6)")
     gamma: float = _bounded(JONSWAP_GAMMA, 1.0, 10.0, "", "JONSWAP peak enhancement γ (ignored for pm)")
     travel_dir_deg: float = _bounded(-90.0, -360.0, 360.0, "deg", "mean direction the waves travel to (0 = N)")
-    spreading_s: float = _bounded(0.0, 0.0, 1000.0, "", "cos-2s spreading exponent s; 0 = long-crested")
+    spreading_s: float = _bounded(0.0, 0.0, None, "", "cos-2s spreading exponent s; 0 = long-crested")
     sea_state: int | None = _bounded(None, 0, 8, "", "NATO sea state number (paper Table I)")
     n_components: int = _bounded(200, 10, 5000, "", "number of wave components N")
     seed: int = _bounded(7, 0, MAX_SEED, "", "random seed of frequencies, phases and directions")
@@ -147,7 +147,7 @@ def parse_sea_spec(text: str, flag: str = "--sea", seed: int = 7, n_components: 
         try:
             number = float(item)
         except ValueError:
-            raise ConfigError(f"{flag}: {label} {item!r} is not a number; allowed {field_range(field_name)}") \
+            raise ConfigError(f"{flag} {label}: {item!r} is not a number; allowed {field_range(field_name)}") \
                 from None
         meta = next(f.metadata for f in dataclasses.fields(IrregularSea) if f.name == field_name)
         check_number(number, f"{flag} {label}", meta)
