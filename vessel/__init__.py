@@ -11,8 +11,11 @@ from .allocation import (
 )
 from .config import ConfigError
 from .dynamics import NX_PLANT, NX_RIGID, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
+from .irregular import IrregularWaves, hull_averaging_factor, synthesise
+from .irregular_sea import IrregularSea, parse_sea_spec
 from .params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
 from .plant import Plant, plant_step
+from .spectra import jonswap, nato_sea_state, pierson_moskowitz, wavenumber
 from .waves import CalmWater, RegularWaves, WaveField
 
 __all__ = [
@@ -21,19 +24,28 @@ __all__ = [
     "STATE_NAMES",
     "CalmWater",
     "ConfigError",
+    "IrregularSea",
+    "IrregularWaves",
     "OceanCurrent",
     "OtterMatrices",
     "OtterParameters",
     "Plant",
     "RegularWaves",
     "WaveField",
+    "hull_averaging_factor",
+    "jonswap",
     "load_parameters",
+    "nato_sea_state",
     "otter_parameters",
+    "parse_sea_spec",
+    "pierson_moskowitz",
     "plant_ode",
     "plant_step",
     "propeller_thrust",
     "rigid_body_ode",
     "shaft_speeds_to_tau",
+    "synthesise",
     "tau_limits",
     "tau_to_shaft_speeds",
+    "wavenumber",
 ]
