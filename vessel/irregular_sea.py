@@ -15,8 +15,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .config import ConfigError, check_number
-from .config import bounded as _bounded
+from .config import ConfigError, bounded, check_number, describe_range
 from .irregular import IrregularWaves, hull_averaging_factor, synthesise
 from .params import OtterParameters
 from .spectra import JONSWAP_GAMMA, nato_sea_state
@@ -35,19 +34,26 @@ def _choice(default: str, choices: tuple[str, ...], doc: str) -> str:
 
 @dataclass(frozen=True)
 class IrregularSea:
-    """An irregular sea from a spectrum: JONSWAP or Pierson–Moskowitz, long- or short-crested."""
+    """An irregular sea from a spectrum: JONSWAP or Pierson–Moskowitz, long- or short-crested.
+
+    ``n_components`` defaults to 200: over 10 seeds × 20 min of Hs 1.75 m, Tp 6 s, the Welch energy in
+    0.1·ωp bands of 0.7–1.5 ωp stays within 6 % of the target with 200 components, but strays by up to
+    14 % with 100 (each Welch bin then holds less than one component). The plant compiles either size
+    (``vessel.jit``). ``paper_roll_sign`` False (default) is the geometric surface-relative roll; True
+    the paper's literal sign, as in ``RegularWaves``. ``travel_dir_deg`` −90 is the paper's West.
+    """
 
     spectrum: str = _choice("jonswap", SPECTRA, "jonswap or pm (Pierson–Moskowitz, γ = 1)")
-    hs_m: float | None = _bounded(None, 0.0, 30.0, "m", "significant wave height Hs (default: sea state "
+    hs_m: float | None = bounded(None, 0.0, 30.0, "m", "significant wave height Hs (default: sea state "
                                   "mid-band, else 1.75)", lo_open=True)
-    tp_s: float | None = _bounded(None, 1.0, 30.0, "s", "peak period Tp (default: sea state modal, else 6)")
-    gamma: float = _bounded(JONSWAP_GAMMA, 1.0, 10.0, "", "JONSWAP peak enhancement γ (ignored for pm)")
-    travel_dir_deg: float = _bounded(-90.0, -360.0, 360.0, "deg", "mean direction the waves travel to (0 = N)")
-    spreading_s: float = _bounded(0.0, 0.0, None, "", "cos-2s spreading exponent s; 0 = long-crested")
-    sea_state: int | None = _bounded(None, 0, 8, "", "NATO sea state number (paper Table I)")
-    n_components: int = _bounded(200, 10, 5000, "", "number of wave components N")
-    seed: int = _bounded(7, 0, MAX_SEED, "", "random seed of frequencies, phases and directions")
-    depth_m: float | None = _bounded(None, 0.5, 1e4, "m", "water depth for dispersion (default: deep water)")
+    tp_s: float | None = bounded(None, 1.0, 30.0, "s", "peak period Tp (default: sea state modal, else 6)")
+    gamma: float = bounded(JONSWAP_GAMMA, 1.0, 10.0, "", "JONSWAP peak enhancement γ (ignored for pm)")
+    travel_dir_deg: float = bounded(-90.0, -360.0, 360.0, "deg", "mean direction the waves travel to (0 = N)")
+    spreading_s: float = bounded(0.0, 0.0, None, "", "cos-2s spreading exponent s; 0 = long-crested")
+    sea_state: int | None = bounded(None, 0, 8, "", "NATO sea state number (paper Table I)")
+    n_components: int = bounded(200, 10, 5000, "", "number of wave components N")
+    seed: int = bounded(7, 0, MAX_SEED, "", "random seed of frequencies, phases and directions")
+    depth_m: float | None = bounded(None, 0.5, 1e4, "m", "water depth for dispersion (default: deep water)")
     paper_roll_sign: bool = False
 
     def __post_init__(self) -> None:
@@ -117,8 +123,6 @@ class IrregularSea:
 
 def field_range(name: str) -> str:
     """The allowed range of an IrregularSea field as text, e.g. '(0, 30] m'."""
-    from .config import describe_range
-
     meta = next(f.metadata for f in dataclasses.fields(IrregularSea) if f.name == name)
     return describe_range(meta)
 

@@ -92,6 +92,7 @@ def _parse(text: str, flag: str, meta: Any, kind: type) -> float | int:
 
 
 def _metadata(cls: type) -> dict[str, Any]:
+    """Field name -> range metadata of a settings dataclass (for messages in terms of the flags)."""
     return {f.name: f.metadata for f in dataclasses.fields(cls)}
 
 
