@@ -68,7 +68,7 @@ def add_parser(sub: Any) -> None:
              "--north": "NED north of the sampling point in m (default 0)",
              "--east": "NED east of the sampling point in m (default 0)"}
     for flag, text in helps.items():
-        p.add_argument(flag, metavar=flag.lstrip("-").split("-")[0].upper(), help=text)
+        p.add_argument(flag, metavar=flag.lstrip("-").replace("-", "_").upper(), help=text)
     p.add_argument("--csv", metavar="FILE", required=True, help="write t_s,elevation_m,slope_n_rad,slope_e_rad")
     p.add_argument("--plot", metavar="FILE.png", help="draw the record and its spectrum against the target")
 
