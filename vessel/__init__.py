@@ -13,9 +13,12 @@ from .allocation import (
 )
 from .config import ConfigError
 from .dynamics import NX_PLANT, NX_RIGID, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
+from .irregular import IrregularWaves, hull_averaging_factor, synthesise
+from .irregular_sea import IrregularSea, parse_sea_spec
 from .params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
 from .plant import Plant, plant_step
 from .sea_state import SeaState, Start
+from .spectra import jonswap, nato_sea_state, pierson_moskowitz, wavenumber
 from .waves import CalmWater, RegularWaves, WaveField
 from .world import SEA_PRESETS, World, load_world, world_preset
 
@@ -26,6 +29,8 @@ __all__ = [
     "STATE_NAMES",
     "CalmWater",
     "ConfigError",
+    "IrregularSea",
+    "IrregularWaves",
     "OceanCurrent",
     "OtterMatrices",
     "OtterParameters",
@@ -35,15 +40,22 @@ __all__ = [
     "Start",
     "WaveField",
     "World",
+    "hull_averaging_factor",
+    "jonswap",
     "load_parameters",
     "load_world",
+    "nato_sea_state",
     "otter_parameters",
+    "parse_sea_spec",
+    "pierson_moskowitz",
     "plant_ode",
     "plant_step",
     "propeller_thrust",
     "rigid_body_ode",
     "shaft_speeds_to_tau",
+    "synthesise",
     "tau_limits",
     "tau_to_shaft_speeds",
+    "wavenumber",
     "world_preset",
 ]

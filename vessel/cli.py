@@ -1,4 +1,4 @@
-"""`vessel` command line: open-water maneuvers on the bare Otter plant."""
+"""`vessel` command line: open-water maneuvers on the bare Otter plant, and irregular-sea records."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+from . import seacli
 from .config import ConfigError
 from .maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
 from .params import PARAMETER_SETS, load_parameters, otter_parameters
@@ -34,7 +35,7 @@ def _number(text: str) -> float:
 
 
 def build_parser() -> OneLineParser:
-    """The `vessel` parser with its `maneuver` subcommand."""
+    """The `vessel` parser with its `maneuver` and `sea` subcommands."""
     parser = OneLineParser(prog="vessel", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     man = sub.add_parser("maneuver", help="run a standard open-water maneuver on the bare plant",
@@ -56,6 +57,7 @@ def build_parser() -> OneLineParser:
                      help="named sea (vessel.world presets): calm, or paper, the paper's waves from the East")
     man.add_argument("--csv", metavar="PATH", help="write t,x,y,z,phi,theta,psi,u,v,w,p,q,r,n1,n2")
     man.add_argument("--plot", metavar="PATH", help="write a PNG of the track and time series")
+    seacli.add_parser(sub)
     return parser
 
 
@@ -85,6 +87,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `vessel` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command == "sea":
+        return seacli.run(args)
     try:
         maneuver = _maneuver_from_args(args)
         result = run_maneuver(maneuver)

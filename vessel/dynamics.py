@@ -2,6 +2,15 @@
 
 M·ν̇_r + C(ν_r)·ν_r + D·ν_r + N_nl(ν_r) + G·β = τ + τ_cf(ν_r) + g_0(β) + τ_wave, ν̇ = ν̇_r + d/dt ν_c,
 η̇ = J(η)·ν, with β the attitude relative to the wave surface (the paper's restoring input).
+With ``surface_heave`` (off by default: the paper's model) the heave entry of β is z + ζ(N, E, t), the
+depth below the local surface (NED z down, ζ up), and the vertical motion of the surface is treated the
+way Fossen treats a current: the water's velocity ν_w = Rᵀ·(0, 0, −∂ζ/∂t) (body axes) is taken out of the
+relative velocity ν_r used by damping, cross-flow drag and added-mass Coriolis terms, and its rate
+(Rᵀ·(0, 0, −∂²ζ/∂t²) − ω × ν_w) is added to ν̇. The second part is the long-wave Froude–Krylov and
+added-mass force (the pressure of an accelerating water column): without it the hull would need a draft
+error to be accelerated, which the heave–pitch coupling of G turns into a spurious pitch of the same size
+as the wave slope. With both, a hull in a wave much longer than itself rides the surface (z ≈ −ζ).
+Off, heave restoring acts on z alone as in the paper.
 The same expressions become the simulator's numeric plant (``vessel.plant``) and the NMPC's
 prediction model (``rigid_body_ode``), so the two can never drift apart.
 
@@ -103,9 +112,28 @@ def _crossflow(params: OtterParameters, v_r: ca.SX, r: ca.SX) -> tuple[ca.SX, ca
     return y_cf, n_cf
 
 
+def _surface_heave_terms(waves: WaveField, eta: ca.SX, nu: ca.SX, t: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
+    """For surface heave: (z + ζ at the boat in m, water velocity ν_w and its body-frame rate, 6-vectors).
+
+    ∂ζ/∂t and ∂²ζ/∂t² are differentiated symbolically at the boat's position, so ``t`` must be a CasADi
+    symbol (it is in every ODE builder).
+    """
+    zeta = waves.elevation(eta[0], eta[1], t)
+    zeta_rate = ca.jacobian(zeta, t)
+    zeta_accel = ca.jacobian(zeta_rate, t)
+    R_t = rotation_body_to_ned(eta[3], eta[4], eta[5]).T
+    water = R_t @ ca.vertcat(0, 0, -zeta_rate)
+    water_rate = R_t @ ca.vertcat(0, 0, -zeta_accel) - ca.cross(nu[3:6], water)
+    return eta[2] + zeta, ca.vertcat(water, 0, 0, 0), ca.vertcat(water_rate, 0, 0, 0)
+
+
 def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanCurrent,
-                      eta: ca.SX, nu: ca.SX, tau_x: ca.SX, tau_n: ca.SX, t: ca.SX) -> ca.SX:
-    """ν̇ (body frame) for generalised surge force τ_X (N) and yaw moment τ_N (N·m) at time t (s)."""
+                      eta: ca.SX, nu: ca.SX, tau_x: ca.SX, tau_n: ca.SX, t: ca.SX,
+                      surface_heave: bool = False) -> ca.SX:
+    """ν̇ (body frame) for generalised surge force τ_X (N) and yaw moment τ_N (N·m) at time t (s).
+
+    ``surface_heave``: heave restoring on z + ζ at the boat (follows the sea) instead of z (the paper).
+    """
     mats = params.matrices()
     phi, theta, psi = eta[3], eta[4], eta[5]
 
@@ -114,9 +142,15 @@ def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanC
     nu_r = nu - ca.vertcat(u_c, v_c, 0, 0, 0, 0)
     nu_c_dot = ca.vertcat(nu[5] * v_c, -nu[5] * u_c, 0, 0, 0, 0)
 
+    heave = eta[2]
+    if surface_heave:  # off: the paper's model, expressions unchanged
+        heave, nu_water, nu_water_dot = _surface_heave_terms(waves, eta, nu, t)
+        nu_r = nu_r - nu_water
+        nu_c_dot = nu_c_dot + nu_water_dot
+
     alpha_n, alpha_e = waves.slope_angles(eta[0], eta[1], t)
     beta_phi, beta_theta = surface_relative_attitude(waves, phi, theta, psi, alpha_n, alpha_e)
-    beta = ca.vertcat(eta[0], eta[1], eta[2], beta_phi, beta_theta, psi)
+    beta = ca.vertcat(eta[0], eta[1], heave, beta_phi, beta_theta, psi)
 
     D = ca.DM(mats.D)
     damping = -(D @ nu_r)
@@ -138,8 +172,11 @@ def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanC
 
 
 def plant_ode(params: OtterParameters, waves: WaveField | None = None,
-              current: OceanCurrent | None = None) -> ca.Function:
-    """The simulator's plant: (x[14], n_cmd[2] rad/s, t s) -> ẋ[14], with first-order shaft dynamics."""
+              current: OceanCurrent | None = None, surface_heave: bool = False) -> ca.Function:
+    """The simulator's plant: (x[14], n_cmd[2] rad/s, t s) -> ẋ[14], with first-order shaft dynamics.
+
+    ``surface_heave`` makes heave follow the sea (see the module docstring); off is the paper's model.
+    """
     waves = waves or CalmWater()
     current = current or OceanCurrent()
     x = ca.SX.sym("x", NX_PLANT)
@@ -147,21 +184,28 @@ def plant_ode(params: OtterParameters, waves: WaveField | None = None,
     t = ca.SX.sym("t")
     n = x[12:14]
     tau_x, tau_n = shaft_speeds_to_tau(params, n[0], n[1])
-    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau_x, tau_n, t)
+    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau_x, tau_n, t, surface_heave)
     n_sat = saturate_shaft_speed(params, n)
     n_dot = (n_cmd - n_sat) / params.prop_time_constant
     xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot, n_dot)
+    if surface_heave:
+        xdot = ca.cse(xdot)  # merge the trig terms ∂ζ/∂t, ∂²ζ/∂t² repeat (≈ 20 % fewer VM instructions)
     return ca.Function("plant_ode", [x, n_cmd, t], [xdot], ["x", "n_cmd", "t"], ["xdot"])
 
 
 def rigid_body_ode(params: OtterParameters, waves: WaveField | None = None,
-                   current: OceanCurrent | None = None) -> ca.Function:
-    """The NMPC's model, as in the paper: (x[12], tau[2] = (τ_X N, τ_N N·m), t s) -> ẋ[12]."""
+                   current: OceanCurrent | None = None, surface_heave: bool = False) -> ca.Function:
+    """The NMPC's model, as in the paper: (x[12], tau[2] = (τ_X N, τ_N N·m), t s) -> ẋ[12].
+
+    ``surface_heave`` makes heave follow the sea (see the module docstring); off is the paper's model.
+    """
     waves = waves or CalmWater()
     current = current or OceanCurrent()
     x = ca.SX.sym("x", NX_RIGID)
     tau = ca.SX.sym("tau", 2)
     t = ca.SX.sym("t")
-    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau[0], tau[1], t)
+    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau[0], tau[1], t, surface_heave)
     xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot)
+    if surface_heave:
+        xdot = ca.cse(xdot)  # merge the trig terms ∂ζ/∂t, ∂²ζ/∂t² repeat
     return ca.Function("rigid_body_ode", [x, tau, t], [xdot], ["x", "tau", "t"], ["xdot"])

@@ -16,6 +16,7 @@ import numpy as np
 from .allocation import saturate_shaft_speed
 from .config import ConfigError
 from .dynamics import NX_PLANT, OceanCurrent, kinematics, plant_ode
+from .jit import compiled, worth_compiling
 from .params import OtterParameters
 from .waves import CalmWater, WaveField
 
@@ -51,9 +52,12 @@ def semi_implicit_euler_step(ode: ca.Function, dt: float, nx_eta: int = 6, nx_nu
 
 
 def plant_step(params: OtterParameters, waves: WaveField, current: OceanCurrent, dt: float,
-               integrator: Integrator = "rk4") -> ca.Function:
-    """(x[14], n_cmd[2], t) -> x[14] one step later, shaft speeds kept within [n_min, n_max]."""
-    ode = plant_ode(params, waves, current)
+               integrator: Integrator = "rk4", surface_heave: bool = False) -> ca.Function:
+    """(x[14], n_cmd[2], t) -> x[14] one step later, shaft speeds kept within [n_min, n_max].
+
+    ``surface_heave``: heave restoring on z + ζ (the hull follows the sea); off is the paper's model.
+    """
+    ode = plant_ode(params, waves, current, surface_heave)
     step = rk4_step(ode, dt) if integrator == "rk4" else semi_implicit_euler_step(ode, dt)
     x = ca.SX.sym("x", NX_PLANT)
     u = ca.SX.sym("u", 2)
@@ -68,7 +72,8 @@ class Plant:
 
     def __init__(self, params: OtterParameters, waves: WaveField | None = None,
                  current: OceanCurrent | None = None, dt: float = 0.01, integrator: Integrator = "rk4",
-                 x0: np.ndarray | None = None, t0: float = 0.0) -> None:
+                 x0: np.ndarray | None = None, t0: float = 0.0, surface_heave: bool = False,
+                 compile_step: bool | None = None) -> None:
         if not dt > 0:
             raise ConfigError(f"dt: {dt!r} s is outside the allowed range > 0 s")
         if integrator not in INTEGRATORS:
@@ -78,7 +83,11 @@ class Plant:
         self.current = current or OceanCurrent()
         self.dt = float(dt)
         self.integrator = integrator
-        self._function = plant_step(params, self.waves, self.current, dt, integrator)
+        self.surface_heave = surface_heave  # heave follows the sea (off: the paper's model)
+        self._function = plant_step(params, self.waves, self.current, dt, integrator, surface_heave)
+        # compile_step: None = compile large steps (irregular seas) when a C compiler exists; see vessel.jit
+        if compile_step or (compile_step is None and worth_compiling(self._function)):
+            self._function = compiled(self._function)
         self._x = np.zeros(NX_PLANT)
         self._u = np.zeros(2)
         self._t = np.zeros(1)

@@ -1,0 +1,53 @@
+"""Compile large CasADi functions to machine code with the system C compiler, when one is installed.
+
+CasADi's virtual machine spends ≈ 5 ns per instruction; a plant step in a 100-component irregular sea
+has ≈ 12 000 instructions (≈ 55 µs, 180× real time at dt = 0.01 s), the paper's regular sea ≈ 2 400. The
+same expression compiled by gcc -O1 runs ≈ 4× faster (≈ 14 µs, 700×) after a one-off compile of one to
+three seconds. The compiled function evaluates the identical expression graph; without a compiler (or if
+compiling fails) the virtual machine is used and a warning is logged.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import tempfile
+
+import casadi as ca
+
+LOG = logging.getLogger(__name__)
+AUTO_COMPILE_INSTRUCTIONS = 5000  # above this, compiling pays for itself within a minute of simulation
+COMPILERS = ("gcc", "cc", "clang")
+
+
+def find_compiler() -> str | None:
+    """The first C compiler on PATH, or None."""
+    for name in COMPILERS:
+        if shutil.which(name):
+            return name
+    return None
+
+
+def worth_compiling(function: ca.Function) -> bool:
+    """True for functions large enough that compiling beats the virtual machine in a long run."""
+    return function.n_instructions() > AUTO_COMPILE_INSTRUCTIONS and find_compiler() is not None
+
+
+def compiled(function: ca.Function) -> ca.Function:
+    """``function`` compiled to machine code (same inputs and outputs), or ``function`` itself if impossible."""
+    compiler = find_compiler()
+    if compiler is None:
+        LOG.warning("no C compiler found (%s): %s runs on CasADi's virtual machine", ", ".join(COMPILERS),
+                    function.name())
+        return function
+    names_in = function.name_in()
+    symbols = [ca.SX.sym(name, function.sparsity_in(i)) for i, name in enumerate(names_in)]
+    options = {"jit": True, "compiler": "shell",
+               "jit_options": {"compiler": compiler, "flags": ["-O1"], "directory": tempfile.gettempdir()}}
+    try:
+        return ca.Function(function.name(), symbols, function.call(symbols), names_in, function.name_out(),
+                           options)
+    except RuntimeError as exc:
+        LOG.warning("compiling %s failed (%s): using CasADi's virtual machine", function.name(),
+                    str(exc).splitlines()[0] if str(exc) else exc)
+        return function
