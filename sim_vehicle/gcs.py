@@ -7,9 +7,11 @@ from collections.abc import Callable
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from .commands import handle_command, handle_set_mode
-from .guided import from_global, from_local
+from .commands import CommandHandler
+from .geo import Home
+from .guided import ACC_XY_IGNORE, from_global, from_local
 from .link import Channel, SerialChannel, TcpServer, TlogHook, UdpChannel
+from .mission import MissionStore
 from .missionproto import MissionServer
 from .modes import Mode
 from .paramproto import ParamServer
@@ -22,13 +24,25 @@ log = logging.getLogger("sim_vehicle")
 HEARTBEAT_INTERVAL_S = 1.0
 STATUSTEXT_CHUNK = 50
 AUTOPILOT_VERSION_REQUEST = 183
+NO_CHANGE = 65535  # RC override value that leaves a channel as it is
+AXIS_RELEASE = 32767  # MANUAL_CONTROL axis value INT16_MAX: release that channel's override
 
 
 class Gcs:
-    """All MAVLink channels of the vehicle and what it says on them."""
+    """All MAVLink channels of the vehicle, the protocol servers behind them, and what it says on them.
+
+    Built complete: the parameter, mission and command servers are made here from the parts they serve.
+    """
 
     def __init__(
-        self, params: ParamTable, vehicle: Vehicle, telemetry: Telemetry, tlog: TlogHook | None
+        self,
+        params: ParamTable,
+        vehicle: Vehicle,
+        telemetry: Telemetry,
+        store: MissionStore,
+        home: Home,
+        banner: list[str],
+        tlog: TlogHook | None,
     ) -> None:
         self.params, self.vehicle, self.telemetry = params, vehicle, telemetry
         self.sysid = int(params["SYSID_THISMAV"])
@@ -40,8 +54,9 @@ class Gcs:
         self._next_heartbeat: dict[int, float] = {}
         self._text_id = 0
         self._ignored_override_from: set[int] = set()
-        self.missions: MissionServer | None = None  # set by the simulator (needs the store and runner)
-        self.param_server = ParamServer(params, self.text, self.broadcast, [])
+        self.missions = MissionServer(store, vehicle.runner, home, self.text, self.broadcast, vehicle.guided_goto)
+        self.param_server = ParamServer(params, self.text, self.broadcast, banner)
+        self.commands = CommandHandler(vehicle, telemetry, self.missions, self.schedule, self.text)
         self.now = 0.0
 
     # channels
@@ -134,13 +149,14 @@ class Gcs:
         src = msg.get_srcSystem()
         if kind == "HEARTBEAT":
             if src == int(self.params["SYSID_MYGCS"]):
-                self.vehicle.gcs_last_seen = self.now
+                self.vehicle.gcs_heartbeat()
             return
         handler: Callable[[Channel, mavlink.MAVLink_message], None] | None = {
-            "COMMAND_LONG": self._command,
-            "COMMAND_INT": self._command,
-            "SET_MODE": self._set_mode,
+            "COMMAND_LONG": self.commands.handle_command,
+            "COMMAND_INT": self.commands.handle_command,
+            "SET_MODE": self.commands.handle_set_mode,
             "RC_CHANNELS_OVERRIDE": self._override,
+            "MANUAL_CONTROL": self._manual_control,
             "SET_ATTITUDE_TARGET": self._attitude_target,
             "REQUEST_DATA_STREAM": self._data_stream,
             "SET_POSITION_TARGET_LOCAL_NED": self._position_target,
@@ -151,18 +167,10 @@ class Gcs:
             handler(channel, msg)
         elif kind.startswith("PARAM_"):
             self.param_server.handle(channel, msg)
-        elif kind.startswith("MISSION_") and self.missions is not None:
+        elif kind.startswith("MISSION_"):
             self.missions.handle(channel, msg, self.now)
         elif msg.get_msgId() == AUTOPILOT_VERSION_REQUEST:
             channel.send(self.telemetry.autopilot_version())
-
-    def _command(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """COMMAND_LONG / COMMAND_INT."""
-        handle_command(self, channel, msg)
-
-    def _set_mode(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """The SET_MODE message."""
-        handle_set_mode(self, channel, msg)
 
     def _override(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """RC_CHANNELS_OVERRIDE, taken only from SYSID_MYGCS (others are logged once and ignored)."""
@@ -179,6 +187,27 @@ class Gcs:
         channels = [getattr(msg, f"chan{i}_raw", 0) for i in range(1, 19)]
         self.vehicle.override(channels)
 
+    def _manual_control(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """MANUAL_CONTROL from SYSID_MYGCS aimed at us: y -> steering (ch1), z -> throttle (ch3) overrides.
+
+        As Rover's handle_manual_control_axes: each axis -1000..1000 maps onto RCn_MIN..RCn_MAX, INT16_MAX
+        releases the channel; the overrides expire like RC_CHANNELS_OVERRIDE and count as the GCS being seen.
+        """
+        if msg.get_srcSystem() != int(self.params["SYSID_MYGCS"]) or msg.target != self.sysid:
+            return
+        channels = [NO_CHANGE] * 18
+        for ch, value in ((1, msg.y), (3, msg.z)):
+            channels[ch - 1] = self._axis_pwm(ch, int(value))
+        self.vehicle.override(channels)
+
+    def _axis_pwm(self, ch: int, value: int) -> int:
+        """GCS_MAVLINK::manual_override: -1000..1000 -> RCn_MIN..RCn_MAX (truncated); INT16_MAX -> 0 (release)."""
+        if value == AXIS_RELEASE:
+            return 0
+        lo, hi = int(self.params[f"RC{ch}_MIN"]), int(self.params[f"RC{ch}_MAX"])
+        pwm = int(lo + (hi - lo) * (value + 1000) / 2000.0)
+        return min(NO_CHANGE - 1, max(1, pwm))  # 0 and 65535 are release / no-change codes on the wire
+
     def _attitude_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """SET_ATTITUDE_TARGET (the vehicle drops it outside GUIDED)."""
         self.vehicle.attitude_target(msg.type_mask, list(msg.q), msg.body_yaw_rate, msg.thrust)
@@ -188,10 +217,14 @@ class Gcs:
         v = self.vehicle
         if v.mode != Mode.GUIDED:
             return
+        if not int(msg.type_mask) & ACC_XY_IGNORE:
+            self.text(mavlink.MAV_SEVERITY_INFO, f"Ignoring {msg.get_type()}; set ACC_IGNORE in mask")
+            return
+        wp_speed = v.guided_waypoint_speed()
         if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
-            v.set_guided(from_local(msg, v.nav, v.default_speed(), self.now))
+            v.set_guided(from_local(msg, v.nav, v.default_speed(), self.now, wp_speed))
         else:
-            v.set_guided(from_global(msg, v.home, v.nav, v.default_speed(), self.now))
+            v.set_guided(from_global(msg, v.home, v.nav, v.default_speed(), self.now, wp_speed))
 
     def _timesync(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """Answer a TIMESYNC request (tc1 = 0) with our simulated clock in ns."""
@@ -207,8 +240,7 @@ class Gcs:
         """Heartbeats at 1 Hz and every streamed message that is due, on every channel."""
         self.now = now
         self.param_server.update()
-        if self.missions is not None:
-            self.missions.update(now)
+        self.missions.update(now)
         built: dict[int, mavlink.MAVLink_message | None] = {}
         for channel in self.channels:
             if channel.closed:

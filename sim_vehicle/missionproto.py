@@ -53,11 +53,12 @@ class MissionServer:
         home: Home,
         text: Callable[[int, str], None],
         broadcast: Callable[[mavlink.MAVLink_message], None],
+        guided_goto: Callable[[float, float], bool],
     ) -> None:
         self.store, self.runner, self.home = store, runner, home
         self.text, self.broadcast = text, broadcast
+        self.guided_goto = guided_goto  # MISSION_ITEM current=2: (lat, lon) -> accepted (only in GUIDED)
         self.upload: Upload | None = None
-        self.guided_goto: Callable[[float, float], bool] | None = None  # lat, lon -> accepted
         self._warned_float: set[int] = set()
 
     def handle(self, channel: Channel, msg: mavlink.MAVLink_message, now: float) -> None:
@@ -125,11 +126,7 @@ class MissionServer:
         mtype = self._type(msg)
         if msg.current == 2 and mtype == MISSION:  # a guided "go to" point, not part of an upload
             item = item_from_int(msg) if msg.get_type() == "MISSION_ITEM_INT" else item_from_float(msg)
-            ok = (
-                item is not None
-                and self.guided_goto is not None
-                and self.guided_goto(item.x / 1e7, item.y / 1e7)
-            )
+            ok = item is not None and self.guided_goto(item.x / 1e7, item.y / 1e7)
             self._ack(channel, msg, M.MAV_MISSION_ACCEPTED if ok else M.MAV_MISSION_ERROR, mtype)
             return
         up = self.upload

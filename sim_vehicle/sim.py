@@ -13,21 +13,21 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from vessel import OceanCurrent, RegularWaves
 from vessel.config import ConfigError
 
+from .battery import Battery
 from .clock import Pacer
 from .gcs import Gcs
 from .geo import Home
-from .guided import to_location
 from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
-from .missionproto import MissionServer
 from .modes import Mode
 from .params import ParamTable, baud_from_code
 from .physics import PHYSICS_DT_S, Physics, make_waves, nav_state
-from .telemetry import FIRMWARE_VERSION, Battery, Telemetry
+from .telemetry import FIRMWARE_VERSION, Telemetry
 from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
 CSV_FLUSH_S = 1.0
+FRAME_CLASS_BOAT = 2
 SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 
 
@@ -69,10 +69,7 @@ class Simulator:
         self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
         self.csv = StateCsv(opts.log_dir / "state.csv") if opts.log_dir else None
         self.battery = Battery()
-        self.gcs: Gcs
-        self.vehicle = Vehicle(
-            self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver
-        )
+        self.vehicle = Vehicle(self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver)
         self.telemetry = Telemetry(
             self.physics,
             self.vehicle,
@@ -83,16 +80,15 @@ class Simulator:
             self.battery,
             self.boot_unix_us,
         )
-        self.gcs = Gcs(self.params, self.vehicle, self.telemetry, self.tlog.write if self.tlog else None)
-        self.gcs.missions = MissionServer(
-            self.store, self.vehicle.runner, self.home, self._text, self.gcs.broadcast
+        self.gcs = Gcs(
+            self.params,
+            self.vehicle,
+            self.telemetry,
+            self.store,
+            self.home,
+            self._banner(),
+            self.tlog.write if self.tlog else None,
         )
-        self.gcs.missions.guided_goto = self._guided_goto
-        major, minor, patch = FIRMWARE_VERSION
-        self.gcs.param_server.banner = [
-            f"ArduRover V{major}.{minor}.{patch} (sim_vehicle Otter SITL)",
-            "Frame: BOAT" if self.params["FRAME_CLASS"] == 2 else "Frame: ROVER",
-        ]
         if opts.tcp_port is not None:
             self.gcs.add_tcp_server(opts.tcp_host, opts.tcp_port)
         for host, port in opts.outputs:
@@ -124,10 +120,11 @@ class Simulator:
         """STATUSTEXT from the vehicle logic to every channel."""
         self.gcs.text(severity, text)
 
-    def _guided_goto(self, lat_deg: float, lon_deg: float) -> bool:
-        """MISSION_ITEM with current=2: a guided waypoint, accepted only in GUIDED."""
-        v = self.vehicle
-        return v.set_guided(to_location(lat_deg, lon_deg, self.home, v.nav, v.default_speed(), v.now))
+    def _banner(self) -> list[str]:
+        """The STATUSTEXT lines Rover sends when a GCS asks for all parameters (firmware and frame)."""
+        major, minor, patch = FIRMWARE_VERSION
+        frame = "Frame: BOAT" if self.params["FRAME_CLASS"] == FRAME_CLASS_BOAT else "Frame: ROVER"
+        return [f"ArduRover V{major}.{minor}.{patch} (sim_vehicle Otter SITL)", frame]
 
     def _reached(self, seq: int) -> None:
         """MISSION_ITEM_REACHED to every channel when a nav item completes."""

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from .auto import MissionRunner
+from .battery import Battery
 from .geo import Home, wrap_pi
 from .mission import MissionStore
 from .modes import MODE_INFO, Mode, base_mode
@@ -16,41 +16,32 @@ from .physics import Physics, nav_state, ned_velocity
 from .vehicle import Vehicle
 
 FIRMWARE_VERSION = (4, 5, 7)  # the ArduRover release whose behaviour this simulator follows
-# MISSION_FLOAT, PARAM_FLOAT, MISSION_INT, COMMAND_INT, SET_ATTITUDE_TARGET, SET_POSITION_TARGET_LOCAL_NED and
-# _GLOBAL_INT, MAVLINK2, MISSION_FENCE, MISSION_RALLY (no FTP, terrain or compass calibration here)
-CAPABILITIES = 1 | 2 | 4 | 8 | 64 | 128 | 256 | 8192 | 16384 | 32768
+M = mavlink
+# no FTP, terrain or compass calibration here
+CAPABILITIES = (
+    M.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+    | M.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    | M.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+    | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+)
 SENSORS = (
-    0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x2000000
-)  # gyro, accel, mag, GPS, motors, AHRS, battery
-RC_RECEIVER_BIT = 0x10000
-PREARM_BIT = 0x10000000
-BATTERY_CAPACITY_MAH = 96000.0  # the Otter's 4 x 24 Ah packs
-BATTERY_VOLTS = 25.2
-
-
-@dataclass
-class Battery:
-    """A simple energy account: current from propeller demand, remaining charge by coulomb counting."""
-
-    consumed_mah: float = 0.0
-    current_a: float = 1.0
-
-    def update(self, outputs: tuple[float, float], dt: float) -> None:
-        """Hotel load plus a thruster load rising with |output|^1.5 (40 A per motor at full power)."""
-        self.current_a = 1.0 + 40.0 * sum(abs(o) ** 1.5 for o in outputs)
-        self.consumed_mah += self.current_a * dt / 3.6
-
-    @property
-    def remaining_pct(self) -> int:
-        """Remaining charge, %."""
-        return max(0, min(100, round(100.0 * (1.0 - self.consumed_mah / BATTERY_CAPACITY_MAH))))
-
-    @property
-    def voltage_mv(self) -> int:
-        """Pack voltage sagging slightly with load and charge used, mV."""
-        return round(
-            1000.0 * (BATTERY_VOLTS - 0.02 * self.current_a - 3.0 * self.consumed_mah / BATTERY_CAPACITY_MAH)
-        )
+    M.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | M.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | M.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | M.MAV_SYS_STATUS_SENSOR_GPS
+    | M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | M.MAV_SYS_STATUS_AHRS
+    | M.MAV_SYS_STATUS_SENSOR_BATTERY
+)
+RC_RECEIVER_BIT = M.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+PREARM_BIT = M.MAV_SYS_STATUS_PREARM_CHECK
+FRAME_CLASS_BOAT = 2
 
 
 def _cdeg(rad: float) -> int:
@@ -61,6 +52,22 @@ def _cdeg(rad: float) -> int:
 def _i16(value: float) -> int:
     """Clamp into int16."""
     return max(-32768, min(32767, round(value)))
+
+
+def _nav_controller_output(
+    heading: float, bearing: float, distance_m: float, speed_error: float, xtrack_m: float
+) -> mavlink.MAVLink_message:
+    """NAV_CONTROLLER_OUTPUT: desired heading and bearing to the target (rad, NED), distance, errors."""
+    return mavlink.MAVLink_nav_controller_output_message(
+        nav_roll=0,
+        nav_pitch=0,
+        nav_bearing=_i16(math.degrees(heading)),
+        target_bearing=_i16(math.degrees(bearing)),
+        wp_dist=min(65535, round(distance_m)),
+        alt_error=0,
+        aspd_error=speed_error,
+        xtrack_error=xtrack_m,
+    )
 
 
 class Telemetry:
@@ -81,23 +88,23 @@ class Telemetry:
         self.store, self.runner, self.battery = store, runner, battery
         self.boot_unix_us = boot_unix_us
         self.builders = {
-            0: self.heartbeat,
-            1: self.sys_status,
-            2: self.system_time,
-            24: self.gps_raw_int,
-            30: self.attitude,
-            32: self.local_position_ned,
-            33: self.global_position_int,
-            34: self.rc_channels_scaled,
-            36: self.servo_output_raw,
-            42: self.mission_current,
-            49: self.gps_global_origin,
-            62: self.nav_controller_output,
-            65: self.rc_channels,
-            74: self.vfr_hud,
-            147: self.battery_status,
-            148: self.autopilot_version,
-            242: self.home_position,
+            M.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat,
+            M.MAVLINK_MSG_ID_SYS_STATUS: self.sys_status,
+            M.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time,
+            M.MAVLINK_MSG_ID_GPS_RAW_INT: self.gps_raw_int,
+            M.MAVLINK_MSG_ID_ATTITUDE: self.attitude,
+            M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.local_position_ned,
+            M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.global_position_int,
+            M.MAVLINK_MSG_ID_RC_CHANNELS_SCALED: self.rc_channels_scaled,
+            M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: self.servo_output_raw,
+            M.MAVLINK_MSG_ID_MISSION_CURRENT: self.mission_current,
+            M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin,
+            M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: self.nav_controller_output,
+            M.MAVLINK_MSG_ID_RC_CHANNELS: self.rc_channels,
+            M.MAVLINK_MSG_ID_VFR_HUD: self.vfr_hud,
+            M.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status,
+            M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
+            M.MAVLINK_MSG_ID_HOME_POSITION: self.home_position,
         }
 
     # time
@@ -133,11 +140,16 @@ class Telemetry:
             status = mavlink.MAV_STATE_ACTIVE
         vtype = (
             mavlink.MAV_TYPE_SURFACE_BOAT
-            if self.params["FRAME_CLASS"] == 2
+            if self.params["FRAME_CLASS"] == FRAME_CLASS_BOAT
             else mavlink.MAV_TYPE_GROUND_ROVER
         )
         return mavlink.MAVLink_heartbeat_message(
-            vtype, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode(v.mode, v.armed), int(v.mode), status, 3
+            type=vtype,
+            autopilot=mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode=base_mode(v.mode, v.armed),
+            custom_mode=int(v.mode),
+            system_status=status,
+            mavlink_version=3,
         )
 
     def sys_status(self) -> mavlink.MAVLink_message:
@@ -147,30 +159,32 @@ class Telemetry:
         healthy = SENSORS
         if v.rc.receiver or v.rc.last_override_time is not None:
             present |= RC_RECEIVER_BIT
-            if not v.failsafes["rc"].triggered:
+            if not v.failsafes.rc.triggered:
                 healthy |= RC_RECEIVER_BIT
         if v.armed or not v.prearm_failure():
             healthy |= PREARM_BIT
         b = self.battery
         return mavlink.MAVLink_sys_status_message(
-            present,
-            present,
-            healthy,
-            150,
-            b.voltage_mv,
-            round(b.current_a * 100),
-            b.remaining_pct,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
+            onboard_control_sensors_present=present,
+            onboard_control_sensors_enabled=present,
+            onboard_control_sensors_health=healthy,
+            load=150,
+            voltage_battery=b.voltage_mv,
+            current_battery=round(b.current_a * 100),
+            battery_remaining=b.remaining_pct,
+            drop_rate_comm=0,
+            errors_comm=0,
+            errors_count1=0,
+            errors_count2=0,
+            errors_count3=0,
+            errors_count4=0,
         )
 
     def system_time(self) -> mavlink.MAVLink_message:
         """Unix time on the simulated clock."""
-        return mavlink.MAVLink_system_time_message(self.boot_unix_us + self.boot_us, self.boot_ms)
+        return mavlink.MAVLink_system_time_message(
+            time_unix_usec=self.boot_unix_us + self.boot_us, time_boot_ms=self.boot_ms
+        )
 
     def _position(self) -> tuple[float, float, float]:
         """Latitude, longitude (deg) and altitude AMSL (m) of the boat now."""
@@ -185,35 +199,35 @@ class Telemetry:
         speed = math.hypot(vn, ve)
         cog = _cdeg(math.atan2(ve, vn)) if speed > 0.05 else 0
         return mavlink.MAVLink_gps_raw_int_message(
-            self.boot_us,
-            3,
-            round(lat * 1e7),
-            round(lon * 1e7),
-            round(alt * 1000),
-            80,
-            120,
-            min(65534, round(speed * 100)),
-            cog,
-            12,
-            round(alt * 1000),
-            300,
-            500,
-            20,
-            0,
-            0,
+            time_usec=self.boot_us,
+            fix_type=mavlink.GPS_FIX_TYPE_3D_FIX,
+            lat=round(lat * 1e7),
+            lon=round(lon * 1e7),
+            alt=round(alt * 1000),
+            eph=80,
+            epv=120,
+            vel=min(65534, round(speed * 100)),
+            cog=cog,
+            satellites_visible=12,
+            alt_ellipsoid=round(alt * 1000),
+            h_acc=300,
+            v_acc=500,
+            vel_acc=20,
+            hdg_acc=0,
+            yaw=0,
         )
 
     def attitude(self) -> mavlink.MAVLink_message:
         """Euler angles and body rates of the plant now."""
         x = self.physics.plant.state
         return mavlink.MAVLink_attitude_message(
-            self.boot_ms,
-            float(x[3]),
-            float(x[4]),
-            wrap_pi(float(x[5])),
-            float(x[9]),
-            float(x[10]),
-            float(x[11]),
+            time_boot_ms=self.boot_ms,
+            roll=float(x[3]),
+            pitch=float(x[4]),
+            yaw=wrap_pi(float(x[5])),
+            rollspeed=float(x[9]),
+            pitchspeed=float(x[10]),
+            yawspeed=float(x[11]),
         )
 
     def global_position_int(self) -> mavlink.MAVLink_message:
@@ -222,15 +236,15 @@ class Telemetry:
         lat, lon, alt = self._position()
         vn, ve, vd = ned_velocity(x)
         return mavlink.MAVLink_global_position_int_message(
-            self.boot_ms,
-            round(lat * 1e7),
-            round(lon * 1e7),
-            round(alt * 1000),
-            round(-float(x[2]) * 1000),
-            _i16(vn * 100),
-            _i16(ve * 100),
-            _i16(vd * 100),
-            _cdeg(float(x[5])),
+            time_boot_ms=self.boot_ms,
+            lat=round(lat * 1e7),
+            lon=round(lon * 1e7),
+            alt=round(alt * 1000),
+            relative_alt=round(-float(x[2]) * 1000),
+            vx=_i16(vn * 100),
+            vy=_i16(ve * 100),
+            vz=_i16(vd * 100),
+            hdg=_cdeg(float(x[5])),
         )
 
     def local_position_ned(self) -> mavlink.MAVLink_message:
@@ -238,7 +252,7 @@ class Telemetry:
         x = self.physics.plant.state
         vn, ve, vd = ned_velocity(x)
         return mavlink.MAVLink_local_position_ned_message(
-            self.boot_ms, float(x[0]), float(x[1]), float(x[2]), vn, ve, vd
+            time_boot_ms=self.boot_ms, x=float(x[0]), y=float(x[1]), z=float(x[2]), vx=vn, vy=ve, vz=vd
         )
 
     def vfr_hud(self) -> mavlink.MAVLink_message:
@@ -248,61 +262,54 @@ class Telemetry:
         speed = math.hypot(vn, ve)
         _, _, alt = self._position()
         return mavlink.MAVLink_vfr_hud_message(
-            speed,
-            speed,
-            _cdeg(float(x[5])) // 100,
-            min(100, round(abs(self.vehicle.throttle) * 100)),
-            alt,
-            -vd,
+            airspeed=speed,
+            groundspeed=speed,
+            heading=_cdeg(float(x[5])) // 100,
+            throttle=min(100, round(abs(self.vehicle.throttle) * 100)),
+            alt=alt,
+            climb=-vd,
         )
 
     def servo_output_raw(self) -> mavlink.MAVLink_message:
         """PWM on outputs 1-16."""
-        pwm = [p if 0 <= p < 65535 else 0 for p in self.vehicle.servo_pwm]
-        return mavlink.MAVLink_servo_output_raw_message(self.boot_us % 2**32, 0, *pwm)
+        pwm = [p if 0 <= p < 65535 else 0 for p in self.vehicle.servos.pwm]
+        servos = {f"servo{n}_raw": value for n, value in enumerate(pwm, start=1)}
+        return mavlink.MAVLink_servo_output_raw_message(time_usec=self.boot_us % 2**32, port=0, **servos)
 
     def rc_channels(self) -> mavlink.MAVLink_message:
         """Effective RC input (receiver and overrides)."""
         v = self.vehicle
         pwm = [max(0, min(65535, p)) for p in v.rc.all_pwm(v.now, self.params["RC_OVERRIDE_TIME"])]
         count = 16 if v.rc.receiver else sum(1 for p in pwm if p > 0)
-        return mavlink.MAVLink_rc_channels_message(self.boot_ms, count, *pwm, 0, 0, 255)
+        chans = {f"chan{n}_raw": value for n, value in enumerate([*pwm, 0, 0][:18], start=1)}
+        return mavlink.MAVLink_rc_channels_message(time_boot_ms=self.boot_ms, chancount=count, rssi=255, **chans)
 
     def rc_channels_scaled(self) -> mavlink.MAVLink_message:
         """Skid outputs as Rover's "servo out": chan1 left, chan3 right, ±10000."""
         left, right = self.vehicle.outputs
-        return mavlink.MAVLink_rc_channels_scaled_message(
-            self.boot_ms, 0, _i16(left * 10000), 0, _i16(right * 10000), 0, 0, 0, 0, 0, 255
-        )
+        scaled = {f"chan{n}_scaled": 0 for n in range(1, 9)}
+        scaled.update(chan1_scaled=_i16(left * 10000), chan3_scaled=_i16(right * 10000))
+        return mavlink.MAVLink_rc_channels_scaled_message(time_boot_ms=self.boot_ms, port=0, rssi=255, **scaled)
 
     def mission_current(self) -> mavlink.MAVLink_message:
         """Current nav item, the last seq and the mission state."""
         total = max(0, len(self.store.items(0)) - 1)
         seq = self.runner.current if self.store.present() else 0
         state = self.runner.mission_state(self.vehicle.mode == Mode.AUTO)
-        return mavlink.MAVLink_mission_current_message(seq, total, state, 0)
+        return mavlink.MAVLink_mission_current_message(seq=seq, total=total, mission_state=state, mission_mode=0)
 
     def nav_controller_output(self) -> mavlink.MAVLink_message | None:
         """Navigator state, only in autopilot modes."""
         v = self.vehicle
         if not MODE_INFO[v.mode].autopilot:
             return None
-        out = v.nav_output
+        out, guided = v.navigator.output, v.navigator.guided
         nav = nav_state(self.physics.plant.state)
         if out is None:
-            heading = v.guided.heading if v.guided is not None and v.guided.heading is not None else nav.yaw
-            return mavlink.MAVLink_nav_controller_output_message(
-                0, 0, _i16(math.degrees(heading)), _i16(math.degrees(heading)), 0, 0, 0, 0
-            )
-        return mavlink.MAVLink_nav_controller_output_message(
-            0,
-            0,
-            _i16(math.degrees(wrap_pi(out.heading))),
-            _i16(math.degrees(wrap_pi(out.bearing))),
-            min(65535, round(out.distance)),
-            0,
-            out.speed - nav.forward_speed,
-            out.xtrack,
+            heading = guided.heading if guided is not None and guided.heading is not None else nav.yaw
+            return _nav_controller_output(heading, heading, 0.0, 0.0, 0.0)
+        return _nav_controller_output(
+            wrap_pi(out.heading), wrap_pi(out.bearing), out.distance, out.speed - nav.forward_speed, out.xtrack
         )
 
     def battery_status(self) -> mavlink.MAVLink_message:
@@ -310,44 +317,47 @@ class Telemetry:
         b = self.battery
         cells = [min(65534, b.voltage_mv)] + [65535] * 9
         return mavlink.MAVLink_battery_status_message(
-            0,
-            0,
-            0,
-            32767,
-            cells,
-            round(b.current_a * 100),
-            round(b.consumed_mah),
-            -1,
-            b.remaining_pct,
-            0,
-            1,
-            [0, 0, 0, 0],
-            0,
-            0,
+            id=0,
+            battery_function=mavlink.MAV_BATTERY_FUNCTION_UNKNOWN,
+            type=mavlink.MAV_BATTERY_TYPE_UNKNOWN,
+            temperature=32767,  # unknown
+            voltages=cells,
+            current_battery=round(b.current_a * 100),
+            current_consumed=round(b.consumed_mah),
+            energy_consumed=-1,
+            battery_remaining=b.remaining_pct,
+            time_remaining=0,
+            charge_state=mavlink.MAV_BATTERY_CHARGE_STATE_OK,
+            voltages_ext=[0, 0, 0, 0],
+            mode=0,
+            fault_bitmask=0,
         )
 
     def home_position(self) -> mavlink.MAVLink_message:
         """Home (also the EKF origin)."""
         h = self.home
         return mavlink.MAVLink_home_position_message(
-            round(h.lat_deg * 1e7),
-            round(h.lon_deg * 1e7),
-            round(h.alt_m * 1000),
-            0,
-            0,
-            0,
-            [1, 0, 0, 0],
-            0,
-            0,
-            0,
-            self.boot_us,
+            latitude=round(h.lat_deg * 1e7),
+            longitude=round(h.lon_deg * 1e7),
+            altitude=round(h.alt_m * 1000),
+            x=0,
+            y=0,
+            z=0,
+            q=[1, 0, 0, 0],
+            approach_x=0,
+            approach_y=0,
+            approach_z=0,
+            time_usec=self.boot_us,
         )
 
     def gps_global_origin(self) -> mavlink.MAVLink_message:
         """The EKF origin (home)."""
         h = self.home
         return mavlink.MAVLink_gps_global_origin_message(
-            round(h.lat_deg * 1e7), round(h.lon_deg * 1e7), round(h.alt_m * 1000), self.boot_us
+            latitude=round(h.lat_deg * 1e7),
+            longitude=round(h.lon_deg * 1e7),
+            altitude=round(h.alt_m * 1000),
+            time_usec=self.boot_us,
         )
 
     def autopilot_version(self) -> mavlink.MAVLink_message:
@@ -355,5 +365,16 @@ class Telemetry:
         major, minor, patch = FIRMWARE_VERSION
         version = major << 24 | minor << 16 | patch << 8 | 255
         return mavlink.MAVLink_autopilot_version_message(
-            CAPABILITIES, version, 0, 0, 0, b"\0" * 8, b"\0" * 8, b"\0" * 8, 0, 0, 0, [0] * 18
+            capabilities=CAPABILITIES,
+            flight_sw_version=version,
+            middleware_sw_version=0,
+            os_sw_version=0,
+            board_version=0,
+            flight_custom_version=b"\0" * 8,
+            middleware_custom_version=b"\0" * 8,
+            os_custom_version=b"\0" * 8,
+            vendor_id=0,
+            product_id=0,
+            uid=0,
+            uid2=[0] * 18,
         )
