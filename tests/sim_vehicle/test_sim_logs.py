@@ -8,14 +8,16 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from sim_vehicle.harness import SimProcess, command, latest_sim_seconds, wait_for
+from sim_vehicle.harness import SimProcess
+from tests.rover import SET_MESSAGE_INTERVAL
+from tests.waits import command, latest_sim_seconds, wait_for
 
 
 def test_speedup_10_runs_ten_times_faster(tmp_path) -> None:
     """Simulated time advances ten times as fast as the wall clock."""
     with SimProcess(tmp_path, speedup=10) as sim:
         conn = sim.connect()
-        assert command(conn, 511, 30, 20000) == 0  # ATTITUDE at 50 Hz: a fine clock reading
+        assert command(conn, SET_MESSAGE_INTERVAL, 30, 20000) == 0  # ATTITUDE at 50 Hz: a fine clock reading
         time.sleep(0.5)
         t0_sim, t0_wall = latest_sim_seconds(conn), time.monotonic()
         time.sleep(2.0)
@@ -30,14 +32,10 @@ def wavy_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[SimProcess, list
     sim = SimProcess(tmp_path_factory.mktemp("waves"), speedup=20, waves="paper")
     with sim:
         conn = sim.connect()
-        assert command(conn, 511, 30, 100000) == 0
-        attitudes = []
-        while len(attitudes) < 40:
-            msg = wait_for(conn, "ATTITUDE", 5)
-            assert msg is not None
-            attitudes.append(msg)
+        assert command(conn, SET_MESSAGE_INTERVAL, 30, 100000) == 0
+        attitudes = [wait_for(conn, "ATTITUDE", 5) for _ in range(40)]
         conn.mav.param_request_read_send(1, 1, b"WP_SPEED", -1)
-        assert wait_for(conn, "PARAM_VALUE", 5) is not None
+        assert wait_for(conn, "PARAM_VALUE", 5).param_id == "WP_SPEED"
     return sim, attitudes
 
 
