@@ -161,7 +161,7 @@ class CommandHandler:
 
     def _home_position(self, _channel: Channel, _p: list[float], follow_up: list[mavlink.MAVLink_message]) -> int:
         """GET_HOME_POSITION: HOME_POSITION and GPS_GLOBAL_ORIGIN after the ACK."""
-        follow_up += [self.telemetry.home_position(), self.telemetry.gps_global_origin()]
+        follow_up += [self.telemetry.plant.home_position(), self.telemetry.plant.gps_global_origin()]
         return M.MAV_RESULT_ACCEPTED
 
     def _capabilities(self, _channel: Channel, p: list[float], follow_up: list[mavlink.MAVLink_message]) -> int:

@@ -8,12 +8,11 @@ from collections.abc import Callable
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from .commands import CommandHandler
+from .control_inputs import ControlInputs
 from .geo import Home
-from .guided import ACC_XY_IGNORE, from_global, from_local
 from .link import Channel, SerialChannel, TcpServer, TlogHook, UdpChannel
 from .mission import MissionStore
 from .missionproto import MissionServer
-from .modes import Mode
 from .paramproto import ParamServer
 from .params import ParamTable
 from .streams import Schedule
@@ -24,8 +23,6 @@ log = logging.getLogger("sim_vehicle")
 HEARTBEAT_INTERVAL_S = 1.0
 STATUSTEXT_CHUNK = 50
 AUTOPILOT_VERSION_REQUEST = 183
-NO_CHANGE = 65535  # RC override value that leaves a channel as it is
-AXIS_RELEASE = 32767  # MANUAL_CONTROL axis value INT16_MAX: release that channel's override
 
 
 class Gcs:
@@ -53,10 +50,18 @@ class Gcs:
         self._schedules: dict[int, Schedule] = {}
         self._next_heartbeat: dict[int, float] = {}
         self._text_id = 0
-        self._ignored_override_from: set[int] = set()
         self.missions = MissionServer(store, vehicle.runner, home, self.text, self.broadcast, vehicle.guided_goto)
         self.param_server = ParamServer(params, self.text, self.broadcast, banner)
         self.commands = CommandHandler(vehicle, telemetry, self.missions, self.schedule, self.text)
+        self.inputs = ControlInputs(params, vehicle, self.sysid, self.text)
+        self._handlers: dict[str, Callable[[Channel, mavlink.MAVLink_message], None]] = {
+            "COMMAND_LONG": self.commands.handle_command,
+            "COMMAND_INT": self.commands.handle_command,
+            "SET_MODE": self.commands.handle_set_mode,
+            "REQUEST_DATA_STREAM": self._data_stream,
+            "TIMESYNC": self._timesync,
+            **self.inputs.handlers(),
+        }
         self.now = 0.0
 
     # channels
@@ -109,7 +114,7 @@ class Gcs:
             self._text_id = self._text_id % 65535 + 1
             msg_id = self._text_id
         for seq, chunk in enumerate(chunks):
-            msg = mavlink.MAVLink_statustext_message(severity, chunk, msg_id, seq)
+            msg = mavlink.MAVLink_statustext_message(severity=severity, text=chunk, id=msg_id, chunk_seq=seq)
             if channel is not None:
                 channel.send(msg)
             else:
@@ -151,18 +156,7 @@ class Gcs:
             if src == int(self.params["SYSID_MYGCS"]):
                 self.vehicle.gcs_heartbeat()
             return
-        handler: Callable[[Channel, mavlink.MAVLink_message], None] | None = {
-            "COMMAND_LONG": self.commands.handle_command,
-            "COMMAND_INT": self.commands.handle_command,
-            "SET_MODE": self.commands.handle_set_mode,
-            "RC_CHANNELS_OVERRIDE": self._override,
-            "MANUAL_CONTROL": self._manual_control,
-            "SET_ATTITUDE_TARGET": self._attitude_target,
-            "REQUEST_DATA_STREAM": self._data_stream,
-            "SET_POSITION_TARGET_LOCAL_NED": self._position_target,
-            "SET_POSITION_TARGET_GLOBAL_INT": self._position_target,
-            "TIMESYNC": self._timesync,
-        }.get(kind)
+        handler = self._handlers.get(kind)
         if handler is not None:
             handler(channel, msg)
         elif kind.startswith("PARAM_"):
@@ -172,64 +166,10 @@ class Gcs:
         elif msg.get_msgId() == AUTOPILOT_VERSION_REQUEST:
             channel.send(self.telemetry.autopilot_version())
 
-    def _override(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """RC_CHANNELS_OVERRIDE, taken only from SYSID_MYGCS (others are logged once and ignored)."""
-        src = msg.get_srcSystem()
-        if src != int(self.params["SYSID_MYGCS"]):
-            if src not in self._ignored_override_from:
-                self._ignored_override_from.add(src)
-                log.warning(
-                    "ignoring RC_CHANNELS_OVERRIDE from system %d (SYSID_MYGCS is %d)",
-                    src,
-                    int(self.params["SYSID_MYGCS"]),
-                )
-            return
-        channels = [getattr(msg, f"chan{i}_raw", 0) for i in range(1, 19)]
-        self.vehicle.override(channels)
-
-    def _manual_control(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """MANUAL_CONTROL from SYSID_MYGCS aimed at us: y -> steering (ch1), z -> throttle (ch3) overrides.
-
-        As Rover's handle_manual_control_axes: each axis -1000..1000 maps onto RCn_MIN..RCn_MAX, INT16_MAX
-        releases the channel; the overrides expire like RC_CHANNELS_OVERRIDE and count as the GCS being seen.
-        """
-        if msg.get_srcSystem() != int(self.params["SYSID_MYGCS"]) or msg.target != self.sysid:
-            return
-        channels = [NO_CHANGE] * 18
-        for ch, value in ((1, msg.y), (3, msg.z)):
-            channels[ch - 1] = self._axis_pwm(ch, int(value))
-        self.vehicle.override(channels)
-
-    def _axis_pwm(self, ch: int, value: int) -> int:
-        """GCS_MAVLINK::manual_override: -1000..1000 -> RCn_MIN..RCn_MAX (truncated); INT16_MAX -> 0 (release)."""
-        if value == AXIS_RELEASE:
-            return 0
-        lo, hi = int(self.params[f"RC{ch}_MIN"]), int(self.params[f"RC{ch}_MAX"])
-        pwm = int(lo + (hi - lo) * (value + 1000) / 2000.0)
-        return min(NO_CHANGE - 1, max(1, pwm))  # 0 and 65535 are release / no-change codes on the wire
-
-    def _attitude_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """SET_ATTITUDE_TARGET (the vehicle drops it outside GUIDED)."""
-        self.vehicle.attitude_target(msg.type_mask, list(msg.q), msg.body_yaw_rate, msg.thrust)
-
-    def _position_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """SET_POSITION_TARGET_*: only in GUIDED; anything Rover cannot use is dropped silently."""
-        v = self.vehicle
-        if v.mode != Mode.GUIDED:
-            return
-        if not int(msg.type_mask) & ACC_XY_IGNORE:
-            self.text(mavlink.MAV_SEVERITY_INFO, f"Ignoring {msg.get_type()}; set ACC_IGNORE in mask")
-            return
-        wp_speed = v.guided_waypoint_speed()
-        if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
-            v.set_guided(from_local(msg, v.nav, v.default_speed(), self.now, wp_speed))
-        else:
-            v.set_guided(from_global(msg, v.home, v.nav, v.default_speed(), self.now, wp_speed))
-
     def _timesync(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """Answer a TIMESYNC request (tc1 = 0) with our simulated clock in ns."""
         if msg.tc1 == 0:
-            channel.send(mavlink.MAVLink_timesync_message(round(self.now * 1e9), msg.ts1))
+            channel.send(mavlink.MAVLink_timesync_message(tc1=round(self.now * 1e9), ts1=msg.ts1))
 
     def _data_stream(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """REQUEST_DATA_STREAM for the channel it arrived on."""

@@ -12,7 +12,8 @@ from .geo import Home, wrap_pi
 from .mission import MissionStore
 from .modes import MODE_INFO, Mode, base_mode
 from .params import ParamTable
-from .physics import Physics, nav_state, ned_velocity
+from .physics import Physics, nav_state
+from .telemetry_plant import PlantTelemetry, SimClock, i16
 from .vehicle import Vehicle
 
 FIRMWARE_VERSION = (4, 5, 7)  # the ArduRover release whose behaviour this simulator follows
@@ -44,16 +45,6 @@ PREARM_BIT = M.MAV_SYS_STATUS_PREARM_CHECK
 FRAME_CLASS_BOAT = 2
 
 
-def _cdeg(rad: float) -> int:
-    """Heading in centidegrees 0..35999."""
-    return round(math.degrees(rad) * 100.0) % 36000
-
-
-def _i16(value: float) -> int:
-    """Clamp into int16."""
-    return max(-32768, min(32767, round(value)))
-
-
 def _nav_controller_output(
     heading: float, bearing: float, distance_m: float, speed_error: float, xtrack_m: float
 ) -> mavlink.MAVLink_message:
@@ -61,8 +52,8 @@ def _nav_controller_output(
     return mavlink.MAVLink_nav_controller_output_message(
         nav_roll=0,
         nav_pitch=0,
-        nav_bearing=_i16(math.degrees(heading)),
-        target_bearing=_i16(math.degrees(bearing)),
+        nav_bearing=i16(math.degrees(heading)),
+        target_bearing=i16(math.degrees(bearing)),
         wp_dist=min(65535, round(distance_m)),
         alt_error=0,
         aspd_error=speed_error,
@@ -70,8 +61,11 @@ def _nav_controller_output(
     )
 
 
-class Telemetry:
-    """Message factory reading the live simulator objects at the moment a message is built."""
+class Telemetry(SimClock):
+    """Message factory reading the live simulator objects at the moment a message is built.
+
+    Status messages are built here; those of the plant's state by ``plant`` (a PlantTelemetry).
+    """
 
     def __init__(
         self,
@@ -84,44 +78,32 @@ class Telemetry:
         battery: Battery,
         boot_unix_us: int,
     ) -> None:
-        self.physics, self.vehicle, self.home, self.params = physics, vehicle, home, params
+        super().__init__(physics)
+        self.vehicle, self.home, self.params = vehicle, home, params
+        self.plant = PlantTelemetry(physics, vehicle, home)
         self.store, self.runner, self.battery = store, runner, battery
         self.boot_unix_us = boot_unix_us
         self.builders = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat,
             M.MAVLINK_MSG_ID_SYS_STATUS: self.sys_status,
             M.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time,
-            M.MAVLINK_MSG_ID_GPS_RAW_INT: self.gps_raw_int,
-            M.MAVLINK_MSG_ID_ATTITUDE: self.attitude,
-            M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.local_position_ned,
-            M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.global_position_int,
+            M.MAVLINK_MSG_ID_GPS_RAW_INT: self.plant.gps_raw_int,
+            M.MAVLINK_MSG_ID_ATTITUDE: self.plant.attitude,
+            M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.plant.local_position_ned,
+            M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.plant.global_position_int,
             M.MAVLINK_MSG_ID_RC_CHANNELS_SCALED: self.rc_channels_scaled,
             M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: self.servo_output_raw,
             M.MAVLINK_MSG_ID_MISSION_CURRENT: self.mission_current,
-            M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.gps_global_origin,
+            M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.plant.gps_global_origin,
             M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: self.nav_controller_output,
             M.MAVLINK_MSG_ID_RC_CHANNELS: self.rc_channels,
-            M.MAVLINK_MSG_ID_VFR_HUD: self.vfr_hud,
+            M.MAVLINK_MSG_ID_VFR_HUD: self.plant.vfr_hud,
             M.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status,
             M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
-            M.MAVLINK_MSG_ID_HOME_POSITION: self.home_position,
+            M.MAVLINK_MSG_ID_HOME_POSITION: self.plant.home_position,
         }
 
     # time
-    @property
-    def t(self) -> float:
-        """Simulated time since boot, s."""
-        return self.physics.plant.time
-
-    @property
-    def boot_ms(self) -> int:
-        """time_boot_ms (wraps like a uint32)."""
-        return round(self.t * 1000.0) % 2**32
-
-    @property
-    def boot_us(self) -> int:
-        """Simulated microseconds since boot."""
-        return round(self.t * 1e6)
 
     def build(self, msg_id: int) -> mavlink.MAVLink_message | None:
         """The message with ``msg_id`` now, or None if not available (unknown id, or not in this mode)."""
@@ -132,7 +114,7 @@ class Telemetry:
     def heartbeat(self) -> mavlink.MAVLink_message:
         """Rover boat heartbeat."""
         v = self.vehicle
-        if v.failsafe_active:
+        if v.failsafes.active:
             status = mavlink.MAV_STATE_CRITICAL
         elif v.mode == Mode.HOLD:
             status = mavlink.MAV_STATE_STANDBY
@@ -186,90 +168,6 @@ class Telemetry:
             time_unix_usec=self.boot_unix_us + self.boot_us, time_boot_ms=self.boot_ms
         )
 
-    def _position(self) -> tuple[float, float, float]:
-        """Latitude, longitude (deg) and altitude AMSL (m) of the boat now."""
-        x = self.physics.plant.state
-        return self.home.to_geodetic(float(x[0]), float(x[1]), float(x[2]))
-
-    def gps_raw_int(self) -> mavlink.MAVLink_message:
-        """A perfect 3-D fix."""
-        x = self.physics.plant.state
-        lat, lon, alt = self._position()
-        vn, ve, _ = ned_velocity(x)
-        speed = math.hypot(vn, ve)
-        cog = _cdeg(math.atan2(ve, vn)) if speed > 0.05 else 0
-        return mavlink.MAVLink_gps_raw_int_message(
-            time_usec=self.boot_us,
-            fix_type=mavlink.GPS_FIX_TYPE_3D_FIX,
-            lat=round(lat * 1e7),
-            lon=round(lon * 1e7),
-            alt=round(alt * 1000),
-            eph=80,
-            epv=120,
-            vel=min(65534, round(speed * 100)),
-            cog=cog,
-            satellites_visible=12,
-            alt_ellipsoid=round(alt * 1000),
-            h_acc=300,
-            v_acc=500,
-            vel_acc=20,
-            hdg_acc=0,
-            yaw=0,
-        )
-
-    def attitude(self) -> mavlink.MAVLink_message:
-        """Euler angles and body rates of the plant now."""
-        x = self.physics.plant.state
-        return mavlink.MAVLink_attitude_message(
-            time_boot_ms=self.boot_ms,
-            roll=float(x[3]),
-            pitch=float(x[4]),
-            yaw=wrap_pi(float(x[5])),
-            rollspeed=float(x[9]),
-            pitchspeed=float(x[10]),
-            yawspeed=float(x[11]),
-        )
-
-    def global_position_int(self) -> mavlink.MAVLink_message:
-        """Position, NED velocity and heading."""
-        x = self.physics.plant.state
-        lat, lon, alt = self._position()
-        vn, ve, vd = ned_velocity(x)
-        return mavlink.MAVLink_global_position_int_message(
-            time_boot_ms=self.boot_ms,
-            lat=round(lat * 1e7),
-            lon=round(lon * 1e7),
-            alt=round(alt * 1000),
-            relative_alt=round(-float(x[2]) * 1000),
-            vx=_i16(vn * 100),
-            vy=_i16(ve * 100),
-            vz=_i16(vd * 100),
-            hdg=_cdeg(float(x[5])),
-        )
-
-    def local_position_ned(self) -> mavlink.MAVLink_message:
-        """Position and velocity relative to the EKF origin (home)."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
-        return mavlink.MAVLink_local_position_ned_message(
-            time_boot_ms=self.boot_ms, x=float(x[0]), y=float(x[1]), z=float(x[2]), vx=vn, vy=ve, vz=vd
-        )
-
-    def vfr_hud(self) -> mavlink.MAVLink_message:
-        """Ground speed (also in the airspeed field), heading, throttle %, altitude, climb."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
-        speed = math.hypot(vn, ve)
-        _, _, alt = self._position()
-        return mavlink.MAVLink_vfr_hud_message(
-            airspeed=speed,
-            groundspeed=speed,
-            heading=_cdeg(float(x[5])) // 100,
-            throttle=min(100, round(abs(self.vehicle.throttle) * 100)),
-            alt=alt,
-            climb=-vd,
-        )
-
     def servo_output_raw(self) -> mavlink.MAVLink_message:
         """PWM on outputs 1-16."""
         pwm = [p if 0 <= p < 65535 else 0 for p in self.vehicle.servos.pwm]
@@ -288,7 +186,7 @@ class Telemetry:
         """Skid outputs as Rover's "servo out": chan1 left, chan3 right, ±10000."""
         left, right = self.vehicle.outputs
         scaled = {f"chan{n}_scaled": 0 for n in range(1, 9)}
-        scaled.update(chan1_scaled=_i16(left * 10000), chan3_scaled=_i16(right * 10000))
+        scaled.update(chan1_scaled=i16(left * 10000), chan3_scaled=i16(right * 10000))
         return mavlink.MAVLink_rc_channels_scaled_message(time_boot_ms=self.boot_ms, port=0, rssi=255, **scaled)
 
     def mission_current(self) -> mavlink.MAVLink_message:
@@ -331,33 +229,6 @@ class Telemetry:
             voltages_ext=[0, 0, 0, 0],
             mode=0,
             fault_bitmask=0,
-        )
-
-    def home_position(self) -> mavlink.MAVLink_message:
-        """Home (also the EKF origin)."""
-        h = self.home
-        return mavlink.MAVLink_home_position_message(
-            latitude=round(h.lat_deg * 1e7),
-            longitude=round(h.lon_deg * 1e7),
-            altitude=round(h.alt_m * 1000),
-            x=0,
-            y=0,
-            z=0,
-            q=[1, 0, 0, 0],
-            approach_x=0,
-            approach_y=0,
-            approach_z=0,
-            time_usec=self.boot_us,
-        )
-
-    def gps_global_origin(self) -> mavlink.MAVLink_message:
-        """The EKF origin (home)."""
-        h = self.home
-        return mavlink.MAVLink_gps_global_origin_message(
-            latitude=round(h.lat_deg * 1e7),
-            longitude=round(h.lon_deg * 1e7),
-            altitude=round(h.alt_m * 1000),
-            time_usec=self.boot_us,
         )
 
     def autopilot_version(self) -> mavlink.MAVLink_message:

@@ -155,10 +155,6 @@ class Vehicle:
         """WP_SPEED if set, else CRUISE_SPEED (Rover's default speed)."""
         return default_speed(self.params)
 
-    def guided_waypoint_speed(self) -> float:
-        """Speed toward a GUIDED position target (m/s): the last DO_CHANGE_SPEED in this GUIDED spell, else default."""
-        return self.navigator.guided_waypoint_speed()
-
     def change_speed(self, speed: float) -> bool:
         """DO_CHANGE_SPEED (m/s, >= 0) as Rover's modes take it; False where the mode has no speed to change.
 
@@ -184,11 +180,6 @@ class Vehicle:
         target = action_mode(fs, self.params, self.mode)
         if target is not None and self.set_mode(target) != M.MAV_RESULT_ACCEPTED:
             self.set_mode(Mode.HOLD)
-
-    @property
-    def failsafe_active(self) -> bool:
-        """True while any failsafe has triggered (HEARTBEAT system_status CRITICAL)."""
-        return self.failsafes.active
 
     # ----- the control step ---------------------------------------------------------------------------------
     def update(self, nav: NavState, now: float, dt: float) -> tuple[float, float]:
