@@ -136,3 +136,15 @@ def run_for(
 def wait_sim_time(conn: Any, t_s: float, kind: str | list[str] = "ATTITUDE", timeout: float = 30.0) -> Any:
     """The first ``kind`` message stamped at or after simulated time ``t_s`` (s)."""
     return wait_for(conn, kind, timeout, lambda m: m.time_boot_ms >= t_s * 1000.0)
+
+
+def taken_by(conn: Any, timeout: float = 5.0) -> float:
+    """Simulated time (s) by which the simulator has taken every message this link sent before the call.
+
+    A TIMESYNC request goes out behind them; the simulator reads its links in order and answers with its
+    clock (as ArduPilot answers tc1 = 0 with its own time), so the reply's tc1 bounds their receipt.
+    """
+    stamp = time.monotonic_ns()
+    conn.mav.timesync_send(0, stamp)
+    reply = wait_for(conn, "TIMESYNC", timeout, lambda m: m.ts1 == stamp and m.tc1 != 0)
+    return reply.tc1 / 1e9

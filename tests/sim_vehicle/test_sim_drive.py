@@ -6,7 +6,7 @@ import math
 
 from sim_vehicle.harness import SimProcess
 from tests.rover import ARM, DO_REPOSITION, GUIDED, HOLD, KEEP, MANUAL, SET_MESSAGE_INTERVAL
-from tests.waits import command, drain, run_for, set_mode, wait_for, wait_mode
+from tests.waits import command, run_for, set_mode, taken_by, wait_for, wait_mode
 
 SIM_OPTIONS = {"speedup": 20}  # the shared ``sim`` fixture's process
 
@@ -46,9 +46,8 @@ def test_override_from_gcs_drives_forward_then_expires(sim: SimProcess) -> None:
     ahead = dn * math.cos(heading) + de * math.sin(heading)
     assert ahead > 15.0, (dn, de)
     assert math.hypot(end.vx, end.vy) > 250  # cm/s
-    drain(conn)
     _override(conn, 1500, 1900)
-    last = wait_for(conn, "SERVO_OUTPUT_RAW", 5).time_usec / 1e6
+    last = taken_by(conn)  # the simulator took the last override by this simulated time
     assert _servos_at(conn, last + 2.0) == (1900, 1900)  # RC_OVERRIDE_TIME is 3 s
     assert _servos_at(conn, last + 4.2) == (1500, 1500)  # after the MOT_SLEWRATE ramp (1 s)
     assert command(conn, ARM, 0) == 0
