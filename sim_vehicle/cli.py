@@ -164,6 +164,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="no simulated RC receiver: only overrides give RC (RC failsafe applies)",
     )
     p.add_argument("--duration", type=_duration, metavar="S", help="stop after S simulated seconds")
+    p.add_argument(
+        "--wait-for-client",
+        action="store_true",
+        help="hold simulated time at 0 until a client sends its first MAVLink message (as SITL waits for SERIAL0)",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log STATUSTEXT and connections to stderr")
     return p
 
@@ -250,6 +255,7 @@ def main(argv: list[str] | None = None) -> int:
             sea=None if args.sea is None else parse_sea(args.sea),
             current=None if args.current is None else parse_current(args.current),
             serial=args.serial,
+            wait_for_client=args.wait_for_client,
         )
         if scenario is not None:
             opts.vessel = scenario.vessel

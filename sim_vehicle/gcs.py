@@ -63,6 +63,7 @@ class Gcs:
             **self.inputs.handlers(),
         }
         self.now = 0.0
+        self.messages_received = 0  # from any client, since start
 
     # channels
     def add_udp(self, host: str, port: int) -> None:
@@ -130,6 +131,7 @@ class Gcs:
                 self.channels.append(client)
         for channel in list(self.channels):
             for msg in channel.receive():
+                self.messages_received += 1
                 try:
                     self.dispatch(channel, msg)
                 except Exception:

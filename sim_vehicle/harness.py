@@ -45,6 +45,7 @@ class SimProcess:
         waves: str | None = "calm",
         extra: Sequence[str] = (),
         udp_outs: int = 0,
+        wait_for_client: bool = False,
     ) -> None:
         self.workdir = Path(workdir)
         self.tcp_port = free_port()
@@ -64,6 +65,9 @@ class SimProcess:
             *extra,
         ]
         self.args += [a for p in self.udp_ports for a in ("--out", f"udp:127.0.0.1:{p}")] or ["--no-out"]
+        self.wait_for_client = wait_for_client  # --wait-for-client: simulated time starts when a client speaks
+        if wait_for_client:
+            self.args.append("--wait-for-client")
         self.stderr_path = self.workdir / "sim_vehicle.stderr"
         self.proc: subprocess.Popen[bytes] | None = None
         self.connections: list[Any] = []
@@ -102,7 +106,7 @@ class SimProcess:
             return ""
 
     def connect(self, source_system: int = 255, source_component: int = 190) -> Any:
-        """A pymavlink TCP client; waits for the first heartbeat."""
+        """A pymavlink TCP client; waits for the first heartbeat (sending its own first with --wait-for-client)."""
         conn = mavutil.mavlink_connection(
             f"tcp:127.0.0.1:{self.tcp_port}",
             source_system=source_system,
@@ -110,6 +114,8 @@ class SimProcess:
             autoreconnect=False,
         )
         self.connections.append(conn)
+        if self.wait_for_client:  # speak first, as a ground station does, so that simulated time starts
+            conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         if conn.wait_heartbeat(timeout=10) is None:
             raise TimeoutError("no heartbeat")
         return conn

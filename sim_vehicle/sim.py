@@ -27,6 +27,7 @@ from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
 CSV_FLUSH_S = 1.0
+HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is held
 FRAME_CLASS_BOAT = 2
 SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 
@@ -53,6 +54,7 @@ class Options:
     serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
     vessel: str = "published"  # Otter parameter set
     x0: np.ndarray | None = None  # initial plant state (14); None: at rest at home, pointing home.heading_deg
+    wait_for_client: bool = False  # hold simulated time at 0 until the first MAVLink message arrives
 
 
 class Simulator:
@@ -153,7 +155,6 @@ class Simulator:
 
     def run(self) -> None:
         """Loop until stopped (signal) or the optional duration has passed."""
-        pacer = Pacer(self.opts.speedup)
         plant = self.physics.plant
         last_flush = time.monotonic()
         if self.csv is not None:
@@ -167,6 +168,9 @@ class Simulator:
             )
         log.info("sim_vehicle running: mode %s, speedup %g", Mode(self.vehicle.mode).name, self.opts.speedup)
         try:
+            if self.opts.wait_for_client:
+                self._hold_until_a_client_speaks()
+            pacer = Pacer(self.opts.speedup)  # simulated time starts now
             while self.running:
                 if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
                     break
@@ -177,6 +181,18 @@ class Simulator:
                     last_flush = time.monotonic()
         finally:
             self.close()
+
+    def _hold_until_a_client_speaks(self) -> None:
+        """Keep simulated time at 0, reading (and answering) the links, until some client sends a message.
+
+        ArduPilot's SITL likewise waits for its SERIAL0 TCP client before it starts; here any link counts
+        (UDP has no connection), and a client speaks first as every GCS does with its own heartbeat.
+        """
+        log.info("waiting for a client to speak before simulated time starts")
+        while self.running and self.gcs.messages_received == 0:
+            self.gcs.poll(0.0)
+            time.sleep(HOLD_POLL_S)
+        self.boot_unix_us = self.telemetry.boot_unix_us = int(time.time() * 1e6)  # the clock starts now
 
     def close(self) -> None:
         """Close sockets and logs."""

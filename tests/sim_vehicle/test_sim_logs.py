@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import time
+from collections.abc import Callable
 
 import pytest
 from pymavlink import mavutil
@@ -24,6 +25,14 @@ def test_speedup_10_runs_ten_times_faster(tmp_path) -> None:
         t1_sim, t1_wall = latest_sim_seconds(conn), time.monotonic()
     ratio = (t1_sim - t0_sim) / (t1_wall - t0_wall)
     assert 8.5 < ratio < 10.5, ratio
+
+
+def test_wait_for_client_holds_simulated_time_until_a_client_speaks(start_sim: Callable[..., SimProcess]) -> None:
+    """--wait-for-client: simulated time stays at 0 until the first message, as SITL waits for SERIAL0."""
+    sim = start_sim(speedup=10, wait_for_client=True)
+    time.sleep(1.0)  # without the hold, 10 simulated seconds would pass here
+    conn = sim.connect()  # speaks first (its heartbeat), which starts the clock
+    assert wait_for(conn, "ATTITUDE", 5).time_boot_ms < 1000
 
 
 @pytest.fixture(scope="module")
