@@ -72,6 +72,12 @@ class MissionRunner:
             self.rewind()
         self.state, self.leg = ACTIVE, None
 
+    def change_speed(self, speed: float) -> None:
+        """DO_CHANGE_SPEED (m/s) in AUTO: the current leg and every later one drive at ``speed``."""
+        self.speed = speed
+        if self.leg is not None:
+            self.leg.target.speed = speed
+
     def pause(self) -> None:
         """Leaving AUTO: keep the place in the mission."""
         self.leg = None

@@ -163,6 +163,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="no simulated RC receiver: only overrides give RC (RC failsafe applies)",
     )
     p.add_argument("--duration", type=_duration, metavar="S", help="stop after S simulated seconds")
+    p.add_argument(
+        "--wait-for-client",
+        action="store_true",
+        help="hold simulated time at 0 until a client sends its first MAVLink message (as SITL waits for SERIAL0)",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log STATUSTEXT and connections to stderr")
     p.add_argument("--json-backend", nargs="?", metavar="[HOST:]PORT",
                    help="instead: physics only, for the real ArduPilot firmware (--model JSON:HOST), default "
@@ -256,6 +261,7 @@ def main(argv: list[str] | None = None) -> int:
             duration_s=args.duration,
             mission_store=mission_store(args.params_store),
             serial=args.serial,
+            wait_for_client=args.wait_for_client,
         )
         sim = Simulator(opts)
     except ConfigError as exc:

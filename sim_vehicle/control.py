@@ -83,6 +83,11 @@ class SpeedControl:
         self._integrator = 0.0
         self._target = current_speed
 
+    @property
+    def ramp_target(self) -> float:
+        """Where the acceleration-limited speed ramp stands now (m/s)."""
+        return self._target
+
     def throttle_for_speed(self, speed_m_s: float, nav: NavState, dt: float) -> float:
         """Throttle output in [-1, 1] that tracks ``speed_m_s`` along the heading."""
         p = self.params

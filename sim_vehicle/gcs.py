@@ -7,11 +7,13 @@ from collections.abc import Callable
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from .commands import handle_command, handle_set_mode
-from .guided import from_global, from_local
+from vessel.geo import Home
+
+from .commands import CommandHandler
+from .control_inputs import ControlInputs
 from .link import Channel, SerialChannel, TcpServer, TlogHook, UdpChannel
+from .mission import MissionStore
 from .missionproto import MissionServer
-from .modes import Mode
 from .paramproto import ParamServer
 from .params import ParamTable
 from .streams import Schedule
@@ -25,10 +27,20 @@ AUTOPILOT_VERSION_REQUEST = 183
 
 
 class Gcs:
-    """All MAVLink channels of the vehicle and what it says on them."""
+    """All MAVLink channels of the vehicle, the protocol servers behind them, and what it says on them.
+
+    Built complete: the parameter, mission and command servers are made here from the parts they serve.
+    """
 
     def __init__(
-        self, params: ParamTable, vehicle: Vehicle, telemetry: Telemetry, tlog: TlogHook | None
+        self,
+        params: ParamTable,
+        vehicle: Vehicle,
+        telemetry: Telemetry,
+        store: MissionStore,
+        home: Home,
+        banner: list[str],
+        tlog: TlogHook | None,
     ) -> None:
         self.params, self.vehicle, self.telemetry = params, vehicle, telemetry
         self.sysid = int(params["SYSID_THISMAV"])
@@ -39,10 +51,20 @@ class Gcs:
         self._schedules: dict[int, Schedule] = {}
         self._next_heartbeat: dict[int, float] = {}
         self._text_id = 0
-        self._ignored_override_from: set[int] = set()
-        self.missions: MissionServer | None = None  # set by the simulator (needs the store and runner)
-        self.param_server = ParamServer(params, self.text, self.broadcast, [])
+        self.missions = MissionServer(store, vehicle.runner, home, self.text, self.broadcast, vehicle.guided_goto)
+        self.param_server = ParamServer(params, self.text, self.broadcast, banner)
+        self.commands = CommandHandler(vehicle, telemetry, self.missions, self.schedule, self.text)
+        self.inputs = ControlInputs(params, vehicle, self.sysid, self.text)
+        self._handlers: dict[str, Callable[[Channel, mavlink.MAVLink_message], None]] = {
+            "COMMAND_LONG": self.commands.handle_command,
+            "COMMAND_INT": self.commands.handle_command,
+            "SET_MODE": self.commands.handle_set_mode,
+            "REQUEST_DATA_STREAM": self._data_stream,
+            "TIMESYNC": self._timesync,
+            **self.inputs.handlers(),
+        }
         self.now = 0.0
+        self.messages_received = 0  # from any client, since start
 
     # channels
     def add_udp(self, host: str, port: int) -> None:
@@ -94,7 +116,7 @@ class Gcs:
             self._text_id = self._text_id % 65535 + 1
             msg_id = self._text_id
         for seq, chunk in enumerate(chunks):
-            msg = mavlink.MAVLink_statustext_message(severity, chunk, msg_id, seq)
+            msg = mavlink.MAVLink_statustext_message(severity=severity, text=chunk, id=msg_id, chunk_seq=seq)
             if channel is not None:
                 channel.send(msg)
             else:
@@ -110,6 +132,7 @@ class Gcs:
                 self.channels.append(client)
         for channel in list(self.channels):
             for msg in channel.receive():
+                self.messages_received += 1
                 try:
                     self.dispatch(channel, msg)
                 except Exception:
@@ -134,69 +157,22 @@ class Gcs:
         src = msg.get_srcSystem()
         if kind == "HEARTBEAT":
             if src == int(self.params["SYSID_MYGCS"]):
-                self.vehicle.gcs_last_seen = self.now
+                self.vehicle.gcs_heartbeat()
             return
-        handler: Callable[[Channel, mavlink.MAVLink_message], None] | None = {
-            "COMMAND_LONG": self._command,
-            "COMMAND_INT": self._command,
-            "SET_MODE": self._set_mode,
-            "RC_CHANNELS_OVERRIDE": self._override,
-            "SET_ATTITUDE_TARGET": self._attitude_target,
-            "REQUEST_DATA_STREAM": self._data_stream,
-            "SET_POSITION_TARGET_LOCAL_NED": self._position_target,
-            "SET_POSITION_TARGET_GLOBAL_INT": self._position_target,
-            "TIMESYNC": self._timesync,
-        }.get(kind)
+        handler = self._handlers.get(kind)
         if handler is not None:
             handler(channel, msg)
         elif kind.startswith("PARAM_"):
             self.param_server.handle(channel, msg)
-        elif kind.startswith("MISSION_") and self.missions is not None:
+        elif kind.startswith("MISSION_"):
             self.missions.handle(channel, msg, self.now)
         elif msg.get_msgId() == AUTOPILOT_VERSION_REQUEST:
             channel.send(self.telemetry.autopilot_version())
 
-    def _command(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """COMMAND_LONG / COMMAND_INT."""
-        handle_command(self, channel, msg)
-
-    def _set_mode(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """The SET_MODE message."""
-        handle_set_mode(self, channel, msg)
-
-    def _override(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """RC_CHANNELS_OVERRIDE, taken only from SYSID_MYGCS (others are logged once and ignored)."""
-        src = msg.get_srcSystem()
-        if src != int(self.params["SYSID_MYGCS"]):
-            if src not in self._ignored_override_from:
-                self._ignored_override_from.add(src)
-                log.warning(
-                    "ignoring RC_CHANNELS_OVERRIDE from system %d (SYSID_MYGCS is %d)",
-                    src,
-                    int(self.params["SYSID_MYGCS"]),
-                )
-            return
-        channels = [getattr(msg, f"chan{i}_raw", 0) for i in range(1, 19)]
-        self.vehicle.override(channels)
-
-    def _attitude_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """SET_ATTITUDE_TARGET (the vehicle drops it outside GUIDED)."""
-        self.vehicle.attitude_target(msg.type_mask, list(msg.q), msg.body_yaw_rate, msg.thrust)
-
-    def _position_target(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """SET_POSITION_TARGET_*: only in GUIDED; anything Rover cannot use is dropped silently."""
-        v = self.vehicle
-        if v.mode != Mode.GUIDED:
-            return
-        if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
-            v.set_guided(from_local(msg, v.nav, v.default_speed(), self.now))
-        else:
-            v.set_guided(from_global(msg, v.home, v.nav, v.default_speed(), self.now))
-
     def _timesync(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """Answer a TIMESYNC request (tc1 = 0) with our simulated clock in ns."""
         if msg.tc1 == 0:
-            channel.send(mavlink.MAVLink_timesync_message(round(self.now * 1e9), msg.ts1))
+            channel.send(mavlink.MAVLink_timesync_message(tc1=round(self.now * 1e9), ts1=msg.ts1))
 
     def _data_stream(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """REQUEST_DATA_STREAM for the channel it arrived on."""
@@ -207,8 +183,7 @@ class Gcs:
         """Heartbeats at 1 Hz and every streamed message that is due, on every channel."""
         self.now = now
         self.param_server.update()
-        if self.missions is not None:
-            self.missions.update(now)
+        self.missions.update(now)
         built: dict[int, mavlink.MAVLink_message | None] = {}
         for channel in self.channels:
             if channel.closed:

@@ -1,4 +1,7 @@
-"""Test and bench harness: runs a real ``sim-vehicle`` process on free loopback ports and talks to it."""
+"""Test and bench harness: runs a real ``sim-vehicle`` process on free loopback ports and connects to it.
+
+(The waits that tests use on such a link live in ``tests/waits.py``.)
+"""
 
 from __future__ import annotations
 
@@ -7,7 +10,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -42,6 +45,7 @@ class SimProcess:
         waves: str | None = "calm",
         extra: Sequence[str] = (),
         udp_outs: int = 0,
+        wait_for_client: bool = False,
     ) -> None:
         self.workdir = Path(workdir)
         self.tcp_port = free_port()
@@ -61,6 +65,9 @@ class SimProcess:
             *extra,
         ]
         self.args += [a for p in self.udp_ports for a in ("--out", f"udp:127.0.0.1:{p}")] or ["--no-out"]
+        self.wait_for_client = wait_for_client  # --wait-for-client: simulated time starts when a client speaks
+        if wait_for_client:
+            self.args.append("--wait-for-client")
         self.stderr_path = self.workdir / "sim_vehicle.stderr"
         self.proc: subprocess.Popen[bytes] | None = None
         self.connections: list[Any] = []
@@ -99,7 +106,7 @@ class SimProcess:
             return ""
 
     def connect(self, source_system: int = 255, source_component: int = 190) -> Any:
-        """A pymavlink TCP client; waits for the first heartbeat."""
+        """A pymavlink TCP client; waits for the first heartbeat (sending its own first with --wait-for-client)."""
         conn = mavutil.mavlink_connection(
             f"tcp:127.0.0.1:{self.tcp_port}",
             source_system=source_system,
@@ -107,6 +114,8 @@ class SimProcess:
             autoreconnect=False,
         )
         self.connections.append(conn)
+        if self.wait_for_client:  # speak first, as a ground station does, so that simulated time starts
+            conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         if conn.wait_heartbeat(timeout=10) is None:
             raise TimeoutError("no heartbeat")
         return conn
@@ -129,88 +138,3 @@ class SimProcess:
         self.proc = None
         return err
 
-
-def wait_for(
-    conn: Any, kind: str | list[str], timeout: float = 10.0, cond: Callable[[Any], bool] | None = None
-) -> Any:
-    """The next message of ``kind`` satisfying ``cond`` within ``timeout`` wall seconds, else None."""
-    deadline = time.monotonic() + timeout
-    while (left := deadline - time.monotonic()) > 0:
-        msg = conn.recv_match(type=kind, blocking=True, timeout=min(left, 0.5))
-        if msg is not None and (cond is None or cond(msg)):
-            return msg
-    return None
-
-
-def command(conn: Any, cmd: int, *params: float, timeout: float = 5.0) -> int | None:
-    """COMMAND_LONG to 1/1; returns the ACK's result (None if no ACK came)."""
-    return command_texts(conn, cmd, *params, timeout=timeout)[0]
-
-
-def command_texts(conn: Any, cmd: int, *params: float, timeout: float = 5.0) -> tuple[int | None, list[str]]:
-    """COMMAND_LONG to 1/1; returns the ACK's result and the STATUSTEXTs that came before it."""
-    p = list(params) + [0.0] * (7 - len(params))
-    conn.mav.command_long_send(1, 1, cmd, 0, *p)
-    texts: list[str] = []
-    deadline = time.monotonic() + timeout
-    while (left := deadline - time.monotonic()) > 0:
-        msg = conn.recv_match(type=["COMMAND_ACK", "STATUSTEXT"], blocking=True, timeout=min(left, 0.5))
-        if msg is None:
-            continue
-        if msg.get_type() == "STATUSTEXT":
-            texts.append(msg.text)
-        elif msg.command == cmd:
-            return int(msg.result), texts
-    return None, texts
-
-
-def set_mode(conn: Any, mode: int) -> int | None:
-    """MAV_CMD_DO_SET_MODE with custom mode ``mode``."""
-    return command(conn, 176, 1, mode)
-
-
-def sim_seconds(conn: Any, timeout: float = 5.0) -> float:
-    """Simulated time from the next ATTITUDE/GLOBAL_POSITION_INT (s)."""
-    msg = wait_for(conn, ["ATTITUDE", "GLOBAL_POSITION_INT", "SYSTEM_TIME"], timeout)
-    if msg is None:
-        raise TimeoutError("no timed telemetry")
-    return msg.time_boot_ms / 1000.0
-
-
-def drain(conn: Any) -> list[Any]:
-    """Every message already waiting on the connection (so that the next one read is fresh)."""
-    msgs = []
-    while (msg := conn.recv_match(blocking=False)) is not None:
-        msgs.append(msg)
-    return msgs
-
-
-def latest_sim_seconds(conn: Any) -> float:
-    """Simulated time of the newest timed message, after draining whatever is queued (s)."""
-    latest = None
-    while (
-        msg := conn.recv_match(type=["ATTITUDE", "GLOBAL_POSITION_INT", "SYSTEM_TIME"], blocking=False)
-    ) is not None:
-        latest = msg.time_boot_ms / 1000.0
-    return latest if latest is not None else sim_seconds(conn)
-
-
-def run_for(
-    conn: Any,
-    sim_s: float,
-    each: Callable[[], None] | None = None,
-    period_s: float = 0.5,
-    wall_timeout: float = 60.0,
-) -> float:
-    """Let ``sim_s`` simulated seconds pass, calling ``each`` every ``period_s``; returns the end time."""
-    start = now = sim_seconds(conn)
-    next_call = start
-    deadline = time.monotonic() + wall_timeout
-    while now - start < sim_s and time.monotonic() < deadline:
-        if each is not None and now >= next_call:
-            each()
-            next_call = now + period_s
-        msg = wait_for(conn, ["ATTITUDE", "GLOBAL_POSITION_INT"], 5.0)
-        if msg is not None:
-            now = msg.time_boot_ms / 1000.0
-    return now

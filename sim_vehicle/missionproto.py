@@ -44,6 +44,52 @@ class Upload:
     last_activity: float = 0.0
 
 
+def stored_item(store: MissionStore, home: Home, mtype: int, seq: int) -> Item | None:
+    """Stored item ``seq`` of mission type ``mtype``; for the mission, seq 0 is always the current home."""
+    if mtype == MISSION and seq == 0:
+        lat, lon = round(home.lat_deg * 1e7), round(home.lon_deg * 1e7)
+        return Item(
+            frame=M.MAV_FRAME_GLOBAL,
+            command=M.MAV_CMD_NAV_WAYPOINT,
+            current=0,
+            autocontinue=1,
+            param1=0.0,
+            param2=0.0,
+            param3=0.0,
+            param4=0.0,
+            x=lat,
+            y=lon,
+            z=home.alt_m,
+        )
+    items = store.items(mtype)
+    return items[seq] if 0 <= seq < len(items) else None
+
+
+def _item_message(
+    item: Item, seq: int, current: int, mtype: int, target: int, target_component: int, as_int: bool
+) -> mavlink.MAVLink_message:
+    """MISSION_ITEM_INT (degE7 x/y) or, for an old MISSION_REQUEST, MISSION_ITEM (degrees) of ``item``."""
+    x, y = (item.x, item.y) if as_int else float_xy(item)
+    message = M.MAVLink_mission_item_int_message if as_int else M.MAVLink_mission_item_message
+    return message(
+        target_system=target,
+        target_component=target_component,
+        seq=seq,
+        frame=item.frame,
+        command=item.command,
+        current=current,
+        autocontinue=item.autocontinue,
+        param1=item.param1,
+        param2=item.param2,
+        param3=item.param3,
+        param4=item.param4,
+        x=x,
+        y=y,
+        z=item.z,
+        mission_type=mtype,
+    )
+
+
 class MissionServer:
     """Serves mission uploads and downloads on any channel, one upload at a time."""
 
@@ -54,11 +100,12 @@ class MissionServer:
         home: Home,
         text: Callable[[int, str], None],
         broadcast: Callable[[mavlink.MAVLink_message], None],
+        guided_goto: Callable[[float, float], bool],
     ) -> None:
         self.store, self.runner, self.home = store, runner, home
         self.text, self.broadcast = text, broadcast
+        self.guided_goto = guided_goto  # MISSION_ITEM current=2: (lat, lon) -> accepted (only in GUIDED)
         self.upload: Upload | None = None
-        self.guided_goto: Callable[[float, float], bool] | None = None  # lat, lon -> accepted
         self._warned_float: set[int] = set()
 
     def handle(self, channel: Channel, msg: mavlink.MAVLink_message, now: float) -> None:
@@ -126,11 +173,7 @@ class MissionServer:
         mtype = self._type(msg)
         if msg.current == 2 and mtype == MISSION:  # a guided "go to" point, not part of an upload
             item = item_from_int(msg) if msg.get_type() == "MISSION_ITEM_INT" else item_from_float(msg)
-            ok = (
-                item is not None
-                and self.guided_goto is not None
-                and self.guided_goto(item.x / 1e7, item.y / 1e7)
-            )
+            ok = item is not None and self.guided_goto(item.x / 1e7, item.y / 1e7)
             self._ack(channel, msg, M.MAV_MISSION_ACCEPTED if ok else M.MAV_MISSION_ERROR, mtype)
             return
         up = self.upload
@@ -161,7 +204,7 @@ class MissionServer:
         self.store.replace(mtype, up.items)
         self._ack(channel, msg, M.MAV_MISSION_ACCEPTED, mtype)
         if mtype == MISSION:
-            self.text(6, "Flight plan received")
+            self.text(M.MAV_SEVERITY_INFO, "Flight plan received")
 
     def update(self, now: float) -> None:
         """Re-request a missing item after 1 s; abandon a silent upload after 8 s."""
@@ -175,7 +218,7 @@ class MissionServer:
                     up.sysid, up.compid, M.MAV_MISSION_OPERATION_CANCELLED, up.mission_type
                 )
             )
-            self.text(4, "Mission upload timeout")
+            self.text(M.MAV_SEVERITY_WARNING, "Mission upload timeout")
         elif now - up.last_request > RESEND_S:
             self._request_next(now)
 
@@ -193,16 +236,6 @@ class MissionServer:
                 )
             )
 
-    def _item_at(self, mtype: int, seq: int) -> Item | None:
-        """Stored item ``seq``; for the mission, seq 0 is always the current home."""
-        if mtype == MISSION and seq == 0:
-            h = self.home
-            return Item(
-                0, 16, 0, 1, 0.0, 0.0, 0.0, 0.0, round(h.lat_deg * 1e7), round(h.lon_deg * 1e7), h.alt_m
-            )
-        items = self.store.items(mtype)
-        return items[seq] if 0 <= seq < len(items) else None
-
     def _request(self, channel: Channel, msg: mavlink.MAVLink_message, now: float) -> None:
         """MISSION_REQUEST_INT / MISSION_REQUEST: send that item (float form with a warning)."""
         mtype = self._type(msg)
@@ -212,57 +245,18 @@ class MissionServer:
         if self.upload is not None:
             self._ack(channel, msg, M.MAV_MISSION_DENIED, mtype)
             return
-        item = self._item_at(mtype, msg.seq)
+        item = stored_item(self.store, self.home, mtype, msg.seq)
         src, comp = msg.get_srcSystem(), msg.get_srcComponent()
         if item is None:
             channel.send(M.MAVLink_mission_count_message(src, comp, self.store.count(mtype), mtype))
             self._ack(channel, msg, M.MAV_MISSION_ERROR, mtype)
             return
         current = 1 if mtype == MISSION and msg.seq == self.runner.current and self.store.present() else 0
-        if msg.get_type() == "MISSION_REQUEST_INT":
-            channel.send(
-                M.MAVLink_mission_item_int_message(
-                    src,
-                    comp,
-                    msg.seq,
-                    item.frame,
-                    item.command,
-                    current,
-                    item.autocontinue,
-                    item.param1,
-                    item.param2,
-                    item.param3,
-                    item.param4,
-                    item.x,
-                    item.y,
-                    item.z,
-                    mtype,
-                )
-            )
-            return
-        if id(channel) not in self._warned_float:
+        as_int = msg.get_type() == "MISSION_REQUEST_INT"
+        if not as_int and id(channel) not in self._warned_float:
             self._warned_float.add(id(channel))
-            self.text(4, "got MISSION_REQUEST; use MISSION_REQUEST_INT!")
-        x, y = float_xy(item)
-        channel.send(
-            M.MAVLink_mission_item_message(
-                src,
-                comp,
-                msg.seq,
-                item.frame,
-                item.command,
-                current,
-                item.autocontinue,
-                item.param1,
-                item.param2,
-                item.param3,
-                item.param4,
-                x,
-                y,
-                item.z,
-                mtype,
-            )
-        )
+            self.text(M.MAV_SEVERITY_WARNING, "got MISSION_REQUEST; use MISSION_REQUEST_INT!")
+        channel.send(_item_message(item, msg.seq, current, mtype, src, comp, as_int))
 
     def _clear(self, channel: Channel, msg: mavlink.MAVLink_message, now: float) -> None:
         """MISSION_CLEAR_ALL for one type or all."""

@@ -5,23 +5,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
 
 class Mode(IntEnum):
-    """Rover ``Mode::Number`` values."""
+    """Rover ``Mode::Number`` values, as pymavlink's ROVER_MODE enum names them."""
 
-    MANUAL = 0
-    ACRO = 1
-    STEERING = 3
-    HOLD = 4
-    LOITER = 5
-    FOLLOW = 6
-    SIMPLE = 7
-    CIRCLE = 9
-    AUTO = 10
-    RTL = 11
-    SMART_RTL = 12
-    GUIDED = 15
-    INITIALISING = 16
+    MANUAL = mavlink.ROVER_MODE_MANUAL
+    ACRO = mavlink.ROVER_MODE_ACRO
+    STEERING = mavlink.ROVER_MODE_STEERING
+    HOLD = mavlink.ROVER_MODE_HOLD
+    LOITER = mavlink.ROVER_MODE_LOITER
+    FOLLOW = mavlink.ROVER_MODE_FOLLOW
+    SIMPLE = mavlink.ROVER_MODE_SIMPLE
+    CIRCLE = mavlink.ROVER_MODE_CIRCLE
+    AUTO = mavlink.ROVER_MODE_AUTO
+    RTL = mavlink.ROVER_MODE_RTL
+    SMART_RTL = mavlink.ROVER_MODE_SMART_RTL
+    GUIDED = mavlink.ROVER_MODE_GUIDED
+    INITIALISING = mavlink.ROVER_MODE_INITIALIZING
 
 
 @dataclass(frozen=True)
@@ -50,11 +52,11 @@ MODE_INFO: dict[Mode, ModeInfo] = {
     Mode.INITIALISING: ModeInfo(True, False, False, False),
 }
 
-# HEARTBEAT base_mode bits (MAV_MODE_FLAG)
-CUSTOM_MODE_ENABLED = 1
-GUIDED_ENABLED = 8
-MANUAL_INPUT_ENABLED = 64
-SAFETY_ARMED = 128
+# HEARTBEAT base_mode bits
+CUSTOM_MODE_ENABLED = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+GUIDED_ENABLED = mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
+MANUAL_INPUT_ENABLED = mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+SAFETY_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
 
 
 def base_mode(mode: Mode, armed: bool) -> int:

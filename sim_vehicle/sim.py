@@ -14,20 +14,21 @@ from vessel import World, world_preset
 from vessel.config import ConfigError
 from vessel.geo import Home
 
+from .battery import Battery
 from .clock import Pacer
 from .gcs import Gcs
-from .guided import to_location
 from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
-from .missionproto import MissionServer
 from .modes import Mode
 from .params import ParamTable, baud_from_code
 from .physics import PHYSICS_DT_S, Physics, nav_state
-from .telemetry import FIRMWARE_VERSION, Battery, Telemetry
+from .telemetry import FIRMWARE_VERSION, Telemetry
 from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
 CSV_FLUSH_S = 1.0
+HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is held
+FRAME_CLASS_BOAT = 2
 SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 
 
@@ -49,6 +50,7 @@ class Options:
     rc_receiver: bool = True
     duration_s: float | None = None
     serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
+    wait_for_client: bool = False  # hold simulated time at 0 until the first MAVLink message arrives
 
 
 class Simulator:
@@ -64,10 +66,7 @@ class Simulator:
         self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
         self.csv = StateCsv(opts.log_dir / "state.csv") if opts.log_dir else None
         self.battery = Battery()
-        self.gcs: Gcs
-        self.vehicle = Vehicle(
-            self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver
-        )
+        self.vehicle = Vehicle(self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver)
         self.telemetry = Telemetry(
             self.physics,
             self.vehicle,
@@ -78,16 +77,15 @@ class Simulator:
             self.battery,
             self.boot_unix_us,
         )
-        self.gcs = Gcs(self.params, self.vehicle, self.telemetry, self.tlog.write if self.tlog else None)
-        self.gcs.missions = MissionServer(
-            self.store, self.vehicle.runner, self.home, self._text, self.gcs.broadcast
+        self.gcs = Gcs(
+            self.params,
+            self.vehicle,
+            self.telemetry,
+            self.store,
+            self.home,
+            self._banner(),
+            self.tlog.write if self.tlog else None,
         )
-        self.gcs.missions.guided_goto = self._guided_goto
-        major, minor, patch = FIRMWARE_VERSION
-        self.gcs.param_server.banner = [
-            f"ArduRover V{major}.{minor}.{patch} (sim_vehicle Otter SITL)",
-            "Frame: BOAT" if self.params["FRAME_CLASS"] == 2 else "Frame: ROVER",
-        ]
         if opts.tcp_port is not None:
             self.gcs.add_tcp_server(opts.tcp_host, opts.tcp_port)
         for host, port in opts.outputs:
@@ -119,10 +117,11 @@ class Simulator:
         """STATUSTEXT from the vehicle logic to every channel."""
         self.gcs.text(severity, text)
 
-    def _guided_goto(self, lat_deg: float, lon_deg: float) -> bool:
-        """MISSION_ITEM with current=2: a guided waypoint, accepted only in GUIDED."""
-        v = self.vehicle
-        return v.set_guided(to_location(lat_deg, lon_deg, self.home, v.nav, v.default_speed(), v.now))
+    def _banner(self) -> list[str]:
+        """The STATUSTEXT lines Rover sends when a GCS asks for all parameters (firmware and frame)."""
+        major, minor, patch = FIRMWARE_VERSION
+        frame = "Frame: BOAT" if self.params["FRAME_CLASS"] == FRAME_CLASS_BOAT else "Frame: ROVER"
+        return [f"ArduRover V{major}.{minor}.{patch} (sim_vehicle Otter SITL)", frame]
 
     def _reached(self, seq: int) -> None:
         """MISSION_ITEM_REACHED to every channel when a nav item completes."""
@@ -151,7 +150,6 @@ class Simulator:
 
     def run(self) -> None:
         """Loop until stopped (signal) or the optional duration has passed."""
-        pacer = Pacer(self.opts.speedup)
         plant = self.physics.plant
         last_flush = time.monotonic()
         if self.csv is not None:
@@ -165,6 +163,9 @@ class Simulator:
             )
         log.info("sim_vehicle running: mode %s, speedup %g", Mode(self.vehicle.mode).name, self.opts.speedup)
         try:
+            if self.opts.wait_for_client:
+                self._hold_until_a_client_speaks()
+            pacer = Pacer(self.opts.speedup)  # simulated time starts now
             while self.running:
                 if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
                     break
@@ -175,6 +176,18 @@ class Simulator:
                     last_flush = time.monotonic()
         finally:
             self.close()
+
+    def _hold_until_a_client_speaks(self) -> None:
+        """Keep simulated time at 0, reading (and answering) the links, until some client sends a message.
+
+        ArduPilot's SITL likewise waits for its SERIAL0 TCP client before it starts; here any link counts
+        (UDP has no connection), and a client speaks first as every GCS does with its own heartbeat.
+        """
+        log.info("waiting for a client to speak before simulated time starts")
+        while self.running and self.gcs.messages_received == 0:
+            self.gcs.poll(0.0)
+            time.sleep(HOLD_POLL_S)
+        self.boot_unix_us = self.telemetry.boot_unix_us = int(time.time() * 1e6)  # the clock starts now
 
     def close(self) -> None:
         """Close sockets and logs."""

@@ -3,69 +3,70 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vessel.geo import Home, wrap_pi
 
 from .auto import MissionRunner
+from .battery import Battery
 from .mission import MissionStore
 from .modes import MODE_INFO, Mode, base_mode
 from .params import ParamTable
-from .physics import Physics, nav_state, ned_velocity
+from .physics import Physics, nav_state
+from .telemetry_plant import PlantTelemetry, SimClock, i16
 from .vehicle import Vehicle
 
 FIRMWARE_VERSION = (4, 5, 7)  # the ArduRover release whose behaviour this simulator follows
-# MISSION_FLOAT, PARAM_FLOAT, MISSION_INT, COMMAND_INT, SET_ATTITUDE_TARGET, SET_POSITION_TARGET_LOCAL_NED and
-# _GLOBAL_INT, MAVLINK2, MISSION_FENCE, MISSION_RALLY (no FTP, terrain or compass calibration here)
-CAPABILITIES = 1 | 2 | 4 | 8 | 64 | 128 | 256 | 8192 | 16384 | 32768
+M = mavlink
+# no FTP, terrain or compass calibration here
+CAPABILITIES = (
+    M.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+    | M.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    | M.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+    | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+    | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+)
 SENSORS = (
-    0x1 | 0x2 | 0x4 | 0x20 | 0x8000 | 0x200000 | 0x2000000
-)  # gyro, accel, mag, GPS, motors, AHRS, battery
-RC_RECEIVER_BIT = 0x10000
-PREARM_BIT = 0x10000000
-BATTERY_CAPACITY_MAH = 96000.0  # the Otter's 4 x 24 Ah packs
-BATTERY_VOLTS = 25.2
+    M.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | M.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | M.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | M.MAV_SYS_STATUS_SENSOR_GPS
+    | M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | M.MAV_SYS_STATUS_AHRS
+    | M.MAV_SYS_STATUS_SENSOR_BATTERY
+)
+RC_RECEIVER_BIT = M.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+PREARM_BIT = M.MAV_SYS_STATUS_PREARM_CHECK
+FRAME_CLASS_BOAT = 2
 
 
-@dataclass
-class Battery:
-    """A simple energy account: current from propeller demand, remaining charge by coulomb counting."""
-
-    consumed_mah: float = 0.0
-    current_a: float = 1.0
-
-    def update(self, outputs: tuple[float, float], dt: float) -> None:
-        """Hotel load plus a thruster load rising with |output|^1.5 (40 A per motor at full power)."""
-        self.current_a = 1.0 + 40.0 * sum(abs(o) ** 1.5 for o in outputs)
-        self.consumed_mah += self.current_a * dt / 3.6
-
-    @property
-    def remaining_pct(self) -> int:
-        """Remaining charge, %."""
-        return max(0, min(100, round(100.0 * (1.0 - self.consumed_mah / BATTERY_CAPACITY_MAH))))
-
-    @property
-    def voltage_mv(self) -> int:
-        """Pack voltage sagging slightly with load and charge used, mV."""
-        return round(
-            1000.0 * (BATTERY_VOLTS - 0.02 * self.current_a - 3.0 * self.consumed_mah / BATTERY_CAPACITY_MAH)
-        )
+def _nav_controller_output(
+    heading: float, bearing: float, distance_m: float, speed_error: float, xtrack_m: float
+) -> mavlink.MAVLink_message:
+    """NAV_CONTROLLER_OUTPUT: desired heading and bearing to the target (rad, NED), distance, errors."""
+    return mavlink.MAVLink_nav_controller_output_message(
+        nav_roll=0,
+        nav_pitch=0,
+        nav_bearing=i16(math.degrees(heading)),
+        target_bearing=i16(math.degrees(bearing)),
+        wp_dist=min(65535, round(distance_m)),
+        alt_error=0,
+        aspd_error=speed_error,
+        xtrack_error=xtrack_m,
+    )
 
 
-def _cdeg(rad: float) -> int:
-    """Heading in centidegrees 0..35999."""
-    return round(math.degrees(rad) * 100.0) % 36000
+class Telemetry(SimClock):
+    """Message factory reading the live simulator objects at the moment a message is built.
 
-
-def _i16(value: float) -> int:
-    """Clamp into int16."""
-    return max(-32768, min(32767, round(value)))
-
-
-class Telemetry:
-    """Message factory reading the live simulator objects at the moment a message is built."""
+    Status messages are built here; those of the plant's state by ``plant`` (a PlantTelemetry).
+    """
 
     def __init__(
         self,
@@ -78,44 +79,32 @@ class Telemetry:
         battery: Battery,
         boot_unix_us: int,
     ) -> None:
-        self.physics, self.vehicle, self.home, self.params = physics, vehicle, home, params
+        super().__init__(physics)
+        self.vehicle, self.home, self.params = vehicle, home, params
+        self.plant = PlantTelemetry(physics, vehicle, home)
         self.store, self.runner, self.battery = store, runner, battery
         self.boot_unix_us = boot_unix_us
         self.builders = {
-            0: self.heartbeat,
-            1: self.sys_status,
-            2: self.system_time,
-            24: self.gps_raw_int,
-            30: self.attitude,
-            32: self.local_position_ned,
-            33: self.global_position_int,
-            34: self.rc_channels_scaled,
-            36: self.servo_output_raw,
-            42: self.mission_current,
-            49: self.gps_global_origin,
-            62: self.nav_controller_output,
-            65: self.rc_channels,
-            74: self.vfr_hud,
-            147: self.battery_status,
-            148: self.autopilot_version,
-            242: self.home_position,
+            M.MAVLINK_MSG_ID_HEARTBEAT: self.heartbeat,
+            M.MAVLINK_MSG_ID_SYS_STATUS: self.sys_status,
+            M.MAVLINK_MSG_ID_SYSTEM_TIME: self.system_time,
+            M.MAVLINK_MSG_ID_GPS_RAW_INT: self.plant.gps_raw_int,
+            M.MAVLINK_MSG_ID_ATTITUDE: self.plant.attitude,
+            M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: self.plant.local_position_ned,
+            M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: self.plant.global_position_int,
+            M.MAVLINK_MSG_ID_RC_CHANNELS_SCALED: self.rc_channels_scaled,
+            M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: self.servo_output_raw,
+            M.MAVLINK_MSG_ID_MISSION_CURRENT: self.mission_current,
+            M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: self.plant.gps_global_origin,
+            M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: self.nav_controller_output,
+            M.MAVLINK_MSG_ID_RC_CHANNELS: self.rc_channels,
+            M.MAVLINK_MSG_ID_VFR_HUD: self.plant.vfr_hud,
+            M.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status,
+            M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
+            M.MAVLINK_MSG_ID_HOME_POSITION: self.plant.home_position,
         }
 
     # time
-    @property
-    def t(self) -> float:
-        """Simulated time since boot, s."""
-        return self.physics.plant.time
-
-    @property
-    def boot_ms(self) -> int:
-        """time_boot_ms (wraps like a uint32)."""
-        return round(self.t * 1000.0) % 2**32
-
-    @property
-    def boot_us(self) -> int:
-        """Simulated microseconds since boot."""
-        return round(self.t * 1e6)
 
     def build(self, msg_id: int) -> mavlink.MAVLink_message | None:
         """The message with ``msg_id`` now, or None if not available (unknown id, or not in this mode)."""
@@ -126,7 +115,7 @@ class Telemetry:
     def heartbeat(self) -> mavlink.MAVLink_message:
         """Rover boat heartbeat."""
         v = self.vehicle
-        if v.failsafe_active:
+        if v.failsafes.active:
             status = mavlink.MAV_STATE_CRITICAL
         elif v.mode == Mode.HOLD:
             status = mavlink.MAV_STATE_STANDBY
@@ -134,11 +123,16 @@ class Telemetry:
             status = mavlink.MAV_STATE_ACTIVE
         vtype = (
             mavlink.MAV_TYPE_SURFACE_BOAT
-            if self.params["FRAME_CLASS"] == 2
+            if self.params["FRAME_CLASS"] == FRAME_CLASS_BOAT
             else mavlink.MAV_TYPE_GROUND_ROVER
         )
         return mavlink.MAVLink_heartbeat_message(
-            vtype, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode(v.mode, v.armed), int(v.mode), status, 3
+            type=vtype,
+            autopilot=mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode=base_mode(v.mode, v.armed),
+            custom_mode=int(v.mode),
+            system_status=status,
+            mavlink_version=3,
         )
 
     def sys_status(self) -> mavlink.MAVLink_message:
@@ -148,162 +142,73 @@ class Telemetry:
         healthy = SENSORS
         if v.rc.receiver or v.rc.last_override_time is not None:
             present |= RC_RECEIVER_BIT
-            if not v.failsafes["rc"].triggered:
+            if not v.failsafes.rc.triggered:
                 healthy |= RC_RECEIVER_BIT
         if v.armed or not v.prearm_failure():
             healthy |= PREARM_BIT
         b = self.battery
         return mavlink.MAVLink_sys_status_message(
-            present,
-            present,
-            healthy,
-            150,
-            b.voltage_mv,
-            round(b.current_a * 100),
-            b.remaining_pct,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
+            onboard_control_sensors_present=present,
+            onboard_control_sensors_enabled=present,
+            onboard_control_sensors_health=healthy,
+            load=150,
+            voltage_battery=b.voltage_mv,
+            current_battery=round(b.current_a * 100),
+            battery_remaining=b.remaining_pct,
+            drop_rate_comm=0,
+            errors_comm=0,
+            errors_count1=0,
+            errors_count2=0,
+            errors_count3=0,
+            errors_count4=0,
         )
 
     def system_time(self) -> mavlink.MAVLink_message:
         """Unix time on the simulated clock."""
-        return mavlink.MAVLink_system_time_message(self.boot_unix_us + self.boot_us, self.boot_ms)
-
-    def _position(self) -> tuple[float, float, float]:
-        """Latitude, longitude (deg) and altitude AMSL (m) of the boat now."""
-        x = self.physics.plant.state
-        return self.home.to_geodetic(float(x[0]), float(x[1]), float(x[2]))
-
-    def gps_raw_int(self) -> mavlink.MAVLink_message:
-        """A perfect 3-D fix."""
-        x = self.physics.plant.state
-        lat, lon, alt = self._position()
-        vn, ve, _ = ned_velocity(x)
-        speed = math.hypot(vn, ve)
-        cog = _cdeg(math.atan2(ve, vn)) if speed > 0.05 else 0
-        return mavlink.MAVLink_gps_raw_int_message(
-            self.boot_us,
-            3,
-            round(lat * 1e7),
-            round(lon * 1e7),
-            round(alt * 1000),
-            80,
-            120,
-            min(65534, round(speed * 100)),
-            cog,
-            12,
-            round(alt * 1000),
-            300,
-            500,
-            20,
-            0,
-            0,
-        )
-
-    def attitude(self) -> mavlink.MAVLink_message:
-        """Euler angles and body rates of the plant now."""
-        x = self.physics.plant.state
-        return mavlink.MAVLink_attitude_message(
-            self.boot_ms,
-            float(x[3]),
-            float(x[4]),
-            wrap_pi(float(x[5])),
-            float(x[9]),
-            float(x[10]),
-            float(x[11]),
-        )
-
-    def global_position_int(self) -> mavlink.MAVLink_message:
-        """Position, NED velocity and heading."""
-        x = self.physics.plant.state
-        lat, lon, alt = self._position()
-        vn, ve, vd = ned_velocity(x)
-        return mavlink.MAVLink_global_position_int_message(
-            self.boot_ms,
-            round(lat * 1e7),
-            round(lon * 1e7),
-            round(alt * 1000),
-            round(-float(x[2]) * 1000),
-            _i16(vn * 100),
-            _i16(ve * 100),
-            _i16(vd * 100),
-            _cdeg(float(x[5])),
-        )
-
-    def local_position_ned(self) -> mavlink.MAVLink_message:
-        """Position and velocity relative to the EKF origin (home)."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
-        return mavlink.MAVLink_local_position_ned_message(
-            self.boot_ms, float(x[0]), float(x[1]), float(x[2]), vn, ve, vd
-        )
-
-    def vfr_hud(self) -> mavlink.MAVLink_message:
-        """Ground speed (also in the airspeed field), heading, throttle %, altitude, climb."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
-        speed = math.hypot(vn, ve)
-        _, _, alt = self._position()
-        return mavlink.MAVLink_vfr_hud_message(
-            speed,
-            speed,
-            _cdeg(float(x[5])) // 100,
-            min(100, round(abs(self.vehicle.throttle) * 100)),
-            alt,
-            -vd,
+        return mavlink.MAVLink_system_time_message(
+            time_unix_usec=self.boot_unix_us + self.boot_us, time_boot_ms=self.boot_ms
         )
 
     def servo_output_raw(self) -> mavlink.MAVLink_message:
         """PWM on outputs 1-16."""
-        pwm = [p if 0 <= p < 65535 else 0 for p in self.vehicle.servo_pwm]
-        return mavlink.MAVLink_servo_output_raw_message(self.boot_us % 2**32, 0, *pwm)
+        pwm = [p if 0 <= p < 65535 else 0 for p in self.vehicle.servos.pwm]
+        servos = {f"servo{n}_raw": value for n, value in enumerate(pwm, start=1)}
+        return mavlink.MAVLink_servo_output_raw_message(time_usec=self.boot_us % 2**32, port=0, **servos)
 
     def rc_channels(self) -> mavlink.MAVLink_message:
         """Effective RC input (receiver and overrides)."""
         v = self.vehicle
         pwm = [max(0, min(65535, p)) for p in v.rc.all_pwm(v.now, self.params["RC_OVERRIDE_TIME"])]
         count = 16 if v.rc.receiver else sum(1 for p in pwm if p > 0)
-        return mavlink.MAVLink_rc_channels_message(self.boot_ms, count, *pwm, 0, 0, 255)
+        chans = {f"chan{n}_raw": value for n, value in enumerate([*pwm, 0, 0][:18], start=1)}
+        return mavlink.MAVLink_rc_channels_message(time_boot_ms=self.boot_ms, chancount=count, rssi=255, **chans)
 
     def rc_channels_scaled(self) -> mavlink.MAVLink_message:
         """Skid outputs as Rover's "servo out": chan1 left, chan3 right, ±10000."""
         left, right = self.vehicle.outputs
-        return mavlink.MAVLink_rc_channels_scaled_message(
-            self.boot_ms, 0, _i16(left * 10000), 0, _i16(right * 10000), 0, 0, 0, 0, 0, 255
-        )
+        scaled = {f"chan{n}_scaled": 0 for n in range(1, 9)}
+        scaled.update(chan1_scaled=i16(left * 10000), chan3_scaled=i16(right * 10000))
+        return mavlink.MAVLink_rc_channels_scaled_message(time_boot_ms=self.boot_ms, port=0, rssi=255, **scaled)
 
     def mission_current(self) -> mavlink.MAVLink_message:
         """Current nav item, the last seq and the mission state."""
         total = max(0, len(self.store.items(0)) - 1)
         seq = self.runner.current if self.store.present() else 0
         state = self.runner.mission_state(self.vehicle.mode == Mode.AUTO)
-        return mavlink.MAVLink_mission_current_message(seq, total, state, 0)
+        return mavlink.MAVLink_mission_current_message(seq=seq, total=total, mission_state=state, mission_mode=0)
 
     def nav_controller_output(self) -> mavlink.MAVLink_message | None:
         """Navigator state, only in autopilot modes."""
         v = self.vehicle
         if not MODE_INFO[v.mode].autopilot:
             return None
-        out = v.nav_output
+        out, guided = v.navigator.output, v.navigator.guided
         nav = nav_state(self.physics.plant.state)
         if out is None:
-            heading = v.guided.heading if v.guided is not None and v.guided.heading is not None else nav.yaw
-            return mavlink.MAVLink_nav_controller_output_message(
-                0, 0, _i16(math.degrees(heading)), _i16(math.degrees(heading)), 0, 0, 0, 0
-            )
-        return mavlink.MAVLink_nav_controller_output_message(
-            0,
-            0,
-            _i16(math.degrees(wrap_pi(out.heading))),
-            _i16(math.degrees(wrap_pi(out.bearing))),
-            min(65535, round(out.distance)),
-            0,
-            out.speed - nav.forward_speed,
-            out.xtrack,
+            heading = guided.heading if guided is not None and guided.heading is not None else nav.yaw
+            return _nav_controller_output(heading, heading, 0.0, 0.0, 0.0)
+        return _nav_controller_output(
+            wrap_pi(out.heading), wrap_pi(out.bearing), out.distance, out.speed - nav.forward_speed, out.xtrack
         )
 
     def battery_status(self) -> mavlink.MAVLink_message:
@@ -311,44 +216,20 @@ class Telemetry:
         b = self.battery
         cells = [min(65534, b.voltage_mv)] + [65535] * 9
         return mavlink.MAVLink_battery_status_message(
-            0,
-            0,
-            0,
-            32767,
-            cells,
-            round(b.current_a * 100),
-            round(b.consumed_mah),
-            -1,
-            b.remaining_pct,
-            0,
-            1,
-            [0, 0, 0, 0],
-            0,
-            0,
-        )
-
-    def home_position(self) -> mavlink.MAVLink_message:
-        """Home (also the EKF origin)."""
-        h = self.home
-        return mavlink.MAVLink_home_position_message(
-            round(h.lat_deg * 1e7),
-            round(h.lon_deg * 1e7),
-            round(h.alt_m * 1000),
-            0,
-            0,
-            0,
-            [1, 0, 0, 0],
-            0,
-            0,
-            0,
-            self.boot_us,
-        )
-
-    def gps_global_origin(self) -> mavlink.MAVLink_message:
-        """The EKF origin (home)."""
-        h = self.home
-        return mavlink.MAVLink_gps_global_origin_message(
-            round(h.lat_deg * 1e7), round(h.lon_deg * 1e7), round(h.alt_m * 1000), self.boot_us
+            id=0,
+            battery_function=mavlink.MAV_BATTERY_FUNCTION_UNKNOWN,
+            type=mavlink.MAV_BATTERY_TYPE_UNKNOWN,
+            temperature=32767,  # unknown
+            voltages=cells,
+            current_battery=round(b.current_a * 100),
+            current_consumed=round(b.consumed_mah),
+            energy_consumed=-1,
+            battery_remaining=b.remaining_pct,
+            time_remaining=0,
+            charge_state=mavlink.MAV_BATTERY_CHARGE_STATE_OK,
+            voltages_ext=[0, 0, 0, 0],
+            mode=0,
+            fault_bitmask=0,
         )
 
     def autopilot_version(self) -> mavlink.MAVLink_message:
@@ -356,5 +237,16 @@ class Telemetry:
         major, minor, patch = FIRMWARE_VERSION
         version = major << 24 | minor << 16 | patch << 8 | 255
         return mavlink.MAVLink_autopilot_version_message(
-            CAPABILITIES, version, 0, 0, 0, b"\0" * 8, b"\0" * 8, b"\0" * 8, 0, 0, 0, [0] * 18
+            capabilities=CAPABILITIES,
+            flight_sw_version=version,
+            middleware_sw_version=0,
+            os_sw_version=0,
+            board_version=0,
+            flight_custom_version=b"\0" * 8,
+            middleware_custom_version=b"\0" * 8,
+            os_custom_version=b"\0" * 8,
+            vendor_id=0,
+            product_id=0,
+            uid=0,
+            uid2=[0] * 18,
         )

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import math
-import time
 
-import pytest
+from sim_vehicle.harness import SimProcess
+from tests.rover import ARM, DO_REPOSITION, GUIDED, HOLD, KEEP, MANUAL, SET_MESSAGE_INTERVAL
+from tests.waits import command, run_for, set_mode, taken_by, wait_for, wait_mode
 
-from sim_vehicle.harness import SimProcess, command, drain, run_for, set_mode, wait_for
-
-ARM, MANUAL, HOLD, GUIDED = 400, 0, 4, 15
-KEEP = 65535
+SIM_OPTIONS = {"speedup": 20}  # the shared ``sim`` fixture's process
 
 
 def _override(conn, ch1: int, ch3: int) -> None:
@@ -28,25 +26,14 @@ def _position(conn):
 
 def _servos_at(conn, sim_t: float) -> tuple[int, int]:
     """First SERVO_OUTPUT_RAW at or after simulated time ``sim_t``."""
-    deadline = time.monotonic() + 20
-    while time.monotonic() < deadline:
-        s1, s3, t = _servos(conn)
-        if t >= sim_t:
-            return s1, s3
-    raise TimeoutError
-
-
-@pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> SimProcess:
-    """A calm-water simulator at 20x."""
-    with SimProcess(tmp_path_factory.mktemp("drive"), speedup=20) as proc:
-        yield proc
+    msg = wait_for(conn, "SERVO_OUTPUT_RAW", 20, lambda m: m.time_usec / 1e6 >= sim_t)
+    return msg.servo1_raw, msg.servo3_raw
 
 
 def test_override_from_gcs_drives_forward_then_expires(sim: SimProcess) -> None:
     """ch3 1900 / ch1 1500 from sysid 255 drives ahead; RC_OVERRIDE_TIME later the props stop."""
     conn = sim.connect()
-    assert command(conn, 511, 36, 100000) == 0  # SERVO_OUTPUT_RAW at 10 Hz
+    assert command(conn, SET_MESSAGE_INTERVAL, 36, 100000) == 0  # SERVO_OUTPUT_RAW at 10 Hz
     assert set_mode(conn, MANUAL) == 0 and command(conn, ARM, 1) == 0
     start = _position(conn)
     run_for(conn, 10.0, lambda: _override(conn, 1500, 1900))
@@ -59,9 +46,8 @@ def test_override_from_gcs_drives_forward_then_expires(sim: SimProcess) -> None:
     ahead = dn * math.cos(heading) + de * math.sin(heading)
     assert ahead > 15.0, (dn, de)
     assert math.hypot(end.vx, end.vy) > 250  # cm/s
-    drain(conn)
     _override(conn, 1500, 1900)
-    last = wait_for(conn, "SERVO_OUTPUT_RAW", 5).time_usec / 1e6
+    last = taken_by(conn)  # the simulator took the last override by this simulated time
     assert _servos_at(conn, last + 2.0) == (1900, 1900)  # RC_OVERRIDE_TIME is 3 s
     assert _servos_at(conn, last + 4.2) == (1500, 1500)  # after the MOT_SLEWRATE ramp (1 s)
     assert command(conn, ARM, 0) == 0
@@ -70,7 +56,7 @@ def test_override_from_gcs_drives_forward_then_expires(sim: SimProcess) -> None:
 def test_override_from_other_system_is_ignored(sim: SimProcess) -> None:
     """The same override from sysid 200 does not move the propellers."""
     other = sim.connect(source_system=200)
-    assert command(other, 511, 36, 100000) == 0
+    assert command(other, SET_MESSAGE_INTERVAL, 36, 100000) == 0
     assert set_mode(other, MANUAL) == 0 and command(other, ARM, 1) == 0
     run_for(other, 3.0, lambda: _override(other, 1500, 1900))
     assert _servos(other)[:2] == (1500, 1500)
@@ -80,7 +66,7 @@ def test_override_from_other_system_is_ignored(sim: SimProcess) -> None:
 def test_release_hold_and_disarm_stop_the_props(sim: SimProcess) -> None:
     """Channel value 0 releases, HOLD stops the props, disarming stops them; steering mixes into the sides."""
     conn = sim.connect()
-    assert command(conn, 511, 36, 100000) == 0
+    assert command(conn, SET_MESSAGE_INTERVAL, 36, 100000) == 0
     assert set_mode(conn, MANUAL) == 0 and command(conn, ARM, 1) == 0
     _override(conn, 1900, 1500)  # full right turn on the spot: left ahead, right astern
     run_for(conn, 1.2)
@@ -124,8 +110,7 @@ def test_guided_attitude_target_east_then_stop(sim: SimProcess) -> None:
     for vn, ve, hdg in speeds:
         assert abs(hdg - 90) < 5
         assert abs(ve - 1.0) < 0.15 and abs(vn) < 0.2
-    text = wait_for(conn, "STATUSTEXT", 10, lambda m: "target not received" in m.text)
-    assert text is not None
+    wait_for(conn, "STATUSTEXT", 10, lambda m: "target not received" in m.text)
     run_for(conn, 8.0)
     pos = _position(conn)
     assert math.hypot(pos.vx, pos.vy) < 30  # cm/s: the boat has stopped (it loiters)
@@ -137,18 +122,17 @@ def test_guided_position_targets_and_reposition(sim: SimProcess) -> None:
     conn = sim.connect()
     assert set_mode(conn, MANUAL) == 0
     here = _position(conn)
-    assert command(conn, 192, -1, 0, 0, 0, here.lat / 1e7, here.lon / 1e7 + 1e-4) == 2  # not GUIDED, no flag
-    assert command(conn, 192, -1, 1, 0, 0, 0, 0) == 2  # 0/0 is refused
+    assert command(conn, DO_REPOSITION, -1, 0, 0, 0, here.lat / 1e7, here.lon / 1e7 + 1e-4) == 2  # not GUIDED, no flag
+    assert command(conn, DO_REPOSITION, -1, 1, 0, 0, 0, 0) == 2  # 0/0 is refused
     goto = conn.mav.mission_item_int_encode(1, 1, 0, 0, 16, 2, 1, 0, 0, 0, 0, here.lat, here.lon + 1000, 0, 0)
     conn.mav.send(goto)
     assert wait_for(conn, "MISSION_ACK", 5).type == 1  # guided "go to" outside GUIDED
-    assert command(conn, 192, -1, 1, 0, 0, here.lat / 1e7, here.lon / 1e7) == 0  # flag switches to GUIDED
-    assert wait_for(conn, "HEARTBEAT", 5, lambda m: m.custom_mode == GUIDED) is not None
+    assert command(conn, DO_REPOSITION, -1, 1, 0, 0, here.lat / 1e7, here.lon / 1e7) == 0  # flag switches to GUIDED
+    wait_mode(conn, GUIDED)
     assert command(conn, ARM, 1) == 0
     xy_only = 0b0000_1111_1111_1100
     conn.mav.set_position_target_local_ned_send(0, 1, 1, 7, xy_only, 0, 20, 0, 0, 0, 0, 0, 0, 0, 0, 0)
-    reached = wait_for(conn, "MISSION_ITEM_REACHED", 30)
-    assert reached is not None and reached.seq == 0
+    assert wait_for(conn, "MISSION_ITEM_REACHED", 30).seq == 0
     there = _position(conn)
     east = (there.lon - here.lon) * 1e-7 * 111_319.5 * math.cos(math.radians(here.lat * 1e-7))
     assert 16 < east < 24

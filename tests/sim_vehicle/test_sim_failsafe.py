@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
-from sim_vehicle.harness import SimProcess, command, drain, run_for, set_mode, wait_for
+from sim_vehicle.harness import SimProcess
+from tests.rover import ARM, GUIDED, HOLD, KEEP, MANUAL, SET_MESSAGE_INTERVAL
+from tests.waits import command, latest_sim_seconds, run_for, set_mode, taken_by, wait_for, wait_mode
 
-ARM, MANUAL, HOLD, GUIDED = 400, 0, 4, 15
-KEEP = 65535
+MAV_STATE_CRITICAL = 5
 
 
 def _read(conn, name: str) -> float:
@@ -24,35 +24,38 @@ def test_gcs_failsafe_holds_and_clears(tmp_path: Path) -> None:
         conn = sim.connect()
         assert set_mode(conn, GUIDED) == 0 and command(conn, ARM, 1) == 0
         run_for(conn, 2.0, lambda: conn.mav.heartbeat_send(6, 8, 0, 0, 0), period_s=0.5)
-        text = wait_for(conn, "STATUSTEXT", 10, lambda m: m.text == "GCS Failsafe")
-        assert text is not None
-        hb = wait_for(conn, "HEARTBEAT", 5, lambda m: m.custom_mode == HOLD)
-        assert hb is not None and hb.system_status == 5
+        wait_for(conn, "STATUSTEXT", 10, lambda m: m.text == "GCS Failsafe")
+        assert wait_mode(conn, HOLD).system_status == MAV_STATE_CRITICAL
         conn.mav.heartbeat_send(6, 8, 0, 0, 0)
-        assert wait_for(conn, "STATUSTEXT", 5, lambda m: m.text == "GCS Failsafe Cleared") is not None
+        wait_for(conn, "STATUSTEXT", 5, lambda m: m.text == "GCS Failsafe Cleared")
         assert command(conn, ARM, 0) == 0
 
 
 def test_rc_failsafe_without_receiver_stops_before_override_expiry(tmp_path: Path) -> None:
-    """No receiver: overrides stop -> Radio Failsafe after 0.5 + 1.5 s, overrides cleared, HOLD."""
-    with SimProcess(tmp_path, speedup=10, extra=["--no-rc-receiver", "--wipe"]) as sim:
+    """No receiver: overrides stop -> Radio Failsafe after 0.5 + 1.5 s, overrides cleared, HOLD.
+
+    Times are read from the messages (simulated time), and the simulator runs at 2x so that the test's
+    override cadence (every 0.2 simulated s, against Rover's 0.5 s frame timeout) has wall-clock room on
+    a busy machine. Without a receiver the failsafe triggers at boot; while it stays triggered the boat is
+    put in MANUAL and armed, so no pause between commands can trigger it a second time.
+    """
+    with SimProcess(tmp_path, speedup=2, extra=["--no-rc-receiver", "--wipe"]) as sim:
         conn = sim.connect()
-        assert command(conn, 511, 36, 100000) == 0
-        override = lambda: conn.mav.rc_channels_override_send(1, 1, 1500, KEEP, 1500, *[KEEP] * 5)  # noqa: E731
-        run_for(conn, 1.0, override, period_s=0.2)
+        assert command(conn, SET_MESSAGE_INTERVAL, 36, 100000) == 0
+        wait_for(conn, "HEARTBEAT", 10, lambda m: m.system_status == MAV_STATE_CRITICAL)  # boot failsafe
         assert set_mode(conn, MANUAL) == 0 and command(conn, ARM, 1) == 0
         full = lambda: conn.mav.rc_channels_override_send(1, 1, 1500, KEEP, 1900, *[KEEP] * 5)  # noqa: E731
-        run_for(conn, 2.0, full, period_s=0.2)
-        time.sleep(0.05)
-        servos = [m for m in drain(conn) if m.get_type() == "SERVO_OUTPUT_RAW"]
-        last = servos[-1] if servos else wait_for(conn, "SERVO_OUTPUT_RAW", 5)
-        assert last.servo1_raw == 1900
-        text = wait_for(conn, "STATUSTEXT", 10, lambda m: m.text == "Radio Failsafe")
-        assert text is not None
-        hb = wait_for(conn, "HEARTBEAT", 5, lambda m: m.custom_mode == HOLD)
-        assert hb is not None
+        run_for(conn, 3.0, full, period_s=0.2)  # clears the failsafe; 1 s of throttle slew to full
+        t_before = latest_sim_seconds(conn)
+        full()  # the last override: the simulator takes it between t_before and t_taken
+        t_taken = taken_by(conn)
+        held = wait_for(conn, "SERVO_OUTPUT_RAW", 10, lambda m: m.time_usec / 1e6 >= t_taken)
+        assert held.servo1_raw == 1900
+        wait_for(conn, "STATUSTEXT", 10, lambda m: m.text == "Radio Failsafe")
+        wait_mode(conn, HOLD)
         stopped = wait_for(conn, "SERVO_OUTPUT_RAW", 10, lambda m: m.servo1_raw == 1500)
-        assert (stopped.time_usec - last.time_usec) / 1e6 < 3.5  # 2 s to trigger + 1 s throttle slew
+        # 0.5 s without frames + FS_TIMEOUT 1.5 s, then 1 s of throttle slew; expiry would be 3 s + slew
+        assert stopped.time_usec / 1e6 - t_before >= 2.0 and stopped.time_usec / 1e6 - t_taken < 3.5
 
 
 def _mission_count(conn) -> int:

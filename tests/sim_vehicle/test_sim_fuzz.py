@@ -9,7 +9,9 @@ import time
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim_vehicle.harness import SimProcess, command, wait_for
+from sim_vehicle.harness import SimProcess
+from tests.rover import ARM
+from tests.waits import command, wait_for
 
 N_PACKETS = 12000
 SPECIAL = [float("nan"), float("inf"), -float("inf"), 0.0, -1.0, 1.0, 1e38, -1e38, 2989.0, 21196.0]
@@ -124,11 +126,12 @@ def test_fuzz_then_still_answers(tmp_path) -> None:
         udp.close()
         assert sim.proc is not None and sim.proc.poll() is None
         conn = sim.connect()
-        assert wait_for(conn, "HEARTBEAT", 5, lambda m: m.get_srcSystem() == 1) is not None
+        heartbeat = wait_for(conn, "HEARTBEAT", 5, lambda m: m.get_srcSystem() == 1)
+        assert heartbeat.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
         conn.mav.param_request_read_send(1, 1, b"SYSID_THISMAV", -1)
         value = wait_for(conn, "PARAM_VALUE", 5, lambda m: m.param_id == "SYSID_THISMAV")
-        assert value is not None and value.param_value == 1
-        assert command(conn, 400, 0, 21196) == 0
+        assert value.param_value == 1
+        assert command(conn, ARM, 0, 21196) == 0
         err = sim.stop()
     assert "Traceback" not in err, err[-2000:]
     assert not math.isnan(value.param_value)

@@ -6,18 +6,23 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
+from sim_vehicle.harness import SimProcess
+from tests.rover import (
+    ARM,
+    AUTO,
+    DO_CHANGE_SPEED,
+    DO_SET_MODE,
+    GUIDED,
+    HOLD,
+    MANUAL,
+    REQUEST_MESSAGE,
+    RTL,
+    SET_MESSAGE_INTERVAL,
+)
+from tests.waits import command, command_texts, set_mode, wait_for, wait_mode
 
-from sim_vehicle.harness import SimProcess, command, command_texts, set_mode, wait_for
-
-ARM, MANUAL, AUTO, RTL, HOLD, GUIDED = 400, 0, 10, 11, 4, 15
-
-
-@pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> SimProcess:
-    """One simulator shared by the tests of this module (they leave it disarmed in MANUAL)."""
-    with SimProcess(tmp_path_factory.mktemp("link"), speedup=10) as proc:
-        yield proc
+# the tests of this module share the conftest ``sim`` process (10x) and leave it disarmed in MANUAL
+MISSION_START = 300
 
 
 def test_boat_heartbeat(sim: SimProcess) -> None:
@@ -36,7 +41,6 @@ def test_download_every_parameter(sim: SimProcess) -> None:
     seen: dict[int, object] = {}
     while True:
         msg = wait_for(conn, "PARAM_VALUE", 5)
-        assert msg is not None, f"list stalled after {len(seen)}"
         seen[msg.param_index] = msg
         if len(seen) == msg.param_count:
             break
@@ -87,8 +91,7 @@ def test_modes_with_acks(sim: SimProcess) -> None:
     conn = sim.connect()
     for mode in (MANUAL, GUIDED, HOLD):
         assert set_mode(conn, mode) == 0
-        hb = wait_for(conn, "HEARTBEAT", 5, lambda m, mode=mode: m.custom_mode == mode)
-        assert hb is not None
+        wait_mode(conn, mode)
     assert wait_for(conn, "HEARTBEAT", 5).system_status == 3  # STANDBY in HOLD
     assert set_mode(conn, 99) == 4
     conn.mav.set_mode_send(1, 1, GUIDED)
@@ -104,10 +107,10 @@ def test_arm_and_disarm(sim: SimProcess) -> None:
     conn = sim.connect()
     assert set_mode(conn, MANUAL) == 0
     assert command(conn, ARM, 1) == 0
-    assert wait_for(conn, "HEARTBEAT", 5, lambda m: m.base_mode & 128) is not None
+    wait_for(conn, "HEARTBEAT", 5, lambda m: m.base_mode & 128)
     assert command(conn, ARM, 1) == 0  # already armed
     assert command(conn, ARM, 0) == 0
-    assert wait_for(conn, "HEARTBEAT", 5, lambda m: not m.base_mode & 128) is not None
+    wait_for(conn, "HEARTBEAT", 5, lambda m: not m.base_mode & 128)
     assert command(conn, ARM, 7) == 3
 
 
@@ -117,9 +120,9 @@ def test_arming_refused_in_rtl_and_auto_without_mission(sim: SimProcess) -> None
     assert set_mode(conn, RTL) == 0
     result, texts = command_texts(conn, ARM, 1)
     assert result == 4 and "PreArm: Mode not armable" in texts
-    result, texts = command_texts(conn, 176, 1, AUTO)
+    result, texts = command_texts(conn, DO_SET_MODE, 1, AUTO)
     assert result == 4 and "No Mission. Can't set AUTO." in texts
-    assert command(conn, 300) == 4  # MISSION_START also needs a mission
+    assert command(conn, MISSION_START) == 4  # MISSION_START also needs a mission
     assert wait_for(conn, "HEARTBEAT", 5, lambda m: m.custom_mode == RTL and not m.base_mode & 128)
     assert set_mode(conn, MANUAL) == 0
 
@@ -127,23 +130,23 @@ def test_arming_refused_in_rtl_and_auto_without_mission(sim: SimProcess) -> None
 def test_requests_and_intervals(sim: SimProcess) -> None:
     """REQUEST_MESSAGE (AUTOPILOT_VERSION, HOME_POSITION), SET_MESSAGE_INTERVAL and unknown commands."""
     conn = sim.connect()
-    assert command(conn, 512, 148) == 0
+    assert command(conn, REQUEST_MESSAGE, 148) == 0
     version = wait_for(conn, "AUTOPILOT_VERSION", 5)
     assert version.capabilities & 4  # MISSION_INT
-    assert command(conn, 512, 242) == 0
+    assert command(conn, REQUEST_MESSAGE, 242) == 0
     home = wait_for(conn, "HOME_POSITION", 5)
     assert abs(home.latitude - (-353632610)) <= 1
-    assert command(conn, 511, 30, 20000) == 0  # ATTITUDE at 50 Hz
+    assert command(conn, SET_MESSAGE_INTERVAL, 30, 20000) == 0  # ATTITUDE at 50 Hz
     first = wait_for(conn, "ATTITUDE", 5)
     n, last = 0, first
     while last.time_boot_ms - first.time_boot_ms < 2000:
         last = wait_for(conn, "ATTITUDE", 5)
         n += 1
     assert 90 <= n <= 110
-    assert command(conn, 511, 30, -1) == 0
-    assert command(conn, 511, 9999, 1000) == 4
+    assert command(conn, SET_MESSAGE_INTERVAL, 30, -1) == 0
+    assert command(conn, SET_MESSAGE_INTERVAL, 9999, 1000) == 4
     assert command(conn, 31337) == 3
-    assert command(conn, 511, 30, 0) == 0
+    assert command(conn, SET_MESSAGE_INTERVAL, 30, 0) == 0
 
 
 def test_cli_bad_flags_one_line(tmp_path: Path) -> None:
@@ -177,20 +180,18 @@ def test_hostile_values_get_ardupilot_answers(sim: SimProcess) -> None:
     """NaN command parameters fail cleanly, PWM 5000 saturates, a NaN attitude target is dropped."""
     conn = sim.connect()
     nan = float("nan")
-    assert command(conn, 176, 1, nan) == 4
-    assert command(conn, 400, nan) == 3
-    assert command(conn, 511, nan, 1000) == 4
-    assert command(conn, 178, 0, nan) == 4
+    assert command(conn, DO_SET_MODE, 1, nan) == 4
+    assert command(conn, ARM, nan) == 3
+    assert command(conn, SET_MESSAGE_INTERVAL, nan, 1000) == 4
+    assert command(conn, DO_CHANGE_SPEED, 0, nan) == 4
     assert set_mode(conn, MANUAL) == 0 and command(conn, ARM, 1) == 0
-    assert command(conn, 511, 36, 100000) == 0
+    assert command(conn, SET_MESSAGE_INTERVAL, 36, 100000) == 0
     conn.mav.rc_channels_override_send(1, 1, 1500, 65535, 5000, 65535, 65535, 65535, 65535, 65535)
-    rc = wait_for(conn, "RC_CHANNELS", 5, lambda m: m.chan3_raw == 5000)
-    assert rc is not None
-    servo = wait_for(conn, "SERVO_OUTPUT_RAW", 10, lambda m: m.servo1_raw == 1900 and m.servo3_raw == 1900)
-    assert servo is not None
+    wait_for(conn, "RC_CHANNELS", 5, lambda m: m.chan3_raw == 5000)
+    wait_for(conn, "SERVO_OUTPUT_RAW", 10, lambda m: m.servo1_raw == 1900 and m.servo3_raw == 1900)
     conn.mav.rc_channels_override_send(1, 1, 0, 65535, 0, 65535, 65535, 65535, 65535, 65535)
     assert command(conn, ARM, 0) == 0
     assert set_mode(conn, GUIDED) == 0
     conn.mav.set_attitude_target_send(0, 1, 1, 7, [nan, 0, 0, 0], 0, 0, nan, nan)
-    assert wait_for(conn, "HEARTBEAT", 5, lambda m: m.custom_mode == GUIDED) is not None
+    wait_mode(conn, GUIDED)
     assert set_mode(conn, MANUAL) == 0

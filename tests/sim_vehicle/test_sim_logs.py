@@ -4,18 +4,21 @@ from __future__ import annotations
 
 import csv
 import time
+from collections.abc import Callable
 
 import pytest
 from pymavlink import mavutil
 
-from sim_vehicle.harness import SimProcess, command, latest_sim_seconds, wait_for
+from sim_vehicle.harness import SimProcess
+from tests.rover import SET_MESSAGE_INTERVAL
+from tests.waits import command, latest_sim_seconds, wait_for
 
 
 def test_speedup_10_runs_ten_times_faster(tmp_path) -> None:
     """Simulated time advances ten times as fast as the wall clock."""
     with SimProcess(tmp_path, speedup=10) as sim:
         conn = sim.connect()
-        assert command(conn, 511, 30, 20000) == 0  # ATTITUDE at 50 Hz: a fine clock reading
+        assert command(conn, SET_MESSAGE_INTERVAL, 30, 20000) == 0  # ATTITUDE at 50 Hz: a fine clock reading
         time.sleep(0.5)
         t0_sim, t0_wall = latest_sim_seconds(conn), time.monotonic()
         time.sleep(2.0)
@@ -24,20 +27,24 @@ def test_speedup_10_runs_ten_times_faster(tmp_path) -> None:
     assert 8.5 < ratio < 10.5, ratio
 
 
+def test_wait_for_client_holds_simulated_time_until_a_client_speaks(start_sim: Callable[..., SimProcess]) -> None:
+    """--wait-for-client: simulated time stays at 0 until the first message, as SITL waits for SERIAL0."""
+    sim = start_sim(speedup=10, wait_for_client=True)
+    time.sleep(1.0)  # without the hold, 10 simulated seconds would pass here
+    conn = sim.connect()  # speaks first (its heartbeat), which starts the clock
+    assert wait_for(conn, "ATTITUDE", 5).time_boot_ms < 1000
+
+
 @pytest.fixture(scope="module")
 def wavy_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[SimProcess, list]:
     """A short run in the paper's waves with ATTITUDE at 10 Hz; returns the process and the messages."""
     sim = SimProcess(tmp_path_factory.mktemp("waves"), speedup=20, waves="paper")
     with sim:
         conn = sim.connect()
-        assert command(conn, 511, 30, 100000) == 0
-        attitudes = []
-        while len(attitudes) < 40:
-            msg = wait_for(conn, "ATTITUDE", 5)
-            assert msg is not None
-            attitudes.append(msg)
+        assert command(conn, SET_MESSAGE_INTERVAL, 30, 100000) == 0
+        attitudes = [wait_for(conn, "ATTITUDE", 5) for _ in range(40)]
         conn.mav.param_request_read_send(1, 1, b"WP_SPEED", -1)
-        assert wait_for(conn, "PARAM_VALUE", 5) is not None
+        assert wait_for(conn, "PARAM_VALUE", 5).param_id == "WP_SPEED"
     return sim, attitudes
 
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import math
 
-import pytest
+from sim_vehicle.harness import SimProcess
+from tests.rover import ARM, AUTO, MANUAL
+from tests.waits import command, run_for, set_mode, wait_for
 
-from sim_vehicle.harness import SimProcess, command, run_for, set_mode, wait_for
-
-ARM, AUTO, MANUAL = 400, 10, 0
+SIM_OPTIONS = {"speedup": 20}  # the shared ``sim`` fixture's process
 HOME_LAT, HOME_LON = -35.363261, 149.165230
 
 
@@ -25,7 +25,7 @@ def _item(conn, seq: int, lat: int, lon: int, command_id: int = 16, current: int
     )
 
 
-def upload(conn, points: list[tuple[int, int]]) -> int | None:
+def upload(conn, points: list[tuple[int, int]]) -> int:
     """Upload home + points answering MISSION_REQUESTs; returns the final MISSION_ACK type."""
     items = [_item(conn, 0, *_offset(0, 0), current=1)] + [
         _item(conn, i + 1, *p) for i, p in enumerate(points)
@@ -33,8 +33,8 @@ def upload(conn, points: list[tuple[int, int]]) -> int | None:
     conn.mav.mission_count_send(1, 1, len(items), 0)
     while True:
         msg = wait_for(conn, ["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], 5)
-        if msg is None or msg.get_type() == "MISSION_ACK":
-            return None if msg is None else msg.type
+        if msg.get_type() == "MISSION_ACK":
+            return msg.type
         conn.mav.send(items[msg.seq])
 
 
@@ -48,13 +48,6 @@ def download(conn) -> list:
         items.append(wait_for(conn, "MISSION_ITEM_INT", 5, lambda m, seq=seq: m.seq == seq))
     conn.mav.mission_ack_send(1, 1, 0, 0)
     return items
-
-
-@pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> SimProcess:
-    """A calm-water simulator at 20x."""
-    with SimProcess(tmp_path_factory.mktemp("mission"), speedup=20) as proc:
-        yield proc
 
 
 def test_upload_download_clear(sim: SimProcess) -> None:
@@ -126,6 +119,6 @@ def test_auto_reaches_waypoint_50m_away(sim: SimProcess) -> None:
     dn = (pos.lat - target[0]) * 1e-7 * 111_319.5
     de = (pos.lon - target[1]) * 1e-7 * 111_319.5 * math.cos(math.radians(HOME_LAT))
     assert math.hypot(dn, de) < 4.0
-    assert wait_for(conn, "MISSION_CURRENT", 5, lambda m: m.mission_state == 5) is not None
+    wait_for(conn, "MISSION_CURRENT", 5, lambda m: m.mission_state == 5)
     run_for(conn, 1.0)
     assert command(conn, ARM, 0) == 0

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
-from sim_vehicle.harness import SimProcess, command, run_for, set_mode, wait_for
+from sim_vehicle.harness import SimProcess
+from tests.rover import ACRO, ARM, KEEP, MANUAL, SET_MESSAGE_INTERVAL
+from tests.waits import command, run_for, set_mode, wait_for
 
-ARM, MANUAL, ACRO = 400, 0, 1
-KEEP = 65535
 INT8 = 2
 
 
@@ -20,7 +21,7 @@ def _override(conn, ch1: int, ch3: int) -> None:
 def _set_steer_type(conn, value: int) -> None:
     conn.mav.param_set_send(1, 1, b"PILOT_STEER_TYPE", value, INT8)
     reply = wait_for(conn, "PARAM_VALUE", 5, lambda m: m.param_id == "PILOT_STEER_TYPE")
-    assert reply is not None and reply.param_value == value
+    assert reply.param_value == value
 
 
 def _yaw_rate(conn, ch1: int, ch3: int, sim_s: float = 5.0, settle_s: float = 3.0) -> float:
@@ -30,9 +31,7 @@ def _yaw_rate(conn, ch1: int, ch3: int, sim_s: float = 5.0, settle_s: float = 3.
 
     def each() -> None:
         _override(conn, ch1, ch3)
-        msg = wait_for(conn, "ATTITUDE", 2)
-        if msg is not None:
-            rates.append(msg.yawspeed)
+        rates.append(wait_for(conn, "ATTITUDE", 2).yawspeed)
 
     run_for(conn, sim_s - settle_s, each, period_s=0.2)
     assert rates
@@ -44,18 +43,11 @@ def _servos(conn) -> tuple[int, int]:
     return msg.servo1_raw, msg.servo3_raw
 
 
-@pytest.fixture(scope="module")
-def sim(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SimProcess]:
-    """A calm-water simulator at 10x."""
-    with SimProcess(tmp_path_factory.mktemp("steer"), speedup=10) as proc:
-        yield proc
-
-
 @pytest.fixture
-def conn(sim: SimProcess):
+def conn(sim: SimProcess) -> Iterator[Any]:
     """A GCS (sysid 255) link, armed in MANUAL; releases the sticks and disarms afterwards."""
     link = sim.connect()
-    assert command(link, 511, 36, 100000) == 0  # SERVO_OUTPUT_RAW at 10 Hz
+    assert command(link, SET_MESSAGE_INTERVAL, 36, 100000) == 0  # SERVO_OUTPUT_RAW at 10 Hz
     assert set_mode(link, MANUAL) == 0 and command(link, ARM, 1) == 0
     yield link
     link.mav.rc_channels_override_send(1, 1, 0, 0, 0, 0, 0, 0, 0, 0)

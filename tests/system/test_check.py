@@ -14,7 +14,8 @@ import pytest
 
 from mavbridge.check import FAIL, PASS, WARN, Report, parameter_findings, rc_findings
 from mavbridge.cli import main
-from sim_vehicle.harness import SimProcess, wait_for
+from sim_vehicle.harness import SimProcess
+from tests.waits import wait_for
 from vessel.geo import latlon_from_ned
 
 ROOT = Path(__file__).resolve().parents[2]

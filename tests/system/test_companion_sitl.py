@@ -26,10 +26,11 @@ import pytest
 
 from mavbridge.experiment import run_scenario
 from mavbridge.scenario import Scenario
-from sim_vehicle.harness import SimProcess, free_port, latest_sim_seconds, set_mode, wait_for
+from sim_vehicle.harness import SimProcess, free_port
+from tests.rover import HOLD as MODE_HOLD
+from tests.waits import latest_sim_seconds, set_mode, wait_for
 
 HOME = "--home=-35.363261,149.165230,584,90"
-MODE_HOLD = 4
 pytestmark = pytest.mark.slow
 
 

@@ -15,8 +15,9 @@ import pytest
 from mavbridge.cli import build_parser
 from mavbridge.companion import CompanionConfig, load_companion_config
 from mavbridge.scenario import Scenario
-from sim_vehicle.harness import SimProcess, wait_for
+from sim_vehicle.harness import SimProcess
 from sim_vehicle.params import ParamTable, is_param_name, read_parm
+from tests.waits import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 DEPLOY = ROOT / "deploy"
