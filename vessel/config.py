@@ -65,6 +65,30 @@ def check_number(value: Any, where: str, meta: Mapping[str, Any]) -> float:
     return number
 
 
+def _int(value: Any, where: str, meta: Mapping[str, Any]) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(f"{where}: expected an integer in {describe_range(meta)}, got {value!r}")
+    return int(check_number(value, where, meta))
+
+
+def _bool(value: Any, where: str, meta: Mapping[str, Any]) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{where}: expected true or false, got {value!r}")
+    return value
+
+
+def _str(value: Any, where: str, meta: Mapping[str, Any]) -> str:
+    if not isinstance(value, str):
+        raise ConfigError(f"{where}: expected text, got {value!r}")
+    choices = meta.get("choices")
+    if choices and value not in choices:
+        raise ConfigError(f"{where}: {value!r} is not one of {', '.join(choices)}")
+    return value
+
+
+SCALARS = {float: check_number, int: _int, bool: _bool, str: _str}
+
+
 def _convert(value: Any, hint: Any, where: str, meta: Mapping[str, Any]) -> Any:
     """Convert a YAML value to the annotated type ``hint``, validating ranges on the way."""
     origin = typing.get_origin(hint)
@@ -76,23 +100,8 @@ def _convert(value: Any, hint: Any, where: str, meta: Mapping[str, Any]) -> Any:
         return _convert(value, non_none[0], where, meta)
     if dataclasses.is_dataclass(hint):
         return from_mapping(hint, value, where)
-    if hint is float:
-        return check_number(value, where, meta)
-    if hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: expected an integer in {describe_range(meta)}, got {value!r}")
-        return int(check_number(value, where, meta))
-    if hint is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where}: expected true or false, got {value!r}")
-        return value
-    if hint is str:
-        if not isinstance(value, str):
-            raise ConfigError(f"{where}: expected text, got {value!r}")
-        choices = meta.get("choices")
-        if choices and value not in choices:
-            raise ConfigError(f"{where}: {value!r} is not one of {', '.join(choices)}")
-        return value
+    if hint in SCALARS:
+        return SCALARS[hint](value, where, meta)
     if origin is tuple:
         if not isinstance(value, (list, tuple)) or len(value) != len(args):
             raise ConfigError(f"{where}: expected a list of {len(args)} numbers, got {value!r}")
