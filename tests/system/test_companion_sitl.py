@@ -344,6 +344,6 @@ def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
     with (out / "companion.csv").open() as stream:
         rows = list(csv.DictReader(stream))
     assert len(rows) >= 90 and all(r["sent"] == "0" for r in rows)  # ~10 s of 0.1 s periods, none sent
-    assert {int(r["ch3_pwm"]) for r in rows} != {1500}  # it did compute throttle commands
+    assert {int(r["throttle_pwm_us"]) for r in rows} != {1500}  # it did compute throttle commands
     assert heartbeat.base_mode & 128 == 0  # never armed
     assert math.hypot(position.vx, position.vy) < 30  # cm/s: only the published model's slow drift
