@@ -343,7 +343,9 @@ def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
         heartbeat = await_message(gcs, "HEARTBEAT", "a heartbeat after the dry run", 10, wall_s=30)
     with (out / "companion.csv").open() as stream:
         rows = list(csv.DictReader(stream))
-    assert len(rows) >= 90 and all(r["sent"] == "0" for r in rows)  # ~10 s of 0.1 s periods, none sent
+    skipped = json.loads((out / "metrics.json").read_text())["skipped_ticks"]
+    # ~10 s of 0.1 s periods (a loaded machine skips some: counted, not lost), none sent
+    assert len(rows) + skipped >= 95 and len(rows) >= 50 and all(r["sent"] == "0" for r in rows)
     assert {int(r["throttle_pwm_us"]) for r in rows} != {1500}  # it did compute throttle commands
     assert heartbeat.base_mode & 128 == 0  # never armed
     assert math.hypot(position.vx, position.vy) < 30  # cm/s: only the published model's slow drift
