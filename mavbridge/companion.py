@@ -116,6 +116,19 @@ def loop_metrics(record: RunRecorder, events: LoopEvents) -> dict[str, Any]:
             "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz}
 
 
+def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[bool, int, int]:
+    """(a control step is due at autopilot time ``now_ms``, the next tick, periods missed since the last).
+
+    The first sample, or a clock far behind the schedule (the autopilot rebooted), starts it again.
+    """
+    if next_tick_ms is None or now_ms < next_tick_ms - 10 * period_ms:
+        next_tick_ms = now_ms
+    if now_ms < next_tick_ms:
+        return False, next_tick_ms, 0
+    missed = (now_ms - next_tick_ms) // period_ms
+    return True, next_tick_ms + (missed + 1) * period_ms, missed
+
+
 def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, float]:
     """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
     returns the estimate's log columns."""
@@ -158,7 +171,6 @@ class Companion:
         self._last_command_wall = 0.0
         self._in_loop = False
 
-    # -- link handlers ------------------------------------------------------------------------------
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
             armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
@@ -172,7 +184,6 @@ class Companion:
         if msg.get_type() == "ATTITUDE" and self.state.ready():
             self.waves.observe(self.state.motion_sample())
 
-    # -- commanding ---------------------------------------------------------------------------------
     def _release(self, link: Link) -> None:
         self.output.release(link)
         self._commanding = False
@@ -224,7 +235,6 @@ class Companion:
         self._last_command_wall = time.monotonic()
         self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
 
-    # -- the run ------------------------------------------------------------------------------------
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
         if not self._in_loop:  # still connecting or preparing: stop now, the loop is not there to see it
@@ -319,13 +329,10 @@ class Companion:
             now_ms = self.state.attitude_ms
             if now_ms is None:
                 continue
-            if next_tick_ms is None or now_ms < next_tick_ms - 10 * self.period_ms:  # first tick, or a reboot
-                next_tick_ms = now_ms
-            if now_ms < next_tick_ms:
+            due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
+            if not due:
                 continue
-            missed = (now_ms - next_tick_ms) // self.period_ms
             self.events.skipped_ticks += missed
-            next_tick_ms += (missed + 1) * self.period_ms
             self._control_step(link, now_ms)
             engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:

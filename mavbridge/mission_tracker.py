@@ -16,6 +16,43 @@ from vessel.geo import ned_from_latlon
 
 from .link import LinkError, mavlink
 
+MISSION = mavlink.MAV_MISSION_TYPE_MISSION
+
+
+def _for_us(link: Any, msg: Any) -> bool:
+    """A mission-protocol reply addressed to us (or broadcast), for the mission (not fence/rally)."""
+    return (getattr(msg, "target_system", 0) in (0, link.system_id)
+            and getattr(msg, "mission_type", MISSION) == MISSION)
+
+
+def _ask(link: Any, request: tuple[Any, ...], answer: Callable[[Any], bool], timeout_s: float, retries: int) -> Any:
+    """Send ``request`` (message name, fields) until a message satisfying ``answer`` comes; None if none."""
+    for _ in range(retries):
+        link.send(*request)
+        reply = link.wait_for(lambda m: answer(m) and _for_us(link, m), timeout_s)
+        if reply is not None:
+            return reply
+    return None
+
+
+def download_mission(link: Any, timeout_s: float = 2.0, retries: int = 5) -> list[Any]:
+    """The autopilot's mission with the mission protocol (MISSION_REQUEST_INT per item); home is seq 0."""
+    assert link.target is not None, "wait_autopilot() first"
+    sysid, compid = link.target
+    count = _ask(link, ("mission_request_list", sysid, compid, MISSION), lambda m: m.get_type() == "MISSION_COUNT",
+                 timeout_s, retries)
+    if count is None:
+        raise LinkError("mission download: no MISSION_COUNT from the autopilot")
+    items = []
+    for seq in range(count.count):
+        item = _ask(link, ("mission_request_int", sysid, compid, seq, MISSION),
+                    lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s, timeout_s, retries)
+        if item is None:
+            raise LinkError(f"mission download: item {seq} never came")
+        items.append(item)
+    link.send("mission_ack", sysid, compid, mavlink.MAV_MISSION_ACCEPTED, MISSION)
+    return items
+
 
 @dataclass
 class MissionTracker:
@@ -40,7 +77,7 @@ class MissionTracker:
 
     def load(self, link: Any, set_home: Callable[[float, float], None]) -> None:
         """Download the mission; home (item 0) goes to ``set_home(lat_deg, lon_deg)``. LinkError if none."""
-        items = link.download_mission()
+        items = download_mission(link)
         if not items:
             raise LinkError("mission download returned nothing (not even home)")
         home = items[0]

@@ -18,6 +18,7 @@ from vessel.geo import ned_from_latlon
 
 from .. import streams
 from ..link import Link, LinkError, mavlink
+from ..mission_tracker import download_mission
 from .report import FAIL, PASS, WARN, Report
 from .rules import fmt_value, parameter_findings
 
@@ -192,7 +193,7 @@ class Probe:
         if self.waypoint_ne is not None:
             return self.waypoint_ne, "--waypoint"
         try:
-            items = link.download_mission()
+            items = download_mission(link)
         except LinkError as exc:
             self.report.add(FAIL, "mission", expected, str(exc), "check the link")
             return None

