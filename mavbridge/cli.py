@@ -11,9 +11,9 @@ from pathlib import Path
 
 from vessel import ConfigError
 
-from .check import add_check_parser, check_command
 from .cli_run import add_demo_parser, add_run_parser, demo_command, run_command
 from .nmpc.config import SOLVERS
+from .preflight.cli import add_check_parser, check_command
 from .sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.scenario.PLANTS (kept import-light)

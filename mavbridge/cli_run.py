@@ -3,27 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 from pathlib import Path
 from typing import Any
 
 from vessel.config import ConfigError
 
+from .cli_args import OUTPUTS, parse_north_east, single_scenario
 from .nmpc.config import SOLVERS
-
-OUTPUTS = ("rc_override", "attitude_target")
-
-
-def parse_north_east(text: str) -> tuple[float, float]:
-    """'N,E' metres as two finite numbers (argparse type)."""
-    try:
-        north, east = (float(p) for p in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected 'N,E' in metres, got {text!r}") from None
-    if not (math.isfinite(north) and math.isfinite(east)):
-        raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
-    return north, east
 
 
 def _speedup(text: str) -> float:
@@ -73,41 +60,29 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
 
 
-def _scenario(path: str | None, solver: str | None) -> Any:
-    from .scenario import Scenario, load_scenarios
-
-    if path:
-        scenarios = load_scenarios(path)
-        if len(scenarios) != 1:
-            raise ConfigError(f"--scenario: {path} defines {len(scenarios)} runs; give a single-run scenario")
-        scenario = scenarios[0]
-    else:
-        scenario = Scenario(name="balanced")
-    if solver:
-        scenario = dataclasses.replace(scenario, controller=scenario.controller.replace(solver=solver))
-    return scenario
-
-
 def run_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge run`."""
     import time
 
-    from .companion import Companion, load_companion_config
+    from .companion import Companion, build_nmpc, load_companion_config
+    from .seasource import ScenarioTruth
 
     if args.dry_run and (args.arm or args.set_mode):
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time)
-    scenario = _scenario(args.scenario, args.solver)
+    scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
-    return Companion(config, scenario, out, args.waypoint, args.arm, args.set_mode, args.dry_run).run()
+    waves = ScenarioTruth(scenario.sea.waves())  # the only source so far: simulation truth, logged as such
+    nmpc = build_nmpc(scenario, waves)  # seconds of building, before any link is open
+    return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode, args.dry_run).run()
 
 
 def demo_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge demo`."""
     from .demo import run_demo, timestamped_folder
 
-    scenario = _scenario(args.scenario, args.solver)
+    scenario = single_scenario(args.scenario, args.solver)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
     return run_demo(scenario, out, speedup, args.output)

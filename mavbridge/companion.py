@@ -4,13 +4,15 @@ Link -> state -> NMPC -> command, on the autopilot's clock (ATTITUDE.time_boot_m
 controller's period. It relies only on what a stock ArduPilot Rover sends and accepts: HEARTBEAT,
 ATTITUDE, GLOBAL_POSITION_INT, LOCAL_POSITION_NED, the mission protocol, PARAM_VALUE, COMMAND_ACK;
 and it sends RC_CHANNELS_OVERRIDE (MANUAL) or SET_ATTITUDE_TARGET (GUIDED).
+
+The loop is put together from parts: the NMPC (built outside and passed in), a ``WaveSource`` (all
+it knows about the sea), an output path (``output_paths``), a ``MissionTracker``, the ``Supervisor``
+and a ``RunRecorder`` whose CSV schema and metrics the in-process experiment shares.
 """
 
 from __future__ import annotations
 
-import csv
 import json
-import math
 import signal
 import time
 from collections.abc import Callable
@@ -18,35 +20,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
+from vessel import CalmWater
 from vessel.config import ConfigError, bounded, from_mapping, read_yaml, to_mapping
-from vessel.geo import ned_from_latlon
 
+from .cli_args import OUTPUTS
 from .link import MAV_COMP_ID_ONBOARD_COMPUTER, Link, LinkError, mavlink
+from .mission_tracker import MissionTracker
 from .nmpc import RollAwareNmpc
 from .nmpc.config import choice
-from .outputs import (
-    ATTITUDE_TYPE_MASK_HEADING,
-    RcCalibration,
-    RcSetup,
-    attitude_command,
-    neutral_pwm,
-    rc_command,
-)
+from .output_paths import MODE_HOLD, make_output
+from .preflight.rules import Context
+from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
+from .seasource import SCENARIO_TRUTH, WaveSource
 from .state import StateEstimate
+from .streams import measure_rates, request_streams
 from .supervisor import Phase, Supervisor
 
-OUTPUTS = ("rc_override", "attitude_target")
 ARRIVAL_ACTIONS = ("hold", "release")
-MODE_MANUAL, MODE_HOLD, MODE_GUIDED = 0, 4, 15
-REQUIRED_MODE = {"rc_override": MODE_MANUAL, "attitude_target": MODE_GUIDED}
-STREAMS_HZ = {mavlink.MAVLINK_MSG_ID_ATTITUDE: 20.0, mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED: 10.0,
-              mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 10.0}
-# REQUEST_DATA_STREAM fallback: EXTRA1 carries ATTITUDE, POSITION the two position messages.
-FALLBACK_STREAMS_HZ = {mavlink.MAV_DATA_STREAM_EXTRA1: 20, mavlink.MAV_DATA_STREAM_POSITION: 10}
 
 
 @dataclass(frozen=True)
@@ -85,15 +78,21 @@ def load_companion_config(path: str | Path | None, **overrides: Any) -> Companio
     return from_mapping(CompanionConfig, data, str(path) if path else "configuration")
 
 
-@dataclass
-class RunRecord:
-    """What the run measured, written as CSV rows and metrics.json."""
+def build_nmpc(scenario: Scenario, waves: WaveSource) -> RollAwareNmpc:
+    """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
+    when it has none). A step waits for asrti's background solve for a quarter period at most, never the
+    whole period. Built before connecting: it takes seconds."""
+    controller = scenario.controller
+    controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
+    estimate = waves.estimate(0.0)
+    field = estimate.field() if estimate is not None else CalmWater()
+    return RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
 
-    rows: list[list[Any]] = field(default_factory=list)
-    solve_ms: list[float] = field(default_factory=list)
-    roll_deg: list[float] = field(default_factory=list)
-    overruns: int = 0
-    failures: int = 0
+
+@dataclass
+class LoopEvents:
+    """What the loop counted besides the control steps (autopilot milliseconds where a time)."""
+
     stale: int = 0
     skipped_ticks: int = 0
     engaged_at_ms: int | None = None
@@ -101,38 +100,77 @@ class RunRecord:
     rates_hz: dict[str, float] = field(default_factory=dict)
 
 
-CSV_HEADER = ["t_s", "phase", "north", "east", "down", "phi", "theta", "psi", "u", "v", "w", "p", "q", "r",
-              "tau_x", "tau_n", "ch1_pwm", "ch3_pwm", "yaw_target_rad", "thrust", "solve_ms", "status",
-              "fallback", "sent"]
+def _log_result(log: Callable[[str], None], what: str, result: int | None) -> None:
+    """Warn when a command was not accepted."""
+    if result != mavlink.MAV_RESULT_ACCEPTED:
+        reason = "no answer" if result is None else mavlink.enums["MAV_RESULT"][result].name
+        log(f"warning: {what} not accepted ({reason})")
+
+
+def loop_metrics(record: RunRecorder, events: LoopEvents) -> dict[str, Any]:
+    """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters."""
+    arrived = (events.arrived_at_ms - events.engaged_at_ms) / 1000.0 \
+        if events.arrived_at_ms is not None and events.engaged_at_ms is not None else None
+    figures = {k: round(v, 4) if isinstance(v, float) else v for k, v in run_metrics(record, arrived).items()}
+    return {**figures, "engaged_at_s": events.engaged_at_ms / 1000.0 if events.engaged_at_ms is not None else None,
+            "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz}
+
+
+def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[bool, int, int]:
+    """(a control step is due at autopilot time ``now_ms``, the next tick, periods missed since the last).
+
+    The first sample, or a clock far behind the schedule (the autopilot rebooted), starts it again.
+    """
+    if next_tick_ms is None or now_ms < next_tick_ms - 10 * period_ms:
+        next_tick_ms = now_ms
+    if now_ms < next_tick_ms:
+        return False, next_tick_ms, 0
+    missed = (now_ms - next_tick_ms) // period_ms
+    return True, next_tick_ms + (missed + 1) * period_ms, missed
+
+
+def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, float]:
+    """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
+    returns the estimate's log columns."""
+    estimate = waves.estimate(t_s)
+    # TODO(RollAwareNmpc.set_wave): call it directly once the NMPC branch that adds it has landed on main.
+    set_wave = getattr(nmpc, "set_wave", None)
+    if set_wave is not None:
+        set_wave(estimate.field() if estimate is not None else None)
+    return estimate.row() if estimate is not None else {}
+
+
+def write_run_config(out_dir: Path, config: CompanionConfig, scenario: Scenario, wave_source: str) -> None:
+    """config.yaml of the run folder: the companion settings, the scenario, and where the waves came from."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "config.yaml").write_text(yaml.safe_dump({"companion": to_mapping(config),
+                                                         "scenario": scenario.to_mapping(),
+                                                         "wave_source": wave_source}))
 
 
 class Companion:
     """One run of the companion against one autopilot."""
 
-    def __init__(self, config: CompanionConfig, scenario: Scenario, out_dir: Path,
-                 waypoint_ne: tuple[float, float] | None = None, arm: bool = False, set_mode: bool = False,
-                 dry_run: bool = False, log: Callable[[str], None] = print) -> None:
-        self.config, self.scenario, self.out_dir = config, scenario, out_dir
-        self.waypoint_override, self.arm, self.set_mode, self.dry_run = waypoint_ne, arm, set_mode, dry_run
-        self.log = log
-        self.required_mode = REQUIRED_MODE[config.output]
-        self.supervisor = Supervisor(self.required_mode, config.link_timeout_s, dry_run)
-        self.state = StateEstimate()
-        self.record = RunRecord()
-        self.params = scenario.params()
-        self.period_ms = round(scenario.controller.period_s * 1000)
-        self.waypoints: list[tuple[float, float]] = []
+    def __init__(self, config: CompanionConfig, scenario: Scenario, out_dir: Path, nmpc: RollAwareNmpc,
+                 waves: WaveSource, waypoint_ne: tuple[float, float] | None = None, arm: bool = False,
+                 set_mode: bool = False, dry_run: bool = False, log: Callable[[str], None] = print) -> None:
+        self.config, self.scenario, self.out_dir, self.nmpc, self.waves = config, scenario, out_dir, nmpc, waves
+        self.arm, self.set_mode, self.log = arm, set_mode, log
+        self.period_s = scenario.controller.period_s
+        self.period_ms = round(self.period_s * 1000)
+        ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m)
+        self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log)
+        self.supervisor = Supervisor(self.output.required_mode, config.link_timeout_s, dry_run)
+        self.state = StateEstimate(max_distance_m=config.max_distance_m)
+        self.mission = MissionTracker(scenario.waypoint.acceptance_radius_m, waypoint_ne, log)
+        self.record = RunRecorder(self.period_s)
+        self.events = LoopEvents()
+        self.link: Link | None = None
         self._stop_reason: str | None = None
         self._commanding = False
-        self._mission_changed = False
-        self._mission_total: int | None = None
         self._last_command_wall = 0.0
         self._in_loop = False
-        self.rc: RcSetup | None = None
-        self.wp_speed = 2.0
-        self.state.max_distance_m = config.max_distance_m
 
-    # -- setup --------------------------------------------------------------------------------------
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
             armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
@@ -141,194 +179,62 @@ class Companion:
             if after != before:
                 self.log(f"phase: {after.value}" + (f" ({self.supervisor.reason})" if after.final else ""))
 
-    def _on_mission_notice(self, msg: Any) -> None:
-        """Flag a new mission: ArduPilot's "Flight plan received", or MISSION_CURRENT.total changing."""
-        kind = msg.get_type()
-        if kind == "STATUSTEXT" and "Flight plan received" in str(msg.text):
-            self._mission_changed = True
-        elif kind == "MISSION_CURRENT" and getattr(msg, "total", 0):
-            if self._mission_total is not None and msg.total != self._mission_total:
-                self._mission_changed = True
-            self._mission_total = msg.total
-
-    def _reload_mission(self, link: Link) -> None:
-        """Download the mission again after it changed; keep flying to the old target if that fails."""
-        self._mission_changed = False
-        try:
-            self._load_mission(link)
-        except LinkError as exc:
-            self.log(f"warning: mission changed but could not be downloaded ({exc}); keeping the old waypoint")
-
-    def _read_calibration(self, link: Link, channel: int) -> RcCalibration:
-        values = {}
-        for suffix, default in (("MIN", 1100), ("TRIM", 1500), ("MAX", 1900), ("DZ", 30)):
-            value = link.read_parameter(f"RC{channel}_{suffix}")
-            if value is None:
-                self.log(f"warning: RC{channel}_{suffix} not readable, assuming {default}")
-                value = default
-            values[suffix] = round(value)
-        return RcCalibration(values["MIN"], values["TRIM"], values["MAX"], values["DZ"])
-
-    def _read_rc_setup(self, link: Link) -> RcSetup:
-        """Everything that decides how the autopilot reads our overrides; refuses setups that ignore them."""
-        gcs = link.read_parameter("SYSID_MYGCS")
-        gcs = gcs if gcs is not None else link.read_optional_parameter("MAV_GCS_SYSID")  # 4.7 renamed it
-        if gcs is not None and round(gcs) != self.config.system_id:
-            raise LinkError(f"SYSID_MYGCS is {round(gcs)} but we are system {self.config.system_id}: the autopilot "
-                            f"would ignore our RC overrides (set system_id: {round(gcs)} or SYSID_MYGCS)")
-        override_time = link.read_optional_parameter("RC_OVERRIDE_TIME")
-        if override_time is not None and override_time == 0:
-            raise LinkError("RC_OVERRIDE_TIME is 0: the autopilot ignores RC overrides (set it to e.g. 0.5 s)")
-        options = link.read_optional_parameter("RC_OPTIONS")
-        if options is not None and int(options) & 2:
-            raise LinkError("RC_OPTIONS bit 1 is set: the autopilot ignores MAVLink RC overrides (clear it)")
-        steer_ch = round(link.read_optional_parameter("RCMAP_ROLL") or 1)
-        throttle_ch = round(link.read_optional_parameter("RCMAP_THROTTLE") or 3)
-        try:
-            setup = RcSetup(self._read_calibration(link, steer_ch), self._read_calibration(link, throttle_ch),
-                            steer_ch, throttle_ch, round(link.read_optional_parameter("PILOT_STEER_TYPE") or 0),
-                            bool(link.read_optional_parameter(f"RC{steer_ch}_REVERSED") or 0),
-                            bool(link.read_optional_parameter(f"RC{throttle_ch}_REVERSED") or 0))
-        except ValueError as exc:
-            raise LinkError(str(exc)) from None
-        self.log(f"RC: steering ch{steer_ch}, throttle ch{throttle_ch}, PILOT_STEER_TYPE {setup.steer_type}")
-        return setup
-
-    def _request_streams(self, link: Link) -> None:
-        refused = [msg_id for msg_id, rate in STREAMS_HZ.items() if not link.request_message_interval(msg_id, rate)]
-        if refused:
-            self.log("SET_MESSAGE_INTERVAL not accepted: falling back to REQUEST_DATA_STREAM")
-            for stream, rate in FALLBACK_STREAMS_HZ.items():
-                link.request_data_stream(stream, rate)
-        # Heartbeats (mode, armed) faster than the control period, so a pilot's mode change stops us within one.
-        heartbeat_hz = 2.0 / self.scenario.controller.period_s
-        if not link.request_message_interval(mavlink.MAVLINK_MSG_ID_HEARTBEAT, heartbeat_hz):
-            self.log("warning: HEARTBEAT rate not raised; a mode change is noticed within 1 s only")
-
-    def _measure_rates(self, link: Link, seconds: float = 2.0) -> None:
-        """Count what arrives for a while, per second of autopilot time (falls back to wall time)."""
-        before = dict(link.rates)
-        first_ms = self.state.attitude_ms
-        start = time.monotonic()
-        link.wait_for(lambda m: False, seconds)
-        wall = time.monotonic() - start
-        span = ((self.state.attitude_ms or 0) - (first_ms or 0)) / 1000.0 if first_ms is not None else 0.0
-        span = span if span > 0 else wall
-        for name in ("ATTITUDE", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "HEARTBEAT"):
-            self.record.rates_hz[name] = round((link.rates.get(name, 0) - before.get(name, 0)) / span, 1)
-        self.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in self.record.rates_hz.items()))
-
-    def _load_mission(self, link: Link) -> None:
-        items = link.download_mission()
-        if not items:
-            raise LinkError("mission download returned nothing (not even home)")
-        home = items[0]
-        waypoints = [ned_from_latlon(home.x / 1e7, home.y / 1e7, i.x / 1e7, i.y / 1e7)
-                     for i in items[1:] if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
-        self.log(f"home {home.x / 1e7:.7f}, {home.y / 1e7:.7f}; {len(waypoints)} waypoint(s) from the mission")
-        if self.waypoint_override is not None:
-            waypoints = [self.waypoint_override]
-            north, east = self.waypoint_override
-            self.log(f"waypoint overridden: north {north:g} m, east {east:g} m")
-        if not waypoints:
-            raise LinkError("no waypoint: upload one with `mission upload` or pass --waypoint N,E")
-        self.state.set_home(home.x / 1e7, home.y / 1e7)
-        self.waypoints = waypoints  # flown in turn from the first; a changed mission restarts them
-        self._mission_total = len(items) - 1  # MISSION_CURRENT.total leaves ArduPilot's home out
-
-    def _log_result(self, what: str, result: int | None) -> None:
-        if result != mavlink.MAV_RESULT_ACCEPTED:
-            reason = "no answer" if result is None else mavlink.enums["MAV_RESULT"][result].name
-            self.log(f"warning: {what} not accepted ({reason})")
-
-    # -- control ------------------------------------------------------------------------------------
-    def _rc_channels(self, steering_pwm: int, throttle_pwm: int) -> dict[int, int]:
-        assert self.rc is not None
-        return {self.rc.steering_channel: steering_pwm, self.rc.throttle_channel: throttle_pwm}
+    def _on_motion(self, msg: Any) -> None:
+        """Every ATTITUDE sample (once a position is known) goes to the wave source, after the state took it."""
+        if msg.get_type() == "ATTITUDE" and self.state.ready():
+            self.waves.observe(self.state.motion_sample())
 
     def _release(self, link: Link) -> None:
-        """Give the sticks back (RC override 0 = release), a few times since UDP may drop one."""
-        if self.config.output == "rc_override" and not self.dry_run and self.rc is not None:
-            for _ in range(3):
-                link.rc_override(self._rc_channels(0, 0))
+        self.output.release(link)
         self._commanding = False
 
-    def _neutral(self, link: Link) -> None:
-        """Zero thrust, no turn, still overriding (so the sticks do not take over in between)."""
-        if self.dry_run:
-            return
-        if self.config.output == "rc_override" and self.rc is not None:
-            link.rc_override(self._rc_channels(*neutral_pwm(self.rc)))
-        elif self.config.output == "attitude_target" and self.state.attitude_ms is not None:
-            yaw = float(self.state.attitude[2])  # hold the present heading: no pivot towards north
-            link.attitude_target(self.state.attitude_ms, (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)), 0.0,
-                                 ATTITUDE_TYPE_MASK_HEADING)
-
-    def _finish_at_waypoint(self, link: Link) -> None:
-        """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
-        self._neutral(link)
-        if self.config.on_arrival == "hold" and not self.dry_run:
-            self.supervisor.expected_mode = MODE_HOLD
-            self._log_result("HOLD at the waypoint", link.set_mode(MODE_HOLD))
+    def _stand_down(self, link: Link) -> None:
+        """Neutral, then release: the boat is never left to a last command."""
+        self.output.neutral(link, self.state)
         self._release(link)
 
-    def _control_step(self, link: Link, nmpc: RollAwareNmpc, now_ms: int) -> None:
-        phase = self.supervisor.phase
+    def _finish_at_waypoint(self, link: Link, now_ms: int) -> None:
+        """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
+        self.events.arrived_at_ms = now_ms
+        self.supervisor.arrived()
+        self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s")
+        self.output.neutral(link, self.state)
+        if self.config.on_arrival == "hold" and self.output.sends:
+            self.supervisor.expected_mode = MODE_HOLD
+            _log_result(self.log, "HOLD at the waypoint", link.set_mode(MODE_HOLD))
+        self._release(link)
+
+    def _control_step(self, link: Link, now_ms: int) -> None:
         if not self.supervisor.may_command():
             if self._commanding:
                 self._release(link)
             return
         if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
-            self.record.stale += 1
+            self.events.stale += 1
             if self._commanding:
-                self._neutral(link)  # never leave the last command running on old data
+                self.output.neutral(link, self.state)  # never leave the last command running on old data
             return
         x = self.state.vector()
-        if self.record.engaged_at_ms is None:
-            self.record.engaged_at_ms = now_ms
-        target = self.waypoints[0]
-        if math.hypot(target[0] - x[0], target[1] - x[1]) <= self.scenario.waypoint.acceptance_radius_m:
-            self.waypoints.pop(0)
-            if not self.waypoints:
-                self.record.arrived_at_ms = now_ms
-                self.supervisor.arrived()
-                self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s")
-                self._finish_at_waypoint(link)
-                return
-            target = self.waypoints[0]
-        result = nmpc.solve(x, now_ms / 1000.0, target, deadline_s=self.scenario.controller.period_s)
-        self.record.solve_ms.append(result.wall_time_s * 1e3)
-        self.record.roll_deg.append(math.degrees(x[3]))
-        if result.wall_time_s > self.scenario.controller.period_s:
-            self.record.overruns += 1
-        if not result.success:
+        if self.events.engaged_at_ms is None:
+            self.events.engaged_at_ms = now_ms
+        target = self.mission.target(float(x[0]), float(x[1]))
+        if target is None:
+            self._finish_at_waypoint(link, now_ms)
+            return
+        phase, wave = self.supervisor.phase.name, wave_step(self.waves, self.nmpc, now_ms / 1000.0)
+        result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=self.period_s)
+        try:
+            columns = self.output.command(link, result, now_ms)
+        except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
+            self.log(f"warning: {exc}; holding heading with zero thrust")
             self.record.failures += 1
-        ch1 = ch3 = 0
-        yaw_target = thrust = math.nan
-        if self.config.output == "rc_override":
-            assert self.rc is not None
-            command = rc_command(self.params, float(result.tau[0]), float(result.tau[1]), self.rc)
-            ch1, ch3 = command.steering_pwm, command.throttle_pwm
-            if not self.dry_run:
-                link.rc_override(self._rc_channels(ch1, ch3))
-        else:
-            try:
-                attitude = attitude_command(result.states, self.wp_speed, self.config.lookahead_steps)
-            except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
-                self.log(f"warning: {exc}; holding heading with zero thrust")
-                self.record.failures += 1
-                self._neutral(link)
-                return
-            yaw_target, thrust = attitude.yaw_rad, attitude.thrust
-            if not self.dry_run:
-                link.attitude_target(now_ms, attitude.quaternion(), attitude.thrust, ATTITUDE_TYPE_MASK_HEADING)
-        self._commanding = not self.dry_run
+            self.output.neutral(link, self.state)
+            self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=0, **wave)
+            return
+        self._commanding = self.output.sends
         self._last_command_wall = time.monotonic()
-        self.record.rows.append([now_ms / 1000.0, phase.name, *np.round(x, 6), *np.round(result.tau, 4), ch1, ch3,
-                                 yaw_target, thrust, round(result.wall_time_s * 1e3, 3), result.status,
-                                 result.fallback or "", int(not self.dry_run)])
+        self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
 
-    # -- the run ------------------------------------------------------------------------------------
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
         if not self._in_loop:  # still connecting or preparing: stop now, the loop is not there to see it
@@ -336,20 +242,22 @@ class Companion:
 
     def run(self) -> int:
         """Connect, prepare, fly until a final phase; always releases and writes logs. Returns an exit code."""
-        self.out_dir.mkdir(parents=True, exist_ok=True)
-        (self.out_dir / "config.yaml").write_text(yaml.safe_dump({"companion": to_mapping(self.config),
-                                                                  "scenario": self.scenario.to_mapping()}))
+        write_run_config(self.out_dir, self.config, self.scenario, self.waves.name)
+        if self.waves.name == SCENARIO_TRUTH:
+            self.log("waves: the scenario's sea (simulation truth); a real boat is told nothing about the sea")
         try:
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
                         self.out_dir / "companion.tlog", self.config.baud)
         except LinkError as exc:
             self.log(f"mavbridge run: error: {exc}")
             return 1
-        link.handlers += [self.state.on_message, self._on_heartbeat, self._on_mission_notice]
+        self.link = link
+        link.handlers += [self.state.on_message, self._on_motion, self._on_heartbeat, self.mission.on_message]
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
         try:
-            code = self._fly(link)
+            self._prepare(link)
+            self._fly(link)
         except LinkError as exc:
             self.supervisor.stop(str(exc))
             if self._stop_reason:  # asked to stop (systemd stop, Ctrl-C): not a failure to restart from
@@ -359,114 +267,88 @@ class Companion:
                 code = 1
         finally:
             if self._commanding:
-                self._neutral(link)
-                self._release(link)
+                self._stand_down(link)
             for s, handler in previous.items():
                 signal.signal(s, handler)
-            self._write_logs(link)
+            self._write_logs()
             link.close()
         return code
 
-    def _fly(self, link: Link) -> int:
-        # Build the solver first: it takes seconds, during which no heartbeat would be read. In real time a
-        # step may wait for asrti's background solve for a quarter period at most, never the whole period.
-        controller = self.scenario.controller
-        controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
-        nmpc = RollAwareNmpc(controller, self.params, self.scenario.sea.waves(), self.scenario.sea.current())
+    def _prepare(self, link: Link) -> None:
+        """Autopilot, output path, streams, mission, rates, the cold solve; then mode and arming if asked."""
         sysid, compid = link.wait_autopilot(self.config.connect_timeout_s)
         self.log(f"autopilot {sysid}/{compid} on {self.config.connect}; we are {self.config.system_id}/"
-                 f"{self.config.component_id}; output {self.config.output}" + (" (dry run)" if self.dry_run else ""))
-        if self.config.output == "rc_override":
-            self.rc = self._read_rc_setup(link)
-        wp_speed = link.read_parameter("WP_SPEED")
-        if not (wp_speed and wp_speed > 0):  # older firmware uses CRUISE_SPEED when WP_SPEED is 0
-            wp_speed = link.read_parameter("CRUISE_SPEED")
-        self.wp_speed = wp_speed if wp_speed and wp_speed > 0 else 2.0
-        self._request_streams(link)
-        self._load_mission(link)
-        self._mission_changed = False
-        self._measure_rates(link)
-        if self.state.ready():  # the cold, full solve before the loop, so that every step in it is warm
-            prepared = nmpc.prepare(self.state.vector(), (self.state.attitude_ms or 0) / 1000.0, self.waypoints[0])
-            self.log(f"solver {controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms ({prepared.status})")
+                 f"{self.config.component_id}; output {self.config.output}" +
+                 ("" if self.output.sends else " (dry run)"))
+        self.output.prepare(link)
+        request_streams(link, self.period_s, self.log)
+        self.mission.load(link, self.state.set_home)
+        rates = self.events.rates_hz = measure_rates(link, lambda: self.state.attitude_ms)
+        self.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
+        if self.state.ready() and self.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
+            t_s = (self.state.attitude_ms or 0) / 1000.0
+            wave_step(self.waves, self.nmpc, t_s)
+            prepared = self.nmpc.prepare(self.state.vector(), t_s, self.mission.waypoints[0])
+            self.log(f"solver {self.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
+                     f"({prepared.status})")
         self.supervisor.self_commanded = self.set_mode or self.arm
         if self.set_mode:
-            self.supervisor.expected_mode = self.required_mode
-            self._log_result(f"mode {self.required_mode}", link.set_mode(self.required_mode))
+            self.supervisor.expected_mode = self.output.required_mode
+            _log_result(self.log, f"mode {self.output.required_mode}", link.set_mode(self.output.required_mode))
         if self.arm:
-            self._log_result("arming", link.arm())
+            _log_result(self.log, "arming", link.arm())
+
+    def _service_link(self, link: Link) -> bool:
+        """Read the link, follow the mission and the supervisor; False once the run must end."""
+        link.heartbeat_if_due()
+        link.recv(0.05)
+        link.drain()  # act on the newest state, never on a backlog
+        self.mission.reload_if_changed(link, self.state.set_home)
+        phase_before = self.supervisor.phase
+        if self.supervisor.tick(time.monotonic()) != phase_before:
+            self.log(f"phase: {self.supervisor.phase.value}")
+        if self.supervisor.phase == Phase.TAKEN_OVER and self._commanding:
+            self._release(link)  # the sticks are the pilot's
+        if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
+            self.supervisor.stop(f"link lost for more than {self.config.max_link_outage_s:g} s")
+            return False
+        if self._commanding and time.monotonic() - self._last_command_wall > 3 * self.period_s:
+            self._stand_down(link)  # no fresh step for three periods (no ATTITUDE): stop pushing
+        return True
+
+    def _fly(self, link: Link) -> None:
+        """The loop: one control step per period of autopilot time, until a final phase."""
         next_tick_ms: int | None = None
         self._in_loop = True
-        if self._stop_reason:
-            self.supervisor.stop(self._stop_reason)
-        period_s = self.scenario.controller.period_s
         while not self.supervisor.phase.final:
             if self._stop_reason:
                 self.supervisor.stop(self._stop_reason)
                 break
-            link.heartbeat_if_due()
-            link.recv(0.05)
-            link.drain()  # act on the newest state, never on a backlog
-            if self._mission_changed:
-                self._reload_mission(link)
-            phase_before = self.supervisor.phase
-            if self.supervisor.tick(time.monotonic()) != phase_before:
-                self.log(f"phase: {self.supervisor.phase.value}")
-            if self.supervisor.phase == Phase.TAKEN_OVER and self._commanding:
-                self._release(link)
-            if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
-                self.supervisor.stop(f"link lost for more than {self.config.max_link_outage_s:g} s")
+            if not self._service_link(link):
                 break
-            if self._commanding and time.monotonic() - self._last_command_wall > 3 * period_s:
-                self._neutral(link)  # no fresh step for three periods (no ATTITUDE): stop pushing
-                self._release(link)
             now_ms = self.state.attitude_ms
             if now_ms is None:
                 continue
-            if next_tick_ms is None or now_ms < next_tick_ms - 10 * self.period_ms:  # first tick, or a reboot
-                next_tick_ms = now_ms
-            if now_ms < next_tick_ms:
+            due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
+            if not due:
                 continue
-            missed = (now_ms - next_tick_ms) // self.period_ms
-            self.record.skipped_ticks += missed
-            next_tick_ms += (missed + 1) * self.period_ms
-            self._control_step(link, nmpc, now_ms)
-            engaged = self.record.engaged_at_ms
+            self.events.skipped_ticks += missed
+            self._control_step(link, now_ms)
+            engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:
                 self.supervisor.stop("max_time_s reached")
-        self.log(f"run ended: {self.supervisor.phase.value}" + (f" ({self.supervisor.reason})"
-                                                                 if self.supervisor.reason else ""))
-        return 0
+        reason = f" ({self.supervisor.reason})" if self.supervisor.reason else ""
+        self.log(f"run ended: {self.supervisor.phase.value}{reason}")
 
     def metrics(self) -> dict[str, Any]:
-        """avg/max |roll| over engaged control periods, time to waypoint, solve statistics, counters."""
-        rec = self.record
-        roll = np.abs(np.array(rec.roll_deg)) if rec.roll_deg else np.array([math.nan])
-        solve = np.array(rec.solve_ms) if rec.solve_ms else np.array([math.nan])
-        arrived = (rec.arrived_at_ms - rec.engaged_at_ms) / 1000.0 if rec.arrived_at_ms and rec.engaged_at_ms \
-            else None
-
-        def finite(value: float) -> float | None:
-            return round(float(value), 4) if math.isfinite(value) else None
-
+        """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""
         return {"phase": self.supervisor.phase.name, "reason": self.supervisor.reason, "output": self.config.output,
-                "avg_roll_deg": finite(np.mean(roll)), "max_roll_deg": finite(np.max(roll)),
-                "time_to_waypoint_s": arrived,
-                "engaged_at_s": rec.engaged_at_ms / 1000.0 if rec.engaged_at_ms is not None else None,
-                "control_steps": len(rec.solve_ms),
-                "solve_ms_median": finite(np.median(solve)), "solve_ms_p95": finite(np.percentile(solve, 95)),
-                "solve_ms_max": finite(np.max(solve)), "overruns": rec.overruns, "failures": rec.failures,
-                "stale_states": rec.stale, "skipped_ticks": rec.skipped_ticks, "rates_hz": rec.rates_hz,
-                "link": dict(self._link_counts)}
+                "solver": self.scenario.controller.solver, "wave_source": self.waves.name,
+                **loop_metrics(self.record, self.events), "link": dict(self.link.counts) if self.link else {}}
 
-    def _write_logs(self, link: Link) -> None:
-        self._link_counts = link.counts
-        with (self.out_dir / "companion.csv").open("w", newline="") as stream:
-            writer = csv.writer(stream)
-            writer.writerow(CSV_HEADER)
-            writer.writerows(self.record.rows)
-        metrics = self.metrics()
-        (self.out_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-        self.log(f"avg roll {metrics['avg_roll_deg']} deg, max roll {metrics['max_roll_deg']} deg, time to waypoint "
-                 f"{metrics['time_to_waypoint_s']} s, solve median {metrics['solve_ms_median']} ms; "
-                 f"logs in {self.out_dir}")
+    def _write_logs(self) -> None:
+        write_csv(self.out_dir / "companion.csv", self.record.rows)
+        m = self.metrics()
+        (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+        self.log(f"avg roll {m['avg_roll_deg']} deg, max roll {m['max_roll_deg']} deg, time to waypoint "
+                 f"{m['time_to_waypoint_s']} s, solve median {m['solve_ms_median']} ms; logs in {self.out_dir}")

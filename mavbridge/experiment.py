@@ -13,7 +13,6 @@ reported, not simulated), and no MAVLink is involved. Two plants:
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
@@ -24,19 +23,18 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
 
-from vessel import tau_to_shaft_speeds
+from vessel import WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
 
 from .nmpc import RollAwareNmpc
+from .runlog import RunRecorder, column, run_metrics, write_csv
 from .scenario import Scenario
-
-STATE_COLUMNS = ("north", "east", "down", "phi", "theta", "psi", "u", "v", "w", "p", "q", "r")
-CSV_COLUMNS = ("t", *STATE_COLUMNS, "n1", "n2", "tau_x", "tau_n", "n1_cmd", "n2_cmd", "alpha",
-               "wave_force", "solve_ms", "iterations", "status", "fallback")
+from .seasource import SCENARIO_TRUTH, ScenarioTruth
 
 
 @dataclass
@@ -49,46 +47,64 @@ class RunResult:
     solve_ms: list[float] = field(default_factory=list)
 
 
-def _wave_slope_and_force(scenario: Scenario, waves, north: float, east: float, t: float) -> tuple[float, float]:
-    """Slope α along the travel direction (rad) and wave force along it (N) at the vessel."""
-    if not hasattr(waves, "slope_along_travel"):
-        return 0.0, 0.0
-    alpha = float(waves.slope_along_travel(north, east, t))
-    weight = scenario.params().matrices().m_total * scenario.params().g
-    return alpha, -0.5 * weight * math.sin(2 * alpha)
+def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: np.ndarray, t: float,
+                 shafts: tuple[float, float] | None) -> dict[str, float | None]:
+    """Per-row columns the in-process loop knows besides the state: shaft speeds, the true sea at the boat
+    (slope α along the travel direction, rad, and the wave force along it, N) and the wave it plans with."""
+    columns: dict[str, float | None] = dict(zip(("n1_rad_s", "n2_rad_s"), shafts or (None, None), strict=True))
+    alpha = force = 0.0
+    if hasattr(waves, "slope_along_travel"):
+        alpha = float(waves.slope_along_travel(x[0], x[1], t))
+        weight = scenario.params().matrices().m_total * scenario.params().g
+        force = -0.5 * weight * math.sin(2 * alpha)
+    columns.update(wave_slope_rad=alpha, wave_force_n=force)
+    estimate = truth.estimate(t)
+    if estimate is not None:
+        columns.update(estimate.row())
+    return columns
 
 
-def _percentile(values: Sequence[float], q: float) -> float | None:
-    return float(np.percentile(values, q)) if len(values) else None
+def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: TauPlant | PropellerPlant, record: RunRecorder,
+                 progress: Callable[[str], None] | None, progress_every_s: float) -> float | None:
+    """Step plant and NMPC until the waypoint or t_max; rows go to ``record``; returns the arrival time."""
+    cfg, params, waves = scenario.controller, scenario.params(), scenario.sea.waves()
+    truth = ScenarioTruth(waves)
+    wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
+    n_steps_max = math.floor(scenario.t_max_s / cfg.period_s + 1e-9)
+    step, next_report = 0, progress_every_s
+    while True:
+        t = round(step * cfg.period_s, 9)
+        x = plant.rigid_state
+        dist = float(np.hypot(*(wp - x[0:2])))
+        sea = _sea_columns(scenario, waves, truth, x, t, plant.shaft_speeds)
+        arrival = t if dist < scenario.waypoint.acceptance_radius_m else None
+        if arrival is not None or step >= n_steps_max:
+            record.state(t, x, status="end", **sea)
+            return arrival
+        result = nmpc.solve(x, t, wp, deadline_s=scenario.deadline_s)
+        n_cmd = tau_to_shaft_speeds(params, float(result.tau[0]), float(result.tau[1]))
+        record.step(t, x, result, n1_cmd_rad_s=n_cmd[0], n2_cmd_rad_s=n_cmd[1], **sea)
+        plant.advance(t, result.tau, n_cmd)
+        step += 1
+        if progress is not None and t + cfg.period_s >= next_report - 1e-9:
+            next_report += progress_every_s
+            progress(f"[{scenario.name}] t = {t + cfg.period_s:5.1f} s, distance {dist:6.1f} m, "
+                     f"median solve {np.median(record.solve_ms):.1f} ms")
 
 
-def compute_metrics(scenario: Scenario, t: np.ndarray, roll: np.ndarray, arrival: float | None,
-                    final_distance: float, solve_s: np.ndarray, failures: int, late: int, iterations: np.ndarray,
-                    wall_s: float) -> dict:
-    """The run's figures of merit (roll in degrees, times in s, solve times in ms)."""
-    solve_ms = np.asarray(solve_s) * 1e3
-    period_ms = scenario.controller.period_s * 1e3
+def experiment_metrics(scenario: Scenario, record: RunRecorder, arrival: float | None,
+                       final_distance_m: float) -> dict[str, Any]:
+    """The shared figures of merit (``run_metrics``) with what identifies an in-process run."""
     ref = scenario.reference
     return {
         "name": scenario.name,
         "weights_qrs": [scenario.controller.q, scenario.controller.r, scenario.controller.s],
-        "avg_roll_deg": float(np.degrees(np.mean(np.abs(roll)))),
-        "max_roll_deg": float(np.degrees(np.max(np.abs(roll)))),
-        "time_to_waypoint_s": arrival,
-        "final_distance_m": final_distance,
-        "simulated_s": float(t[-1]),
-        "steps": len(solve_ms),
-        "solve_ms_median": _percentile(solve_ms, 50),
-        "solve_ms_p95": _percentile(solve_ms, 95),
-        "solve_ms_p99": _percentile(solve_ms, 99),
-        "solve_ms_max": float(np.max(solve_ms)) if len(solve_ms) else None,
-        "iterations_median": _percentile(iterations, 50),
-        "overruns": int(np.sum(solve_ms > period_ms)),
-        "failures": int(failures),  # solver gave no usable plan: the fallback input was applied
-        "late": int(late),  # solved but past the scenario's deadline_s: the fallback input was applied
+        **run_metrics(record, arrival),
+        "final_distance_m": final_distance_m,
+        "simulated_s": float(record.rows[-1]["t_s"]),
         "solver": scenario.controller.solver,
         "plant": scenario.plant,
-        "wall_time_s": wall_s,
+        "wave_source": SCENARIO_TRUTH,
         "reference": {"avg_roll_deg": ref.avg_roll_deg, "max_roll_deg": ref.max_roll_deg,
                       "time_to_waypoint_s": ref.time_to_waypoint_s},
     }
@@ -98,110 +114,43 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
                  progress: Callable[[str], None] | None = None, progress_every_s: float = 20.0) -> RunResult:
     """Run one closed loop; with ``out_dir``, write timeseries.csv, metrics.json, scenario.yaml, PNGs."""
     wall_start = time.perf_counter()
-    waves = scenario.sea.waves()
-    params = scenario.params()
     cfg = scenario.controller
-    nmpc = RollAwareNmpc(cfg, params, waves, scenario.sea.current())
+    nmpc = RollAwareNmpc(cfg, scenario.params(), scenario.sea.waves(), scenario.sea.current())
     plant_class = TauPlant if scenario.plant == "tau" else PropellerPlant
     plant = plant_class(scenario.world, cfg.period_s, scenario.plant_dt_s)
+    record = RunRecorder(cfg.period_s)
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
-    n_steps_max = math.floor(scenario.t_max_s / cfg.period_s + 1e-9)
-    rows: list[list] = []
-    solve_s: list[float] = []
-    iterations: list[int] = []
-    background: list[float] = []  # asrti: wall time of each background solve, ms
-    failures = late = 0
-    arrival = None
-    step = 0
-    next_report = progress_every_s
     # Fast solvers: the cold, full solve happens before the loop, so every step inside it is a warm one. The
     # ipopt reference runs exactly as before: its first step is the cold solve, and it is counted.
     prepared = nmpc.prepare(plant.rigid_state, 0.0, wp) if cfg.solver != "ipopt" else None
-    while True:
-        t = round(step * cfg.period_s, 9)
-        x = plant.rigid_state
-        dist = float(np.hypot(*(wp - x[0:2])))
-        alpha, force = _wave_slope_and_force(scenario, waves, x[0], x[1], t)
-        shafts = plant.shaft_speeds or (None, None)
-        if dist < scenario.waypoint.acceptance_radius_m:
-            arrival = t
-        if arrival is not None or step >= n_steps_max:
-            rows.append([t, *x, *shafts, None, None, None, None, alpha, force, None, None, "end", None])
-            break
-        result = nmpc.solve(x, t, wp, deadline_s=scenario.deadline_s)
-        tau = result.tau
-        n_cmd = tau_to_shaft_speeds(params, float(tau[0]), float(tau[1]))
-        solve_s.append(result.wall_time_s)
-        iterations.append(result.iterations)
-        if "background_solve_s" in result.stats:
-            background.append(result.stats["background_solve_s"] * 1e3)
-        if not result.success:
-            failures += 1
-        elif result.fallback is not None:
-            late += 1
-        rows.append([t, *x, *shafts, tau[0], tau[1], n_cmd[0], n_cmd[1], alpha, force,
-                     result.wall_time_s * 1e3, result.iterations, result.status,
-                     result.fallback_source or ""])
-        plant.advance(t, tau, n_cmd)
-        step += 1
-        if progress is not None and t + cfg.period_s >= next_report - 1e-9:
-            next_report += progress_every_s
-            progress(f"[{scenario.name}] t = {t + cfg.period_s:5.1f} s, distance {dist:6.1f} m, "
-                     f"median solve {np.median(solve_s) * 1e3:.1f} ms")
-    t_arr = np.array([r[0] for r in rows], float)
-    roll = np.array([r[4] for r in rows], float)
-    final_x = plant.rigid_state
-    metrics = compute_metrics(scenario, t_arr, roll, arrival, float(np.hypot(*(wp - final_x[0:2]))),
-                              np.array(solve_s), failures, late, np.array(iterations), 0.0)
+    arrival = _closed_loop(scenario, nmpc, plant, record, progress, progress_every_s)
+    final_distance = float(np.hypot(*(wp - plant.rigid_state[0:2])))
+    metrics = experiment_metrics(scenario, record, arrival, final_distance)
     metrics["wall_time_s"] = time.perf_counter() - wall_start
     metrics["prepare_ms"] = prepared.wall_time_s * 1e3 if prepared is not None else None
-    if background:
-        metrics["background_solve_ms_median"] = _percentile(background, 50)
-        metrics["background_solve_ms_p95"] = _percentile(background, 95)
-        metrics["background_solve_ms_max"] = float(np.max(background))
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        _write_csv(out / "timeseries.csv", rows)
+        write_csv(out / "timeseries.csv", record.rows)
         (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n", encoding="utf-8")
         (out / "scenario.yaml").write_text(yaml.safe_dump(scenario.to_mapping(), sort_keys=False),
                                            encoding="utf-8")
         if plots:
-            _write_plots(out, scenario, rows, waves)
-    return RunResult(scenario.name, out if out is not None else Path("."), metrics,
-                     [v * 1e3 for v in solve_s])
+            _write_plots(out, scenario, record.rows)
+    return RunResult(scenario.name, out if out is not None else Path("."), metrics, list(record.solve_ms))
 
 
-def _fmt(value) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, float):
-        return "nan" if not math.isfinite(value) else f"{value:.6g}"
-    return str(value)
-
-
-def _write_csv(path: Path, rows: list[list]) -> None:
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(CSV_COLUMNS)
-        for row in rows:
-            writer.writerow([_fmt(v if not isinstance(v, np.floating) else float(v)) for v in row])
-
-
-def _write_plots(out: Path, scenario: Scenario, rows: list[list], waves) -> None:
-    def col(i: int) -> np.ndarray:
-        return np.array([np.nan if r[i] is None else float(r[i]) for r in rows])
-
-    t, north, east = col(0), col(1), col(2)
+def _write_plots(out: Path, scenario: Scenario, rows: list[dict[str, Any]]) -> None:
     from .plots import plot_path, plot_timeseries
 
+    t = column(rows, "t_s")
     title = f"{scenario.name}: Q, R, S = {scenario.controller.q:g}, {scenario.controller.r:g}, " \
             f"{scenario.controller.s:g}"
-    plot_path(out / "path.png", north, east, (scenario.waypoint.north_m, scenario.waypoint.east_m),
-              scenario.waypoint.acceptance_radius_m, waves, float(t[-1]), title)
-    plot_timeseries(out / "timeseries.png", t, col(CSV_COLUMNS.index("wave_force")),
-                    np.degrees(col(4)), np.degrees(col(5)), col(CSV_COLUMNS.index("tau_x")),
-                    col(CSV_COLUMNS.index("tau_n")), title)
+    plot_path(out / "path.png", column(rows, "north_m"), column(rows, "east_m"),
+              (scenario.waypoint.north_m, scenario.waypoint.east_m), scenario.waypoint.acceptance_radius_m,
+              scenario.sea.waves(), float(t[-1]), title)
+    plot_timeseries(out / "timeseries.png", t, column(rows, "wave_force_n"), np.degrees(column(rows, "roll_rad")),
+                    np.degrees(column(rows, "pitch_rad")), column(rows, "tau_x_n"), column(rows, "tau_n_nm"), title)
 
 
 def _worker(scenario: Scenario, out_dir: str) -> RunResult:

@@ -227,38 +227,6 @@ class Link:
         assert self.target is not None
         self.send("request_data_stream", self.target[0], self.target[1], stream_id, rate_hz, 1)
 
-    def _for_us(self, msg: Any) -> bool:
-        """A mission-protocol reply addressed to us (or broadcast), for the mission (not fence/rally)."""
-        return (getattr(msg, "target_system", 0) in (0, self.system_id)
-                and getattr(msg, "mission_type", mavlink.MAV_MISSION_TYPE_MISSION) == mavlink.MAV_MISSION_TYPE_MISSION)
-
-    def download_mission(self, timeout_s: float = 2.0, retries: int = 5) -> list[Any]:
-        """The autopilot's mission with the mission protocol (MISSION_REQUEST_INT per item); home is seq 0."""
-        assert self.target is not None, "wait_autopilot() first"
-        sysid, compid = self.target
-        count_msg = None
-        for _ in range(retries):
-            self.send("mission_request_list", sysid, compid, mavlink.MAV_MISSION_TYPE_MISSION)
-            count_msg = self.wait_for(lambda m: m.get_type() == "MISSION_COUNT" and self._for_us(m), timeout_s)
-            if count_msg is not None:
-                break
-        if count_msg is None:
-            raise LinkError("mission download: no MISSION_COUNT from the autopilot")
-        items = []
-        for seq in range(count_msg.count):
-            item = None
-            for _ in range(retries):
-                self.send("mission_request_int", sysid, compid, seq, mavlink.MAV_MISSION_TYPE_MISSION)
-                item = self.wait_for(lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s
-                                     and self._for_us(m), timeout_s)
-                if item is not None:
-                    break
-            if item is None:
-                raise LinkError(f"mission download: item {seq} never came")
-            items.append(item)
-        self.send("mission_ack", sysid, compid, mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_TYPE_MISSION)
-        return items
-
     def rc_override(self, channels: dict[int, int]) -> None:
         """RC_CHANNELS_OVERRIDE of some of channels 1-8 ({channel: PWM}, 0 releases); others unchanged."""
         assert self.target is not None

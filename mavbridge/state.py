@@ -18,6 +18,8 @@ import numpy as np
 from vessel.dynamics import rotation_body_to_ned
 from vessel.geo import ned_from_latlon
 
+from .seasource import MotionSample
+
 
 @dataclass
 class StateEstimate:
@@ -93,3 +95,11 @@ class StateEstimate:
         position = self.position_ned + self.velocity_ned * float(np.clip(lag_s, 0.0, 0.5))
         body_velocity = np.array(rotation_body_to_ned(phi, theta, psi)).T @ self.velocity_ned
         return np.concatenate([position, self.attitude[0:3], body_velocity, self.attitude[3:6]])
+
+    def motion_sample(self) -> MotionSample:
+        """What the wave source sees at the attitude's time: attitude, body rates, NED position and velocity
+        (relative to home); no accelerations yet (SCALED_IMU is not streamed)."""
+        if not self.ready():
+            raise ValueError("state: no attitude or position received yet")
+        return MotionSample((self.attitude_ms or 0) / 1000.0, self.attitude[0:3].copy(), self.attitude[3:6].copy(),
+                            self.position_ned.copy(), self.velocity_ned.copy(), None)

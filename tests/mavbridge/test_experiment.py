@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from mavbridge.cli import main
-from mavbridge.experiment import CSV_COLUMNS
+from mavbridge.runlog import LOG_COLUMNS
 from mavbridge.scenario import load_scenarios
 
 TINY = {
@@ -45,7 +45,7 @@ def test_experiment_writes_the_run_folder(tmp_path: Path, capsys: pytest.Capture
     assert metrics["steps"] == 20
     with (run / "timeseries.csv").open() as handle:
         rows = list(csv.reader(handle))
-    assert tuple(rows[0]) == CSV_COLUMNS
+    assert tuple(rows[0]) == LOG_COLUMNS
     assert len(rows) == 1 + 20 + 1  # header, one row per control period, the final state
     assert float(rows[-1][0]) == pytest.approx(2.0)
     (resolved,) = load_scenarios(run / "scenario.yaml")
@@ -110,7 +110,7 @@ def test_solver_and_plant_overrides_are_recorded(tmp_path: Path, monkeypatch: py
     assert metrics["solver"] == "rti" and metrics["plant"] == "propellers" and metrics["failures"] == 0
     with (out / "tiny" / "timeseries.csv").open() as handle:
         rows = list(csv.DictReader(handle))
-    assert rows[5]["n1"] != "" and rows[5]["status"].startswith("RTI")
+    assert rows[5]["n1_rad_s"] != "" and rows[5]["status"].startswith("RTI")
 
 
 def test_deadline_misses_are_counted_and_answered(tmp_path: Path) -> None:
@@ -124,4 +124,4 @@ def test_deadline_misses_are_counted_and_answered(tmp_path: Path) -> None:
     with (tmp_path / "late" / "timeseries.csv").open() as handle:
         rows = list(csv.DictReader(handle))
     assert rows[0]["fallback"] == "safe" and rows[1]["fallback"] == "previous_plan"
-    assert all(row["tau_x"] not in ("nan", "") for row in rows[:-1])
+    assert all(row["tau_x_n"] not in ("nan", "") for row in rows[:-1])

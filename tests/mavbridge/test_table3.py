@@ -101,7 +101,7 @@ def findings(metrics: dict[str, dict], tracks: dict[str, Track]) -> list[str]:
 def _read_track(path: Path) -> Track:
     with path.open(encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
-    return Track(*(np.array([float(r[c]) for r in rows]) for c in ("t", "east", "psi")))
+    return Track(*(np.array([float(r[c]) for r in rows]) for c in ("t_s", "east_m", "yaw_rad")))
 
 
 def _run(scenario: Scenario, out: str) -> tuple[str, dict]:

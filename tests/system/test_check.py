@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from mavbridge.check import FAIL, PASS, WARN, Report, parameter_findings, rc_findings
 from mavbridge.cli import main
+from mavbridge.preflight.report import FAIL, PASS, WARN, Report
+from mavbridge.preflight.rules import Context, override_violations, parameter_findings, rc_findings
 from sim_vehicle.harness import SimProcess
 from tests.waits import wait_for
 from vessel.geo import latlon_from_ned
@@ -68,9 +69,10 @@ def test_check_passes_on_the_deployed_configuration(tmp_path: Path) -> None:
     for item in ("heartbeat vehicle type", "SYSID_MYGCS", "SERVO1_FUNCTION", "SERVO3_FUNCTION", "FRAME_CLASS",
                  "RC_OVERRIDE_TIME", "RC1_MIN/TRIM/MAX", "RC3_MIN/TRIM/MAX", "WP_SPEED", "FS_ACTION",
                  "ATTITUDE rate as configured", "GLOBAL_POSITION_INT rate as configured",
-                 "ATTITUDE rate after request", "GPS fix", "home position", "mission waypoint",
-                 "NMPC solve time (rti)"):
+                 "ATTITUDE rate after request", "GPS fix", "home position", "mission waypoint"):
         assert rows[item][0] == PASS, f"{item}: {rows.get(item)}\n{text}"
+    # A measurement of this computer: a WARN when other work shares the cores, never a FAIL for rti.
+    assert rows["NMPC solve time (rti)"][0] in (PASS, WARN), text
     assert "113 m" in rows["mission waypoint"][2]
 
 
@@ -148,3 +150,38 @@ def test_no_autopilot_is_a_fail_with_exit_code_1() -> None:
         code = main(["check", "--connect", f"udpin:127.0.0.1:{port}", "--timeout", "0.5", "--solves", "0"])
     assert code == 1
     assert "FAIL    heartbeat" in out.getvalue() and "0 passed, 0 warnings, 1 failed" in out.getvalue()
+
+
+GOOD = {"SYSID_MYGCS": 255, "SERVO1_FUNCTION": 73, "SERVO3_FUNCTION": 74, "FRAME_CLASS": 2, "RC_OVERRIDE_TIME": 0.5,
+        "RC_OPTIONS": 0, "WP_SPEED": 2, "WP_RADIUS": 2, "MOT_SLEWRATE": 0, "FS_ACTION": 2, "FS_TIMEOUT": 1.5,
+        "FS_THR_ENABLE": 1, "FS_GCS_ENABLE": 0, "ARMING_CHECK": 1,
+        **{f"RC{c}_{s}": v for c in (1, 3) for s, v in (("MIN", 1100), ("TRIM", 1500), ("MAX", 1900))}}
+
+
+@pytest.mark.parametrize(("name", "bad"), [("SYSID_MYGCS", 254), ("RC_OVERRIDE_TIME", 0), ("RC_OPTIONS", 3)])
+def test_the_rules_the_companion_enforces_are_the_checks_rules(name: str, bad: float) -> None:
+    """One table: a value that makes the check FAIL for rc_override is the one `mavbridge run` refuses."""
+    ctx = Context(255, "rc_override", 0.1, 2.0)
+    assert override_violations(GOOD.get, ctx) == []
+    values = {**GOOD, name: bad}
+    report = Report()
+    parameter_findings(report, values.get, 255, "rc_override", 0.1, 2.0)
+    finding = {f.item: f for f in report.findings}[name]
+    assert [f.item for f in report.findings if f.status != PASS] == [name]
+    assert finding.status == FAIL
+    (problem,) = override_violations(values.get, ctx)
+    assert problem.startswith(f"{name} is ") and finding.fix in problem
+    guided = Report()
+    parameter_findings(guided, values.get, 255, "attitude_target", 0.1, 2.0)
+    assert {f.item: f.status for f in guided.findings}[name] == WARN  # GUIDED does not use overrides
+
+
+def test_unreadable_parameters_are_reported_not_refused() -> None:
+    """The companion refuses only what it read; the check reports what it could not read."""
+    values = {k: v for k, v in GOOD.items() if k not in ("SYSID_MYGCS", "RC_OVERRIDE_TIME")}
+    assert override_violations(values.get, Context(255, "rc_override", 0.1, 2.0)) == []
+    report = Report()
+    parameter_findings(report, values.get, 255, "rc_override", 0.1, 2.0)
+    by_item = {f.item: f for f in report.findings}
+    assert by_item["MAV_GCS_SYSID"].actual == "not readable" and by_item["MAV_GCS_SYSID"].status == FAIL
+    assert by_item["RC_OVERRIDE_TIME"].fix == "check the link"

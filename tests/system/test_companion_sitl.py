@@ -18,8 +18,9 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -28,10 +29,61 @@ from mavbridge.experiment import run_scenario
 from mavbridge.scenario import Scenario
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import HOLD as MODE_HOLD
-from tests.waits import latest_sim_seconds, set_mode, wait_for
+from tests.waits import latest_sim_seconds, set_mode
 
 HOME = "--home=-35.363261,149.165230,584,90"
 pytestmark = pytest.mark.slow
+
+
+class WaitTimeoutError(AssertionError):
+    """A wait ran out: names what was awaited and how much simulated and wall time passed."""
+
+
+def _stamp_s(msg: Any) -> float | None:
+    """The simulated time a message carries (s), or None."""
+    if getattr(msg, "time_boot_ms", None) is not None:
+        return msg.time_boot_ms / 1000.0
+    if getattr(msg, "time_usec", None) is not None:
+        return msg.time_usec / 1e6
+    return None
+
+
+def await_message(conn: Any, kind: str, what: str, sim_s: float, cond: Callable[[Any], bool] | None = None,
+                  wall_s: float = 180.0) -> Any:
+    """The next ``kind`` message satisfying ``cond`` within ``sim_s`` of *simulated* time (its own stamps).
+
+    The wall-clock bound only catches a simulator that stopped; under load simulated time just runs slower.
+    Raises ``WaitTimeoutError`` naming ``what`` instead of returning None.
+    """
+    start: float | None = None
+    now: float | None = None
+    deadline = time.monotonic() + wall_s
+    while time.monotonic() < deadline:
+        msg = conn.recv_match(type=kind, blocking=True, timeout=0.5)
+        if msg is None:
+            continue
+        now = _stamp_s(msg)
+        start = now if start is None else start
+        if cond is None or cond(msg):
+            return msg
+        if now is not None and start is not None and now - start > sim_s:
+            break
+    waited = f"{now - start:.1f} s simulated" if now is not None and start is not None else "no stamped message"
+    raise WaitTimeoutError(f"timed out waiting for {what} ({kind}): {waited}, limit {sim_s:g} s simulated / "
+                      f"{wall_s:g} s wall")
+
+
+def await_commanding(conn: Any) -> float:
+    """Wait until the companion's throttle override is in effect and the boat moves; the sim time then (s).
+
+    The paper's waves alone surge a drifting boat at up to ~1 m/s, so speed alone does not prove that the
+    companion has sent anything: the throttle channel above trim on RC_CHANNELS does.
+    """
+    await_message(conn, "RC_CHANNELS", "the companion's forward throttle override (chan3 > 1550)", 60,
+                  lambda m: m.chan3_raw > 1550)
+    await_message(conn, "GLOBAL_POSITION_INT", "the boat moving faster than 0.5 m/s", 60,
+                  lambda m: m.vx**2 + m.vy**2 > 50**2)
+    return latest_sim_seconds(conn)
 
 
 class Companion:
@@ -177,28 +229,28 @@ def test_operator_hold_stops_the_companion_within_one_period(sitl: SimProcess, c
     companion = companion_factory(sitl.udp_ports[0])
     assert companion.wait_line("phase: engaged", 60)
     gcs = sitl.connect(source_system=250)
-    wait_for(gcs, "GLOBAL_POSITION_INT", 30, lambda m: m.vx**2 + m.vy**2 > 50**2)  # moving > 0.5 m/s
-    t_hold = latest_sim_seconds(gcs)
+    t_hold = await_commanding(gcs)
     assert set_mode(gcs, MODE_HOLD) == 0
     assert companion.wait(30) == 0
     assert companion.metrics()["phase"] == "TAKEN_OVER"
-    last_command = max(float(r["t_s"]) for r in companion.rows())
+    rows = companion.rows()
+    assert rows, "companion.csv has no command rows although the override was seen:\n" + "\n".join(companion.lines)
+    last_command = max(float(r["t_s"]) for r in rows)
     assert last_command <= t_hold + 0.1 + 0.15  # one period, plus the ACK/heartbeat latency at speedup
-    released = wait_for(gcs, "RC_CHANNELS", 10, lambda m: m.chan1_raw == 1500 and m.chan3_raw == 1500)
-    assert released is not None, "overrides not released"
+    await_message(gcs, "RC_CHANNELS", "the overrides released (chan1 and chan3 back at 1500)", 10,
+                  lambda m: m.chan1_raw == 1500 and m.chan3_raw == 1500)
 
 
 def test_killed_companion_leaves_the_boat_stopped_by_the_failsafe(sitl: SimProcess, companion_factory) -> None:
     companion = companion_factory(sitl.udp_ports[0])
     assert companion.wait_line("phase: engaged", 60)
     gcs = sitl.connect(source_system=250)
-    wait_for(gcs, "GLOBAL_POSITION_INT", 30, lambda m: m.vx**2 + m.vy**2 > 50**2)
+    await_commanding(gcs)
     companion.proc.send_signal(signal.SIGKILL)
     companion.proc.wait()
     t_kill = latest_sim_seconds(gcs)
-    stopped = wait_for(gcs, "SERVO_OUTPUT_RAW", 30, lambda m: abs(m.servo1_raw - 1500) <= 5
-                       and abs(m.servo3_raw - 1500) <= 5)
-    assert stopped is not None, "propellers still driven after the companion died"
+    stopped = await_message(gcs, "SERVO_OUTPUT_RAW", "both propeller outputs back at 1500 after the kill", 30,
+                            lambda m: abs(m.servo1_raw - 1500) <= 5 and abs(m.servo3_raw - 1500) <= 5)
     assert stopped.time_usec / 1e6 - t_kill <= 3.0 + 1.5 + 1.0  # RC_OVERRIDE_TIME + slew + margin
 
 
@@ -288,11 +340,13 @@ def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
         assert done.returncode == 0, done.stdout[-2000:]
         gcs = sim.connect(source_system=250)
-        position = wait_for(gcs, "GLOBAL_POSITION_INT", 10)
-        heartbeat = wait_for(gcs, "HEARTBEAT", 10)
+        position = await_message(gcs, "GLOBAL_POSITION_INT", "a position after the dry run", 10)
+        heartbeat = await_message(gcs, "HEARTBEAT", "a heartbeat after the dry run", 10, wall_s=30)
     with (out / "companion.csv").open() as stream:
         rows = list(csv.DictReader(stream))
-    assert len(rows) >= 90 and all(r["sent"] == "0" for r in rows)  # ~10 s of 0.1 s periods, none sent
-    assert {int(r["ch3_pwm"]) for r in rows} != {1500}  # it did compute throttle commands
+    skipped = json.loads((out / "metrics.json").read_text())["skipped_ticks"]
+    # ~10 s of 0.1 s periods (a loaded machine skips some: counted, not lost), none sent
+    assert len(rows) + skipped >= 95 and len(rows) >= 10 and all(r["sent"] == "0" for r in rows)
+    assert {int(r["throttle_pwm_us"]) for r in rows} != {1500}  # it did compute throttle commands
     assert heartbeat.base_mode & 128 == 0  # never armed
     assert math.hypot(position.vx, position.vy) < 30  # cm/s: only the published model's slow drift

@@ -1,0 +1,50 @@
+"""Argument types and loaders shared by the `mavbridge` subcommands (run, demo, check)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+from typing import Any
+
+from vessel.config import ConfigError
+
+OUTPUTS = ("rc_override", "attitude_target")  # mirrors mavbridge.companion (kept import-light)
+
+
+def parse_north_east(text: str) -> tuple[float, float]:
+    """'N,E' metres as two finite numbers (argparse type)."""
+    try:
+        north, east = (float(p) for p in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'N,E' in metres, got {text!r}") from None
+    if not (math.isfinite(north) and math.isfinite(east)):
+        raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
+    return north, east
+
+
+def count(text: str) -> int:
+    """A whole number >= 0 (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
+    return value
+
+
+def single_scenario(path: str | None, solver: str | None) -> Any:
+    """The one run a --scenario file defines (default: the paper's Balanced run), with --solver applied."""
+    from .scenario import Scenario, load_scenarios
+
+    if path:
+        scenarios = load_scenarios(path)
+        if len(scenarios) != 1:
+            raise ConfigError(f"--scenario: {path} defines {len(scenarios)} runs; give a single-run scenario")
+        scenario = scenarios[0]
+    else:
+        scenario = Scenario(name="balanced")
+    if solver:
+        scenario = dataclasses.replace(scenario, controller=scenario.controller.replace(solver=solver))
+    return scenario

@@ -1,0 +1,65 @@
+"""The `mavbridge check` subcommand: arguments, then probe + solve time into one report."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+from vessel.config import ConfigError
+
+from ..cli_args import OUTPUTS, count, parse_north_east, single_scenario
+from ..nmpc.config import SOLVERS
+from .report import Report
+
+DEFAULT_SOLVES = 300  # mirrors solve_time.DEFAULT_SOLVES (kept import-light: no CasADi for --help)
+DEFAULT_MAX_RANGE_M = 5000.0
+
+
+def add_check_parser(sub: Any) -> None:
+    """`mavbridge check`: the preflight check."""
+    check = sub.add_parser("check", help="preflight check of an ArduPilot Rover for the companion",
+                           description="Connect like `mavbridge run`, then check the heartbeat, the parameters "
+                                       "the companion relies on, the achieved stream rates, GPS and home, the "
+                                       "mission, and the NMPC's solve time on this computer. Prints PASS/WARN/"
+                                       "FAIL per item; exit code 1 on any FAIL.")
+    check.add_argument("--config", help="companion YAML (the same file `mavbridge run` uses)")
+    check.add_argument("--connect", help="pymavlink connection: udpin:0.0.0.0:14551, tcp:HOST:PORT, /dev/ttyAMA0")
+    check.add_argument("--baud", type=int, help="serial baud rate (default 921600)")
+    check.add_argument("--sysid", type=int, help="our system id (default 255)")
+    check.add_argument("--compid", type=int, help="our component id (default 191)")
+    check.add_argument("--output", choices=OUTPUTS, help="the output to check for")
+    check.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
+    check.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
+    check.add_argument("--solves", type=count, default=DEFAULT_SOLVES,
+                       help=f"NMPC solves to time (default {DEFAULT_SOLVES}; 0 skips the solve-time check)")
+    check.add_argument("--port", type=int, default=2, metavar="N",
+                       help="stream-rate set of the companion's port: SRn_* / MAV(n+1)_* (default 2 = SERIAL2 on "
+                            "a typical Rover; the simulator's 127.0.0.1:14551 output is 2 as well)")
+    check.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
+                       help="check this waypoint instead of the mission")
+    check.add_argument("--max-range", type=float, default=DEFAULT_MAX_RANGE_M, metavar="M",
+                       help=f"largest distance home-waypoint in m (default {DEFAULT_MAX_RANGE_M:g})")
+    check.add_argument("--timeout", type=float, help="wait this long for the autopilot (s; default from config)")
+
+
+def check_command(args: argparse.Namespace) -> int:
+    """Carry out `mavbridge check`; 1 if anything FAILed, else 0."""
+    from ..companion import load_companion_config
+    from .probe import Probe
+    from .solve_time import solve_time
+
+    if not 0 <= args.port <= 9:
+        raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")
+    config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
+                                   component_id=args.compid, output=args.output, connect_timeout_s=args.timeout)
+    scenario = single_scenario(args.scenario, args.solver)
+    report = Report()
+    print(f"mavbridge check: {config.connect} as {config.system_id}/{config.component_id}, output {config.output}, "
+          f"scenario {scenario.name} ({scenario.controller.solver}, period {scenario.controller.period_s:g} s)")
+    start = time.monotonic()
+    Probe(config, scenario, report, args.port, args.waypoint, args.max_range).run()
+    solve_time(scenario, args.solves, report)  # after the link is closed
+    print(report.table())
+    print(f"({time.monotonic() - start:.1f} s)")
+    return 1 if report.failed else 0

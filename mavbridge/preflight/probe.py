@@ -1,0 +1,226 @@
+"""The part of the preflight check that talks to the vehicle: heartbeat, parameters, rates, GPS, mission.
+
+It connects exactly as `mavbridge run` would (same configuration, same ``Link``) and writes each
+finding into a ``Report``. Stream rates are measured twice: *as configured* (after asking the autopilot
+to go back to the port's SRn_* / MAVn_* rates with SET_MESSAGE_INTERVAL 0) and *after request* (after
+the companion's own requests, ``mavbridge.streams``). Both must meet the need: the companion asks only
+once, when it starts, and an autopilot that reboots mid-run falls back to its configured rates. At the
+end the probe asks for the configured rates again, leaving the port as it found it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+from vessel.geo import ned_from_latlon
+
+from .. import streams
+from ..link import Link, LinkError, mavlink
+from ..mission_tracker import download_mission
+from .report import FAIL, PASS, WARN, Report
+from .rules import fmt_value, parameter_findings
+
+POSITION_NEED_HZ = 5.0
+RATE_WINDOW_S = 3.0  # rates are counted over this much autopilot time (time_boot_ms)
+DEFAULT_MAX_RANGE_M = 5000.0
+STREAM_OF = {"ATTITUDE": "EXTRA1", "GLOBAL_POSITION_INT": "POSITION", "LOCAL_POSITION_NED": "POSITION"}
+
+
+def stream_params(read: Callable[[str], float | None], port: int, stream: str) -> tuple[str, float | None]:
+    """The configured rate of ``stream`` on stream channel ``port``: SRn_ (4.5/4.6), else MAVn+1_ (4.7)."""
+    name = f"SR{port}_{stream}"
+    value = read(name)
+    if value is None:
+        alt = f"MAV{port + 1}_{stream}"
+        alt_value = read(alt)
+        if alt_value is not None:
+            return alt, alt_value
+    return name, value
+
+
+def rate_findings(report: Report, label: str, rates: dict[str, float] | None, needs: dict[str, tuple[float, str]],
+                  fix_for: Callable[[str], str]) -> None:
+    """One finding per message: measured rate against need."""
+    for name, (need, severity) in needs.items():
+        item = f"{name} rate {label}"
+        if rates is None:
+            report.add(FAIL, item, f">= {need:g} Hz", "no heartbeats to time it", "check the link")
+            continue
+        rate = rates.get(name, 0.0)
+        report.add(PASS if rate >= need else severity, item, f">= {need:g} Hz", f"{rate:.1f} Hz", fix_for(name))
+
+
+def measure_window(link: Any, names: tuple[str, ...]) -> dict[str, float] | None:
+    """Messages per autopilot second over RATE_WINDOW_S of the autopilot's clock (time_boot_ms).
+
+    None if the autopilot said nothing at all; all zeros if nothing timestamped arrived.
+    """
+    counts = dict.fromkeys(names, 0)
+    first_ms: list[int] = []
+    heard = [False]
+
+    def count(msg: Any) -> bool:
+        heard[0] = True
+        stamp = getattr(msg, "time_boot_ms", None)
+        if stamp is None:
+            return False
+        if not first_ms or stamp < first_ms[0] - 5000:  # first stamp, or the autopilot rebooted
+            first_ms[:] = [stamp]
+            for name in counts:
+                counts[name] = 0
+        if stamp >= first_ms[0] + RATE_WINDOW_S * 1000:
+            return True
+        if msg.get_type() in counts and stamp >= first_ms[0]:
+            counts[msg.get_type()] += 1
+        return False
+
+    done = link.wait_for(count, RATE_WINDOW_S + 5.0) is not None
+    if not heard[0]:
+        return None
+    if not done and not first_ms:
+        return dict.fromkeys(names, 0.0)
+    return {name: n / RATE_WINDOW_S for name, n in counts.items()}
+
+
+class Probe:
+    """Every vehicle-side check over one Link, into one report."""
+
+    def __init__(self, config: Any, scenario: Any, report: Report, port: int = 2,
+                 waypoint_ne: tuple[float, float] | None = None, max_range_m: float = DEFAULT_MAX_RANGE_M,
+                 log: Callable[[str], None] = print) -> None:
+        self.config, self.scenario, self.report = config, scenario, report
+        self.port, self.waypoint_ne, self.max_range_m, self.log = port, waypoint_ne, max_range_m, log
+        self.period_s = float(scenario.controller.period_s)
+        self.seen: dict[str, Any] = {}
+        self.params: dict[str, float | None] = {}
+
+    def _remember(self, msg: Any) -> None:
+        self.seen[msg.get_type()] = msg
+
+    def _read(self, link: Any, name: str) -> float | None:
+        if name not in self.params:
+            self.params[name] = link.read_parameter(name, timeout_s=1.5)
+        return self.params[name]
+
+    def run(self) -> None:
+        """Connect, run every vehicle check, close; a link that fails is one FAIL finding."""
+        cfg = self.config
+        try:
+            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud)
+        except LinkError as exc:
+            self.report.add(FAIL, "connection", cfg.connect, str(exc), "check the device/URL and baud")
+            return
+        link.handlers.append(self._remember)
+        try:
+            self._with_link(link)
+        except LinkError as exc:
+            self.report.add(FAIL, "link", "answers", str(exc), "check the link, then run the check again")
+        finally:
+            link.close()
+
+    def _with_link(self, link: Any) -> None:
+        cfg = self.config
+        try:
+            link.wait_autopilot(cfg.connect_timeout_s)
+        except LinkError as exc:
+            self.report.add(FAIL, "heartbeat", f"autopilot on {cfg.connect}", str(exc),
+                            "check wiring, SERIALn_PROTOCOL 2, baud rate and the connection string")
+            return
+        self.heartbeat()
+        parameter_findings(self.report, lambda name: self._read(link, name), cfg.system_id, cfg.output,
+                           self.period_s, float(self.scenario.waypoint.acceptance_radius_m))
+        self.streams(link)
+        self.gps_and_home(link)
+        self.mission(link)
+
+    def heartbeat(self) -> None:
+        """ArduPilot, and a boat."""
+        hb = self.seen.get("HEARTBEAT")
+        sysid, compid = (hb.get_srcSystem(), hb.get_srcComponent()) if hb else (0, 0)
+        ok = hb is not None and hb.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+        self.report.add(PASS if ok else FAIL, "heartbeat autopilot", "3 (ArduPilot)",
+                        f"{hb.autopilot if hb else '-'} from {sysid}/{compid}",
+                        "the companion speaks ArduPilot Rover's dialect only")
+        boat = hb is not None and hb.type == mavlink.MAV_TYPE_SURFACE_BOAT
+        self.report.add(PASS if boat else FAIL, "heartbeat vehicle type", "11 (SURFACE_BOAT)",
+                        str(hb.type if hb else "-"), "set FRAME_CLASS 2 (boat) and reboot the autopilot")
+
+    def streams(self, link: Any) -> None:
+        """Rates as configured, then after the companion's own request; restore the configured ones after."""
+        needs = {"ATTITUDE": (1.0 / self.period_s, FAIL), "GLOBAL_POSITION_INT": (POSITION_NEED_HZ, FAIL),
+                 "LOCAL_POSITION_NED": (POSITION_NEED_HZ, WARN)}
+        configured = {s: stream_params(lambda n: self._read(link, n), self.port, s) for s in ("EXTRA1", "POSITION")}
+
+        def configure_fix(msg: str) -> str:
+            param, value = configured[STREAM_OF[msg]]
+            want = math.ceil(max(streams.requested_hz(msg) or needs[msg][0], needs[msg][0]))
+            return (f"set {param} {want} (now {fmt_value(value)}) for the companion's port; SET_MESSAGE_INTERVAL "
+                    "requests are lost when the autopilot reboots")
+
+        streams.restore_configured(link)
+        rate_findings(self.report, "as configured", measure_window(link, tuple(needs)), needs, configure_fix)
+        streams.request_streams(link, self.period_s, self.log)
+        rate_findings(self.report, "after request", measure_window(link, tuple(needs)), needs,
+                      lambda msg: "the autopilot did not honour SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM: "
+                                  "check the link's bandwidth (baud) and " + configure_fix(msg))
+        streams.restore_configured(link)
+
+    def gps_and_home(self, link: Any) -> None:
+        """GPS_RAW_INT fix type and HOME_POSITION, each asked for with MAV_CMD_REQUEST_MESSAGE."""
+        for msg_id, name in ((mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, "GPS_RAW_INT"),
+                             (mavlink.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION")):
+            if name not in self.seen:
+                link.command_long(mavlink.MAV_CMD_REQUEST_MESSAGE, (float(msg_id),))
+                link.wait_for(lambda m, n=name: m.get_type() == n, 2.0)
+        gps = self.seen.get("GPS_RAW_INT")
+        if gps is None:
+            self.report.add(FAIL, "GPS fix", ">= 3 (3D)", "no GPS_RAW_INT", "check the GPS and GPS_TYPE")
+        else:
+            self.report.add(PASS if gps.fix_type >= 3 else FAIL, "GPS fix", ">= 3 (3D)",
+                            f"{gps.fix_type} ({gps.satellites_visible} satellites)",
+                            "wait for a 3D fix in open sky before arming")
+        home = self.seen.get("HOME_POSITION")
+        if home is None:
+            self.report.add(FAIL, "home position", "set", "no HOME_POSITION",
+                            "home is set at the first GPS fix (or arming); wait for GPS")
+        else:
+            self.report.add(PASS, "home position", "set", f"{home.latitude / 1e7:.7f}, {home.longitude / 1e7:.7f}")
+
+    def _mission_target(self, link: Any, expected: str) -> tuple[tuple[float, float], str] | None:
+        """The first NAV_WAYPOINT (north, east from home) and where it came from; None after a FAIL finding."""
+        if self.waypoint_ne is not None:
+            return self.waypoint_ne, "--waypoint"
+        try:
+            items = download_mission(link)
+        except LinkError as exc:
+            self.report.add(FAIL, "mission", expected, str(exc), "check the link")
+            return None
+        home = items[0] if items else None
+        waypoints = [i for i in items[1:] if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
+        if home is None or not waypoints:
+            self.report.add(FAIL, "mission", expected, f"{max(0, len(items) - 1)} item(s), no NAV_WAYPOINT",
+                            "upload the waypoint: `mission upload FILE` (or give mavbridge run --waypoint)")
+            return None
+        first = waypoints[0]
+        target = ned_from_latlon(home.x / 1e7, home.y / 1e7, first.x / 1e7, first.y / 1e7)
+        return target, f"item {first.seq} of {len(items) - 1}"
+
+    def mission(self, link: Any) -> None:
+        """A waypoint to fly to (mission item 1.. or --waypoint), within range of home."""
+        expected = f"a waypoint < {self.max_range_m:g} m from home"
+        found = self._mission_target(link, expected)
+        if found is None:
+            return
+        target, source = found
+        distance = math.hypot(*target)
+        actual = f"{distance:.0f} m (N {target[0]:.0f}, E {target[1]:.0f}; {source})"
+        if distance >= self.max_range_m:
+            self.report.add(FAIL, "mission waypoint", expected, actual,
+                            "wrong coordinates or home? upload a waypoint near the boat")
+        elif distance <= self.scenario.waypoint.acceptance_radius_m:
+            self.report.add(WARN, "mission waypoint", expected, actual,
+                            "the boat is already within the acceptance radius: nothing to fly")
+        else:
+            self.report.add(PASS, "mission waypoint", expected, actual)
