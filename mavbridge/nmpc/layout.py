@@ -1,0 +1,147 @@
+"""Named layouts of the NLP's two vectors: the decision vector w and the parameter vector p.
+
+Every piece of code that reads or writes a block of ``w`` or ``p`` goes through these objects, so no
+index arithmetic (``p[NX + 3:NX + 5]``) is spread over the solvers. Both layouts are immutable.
+
+Parameter vector p (one built solver serves any run, time, tuning and regular wave):
+    x0 (12)        measured rigid-body state [x y z φ θ ψ u v w p q r], NED position, body velocities
+    t (1)          time of stage 0, s (the wave's clock)
+    waypoint (2)   target (north, east), m, NED
+    u_prev (2)     input applied in the previous period (τ_X N, τ_N N·m)
+    weights (5)    Q, R, S, W11, W22
+    wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vessel import NX_RIGID
+
+NX = NX_RIGID
+NU = 2
+WEIGHT_NAMES = ("q", "r", "s", "w_dtau_x", "w_dtau_n")
+WAVE_NAMES = ("height_m", "wavenumber_rad_per_m", "frequency_rad_per_s", "cos_travel_dir", "sin_travel_dir",
+              "phase_rad", "roll_sign")
+
+
+@dataclass(frozen=True)
+class ParameterBlocks:
+    """The blocks of one parameter vector (numbers or CasADi symbols); scalars for one-element blocks."""
+
+    x0: Any
+    t: Any
+    waypoint: Any
+    u_prev: Any
+    weights: Any
+    wave: Any
+
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Where each named block lives in the parameter vector p (order fixed, sizes in ``blocks``)."""
+
+    blocks: tuple[tuple[str, int], ...] = (("x0", NX), ("t", 1), ("waypoint", 2), ("u_prev", NU),
+                                           ("weights", len(WEIGHT_NAMES)), ("wave", len(WAVE_NAMES)))
+
+    @property
+    def size(self) -> int:
+        """Length of p."""
+        return sum(n for _, n in self.blocks)
+
+    def slice(self, name: str) -> slice:
+        """The slice of block ``name`` in p."""
+        start = 0
+        for block, n in self.blocks:
+            if block == name:
+                return slice(start, start + n)
+            start += n
+        raise KeyError(f"no parameter block {name!r} (blocks: {', '.join(b for b, _ in self.blocks)})")
+
+    def index(self, name: str, member: str | None = None) -> int:
+        """The index in p of a one-element block, or of ``member`` of the weights or wave block."""
+        where = self.slice(name)
+        if member is None:
+            if where.stop - where.start != 1:
+                raise KeyError(f"parameter block {name!r} has {where.stop - where.start} elements: name a member")
+            return where.start
+        members = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES}.get(name, ())
+        if member not in members:
+            raise KeyError(f"parameter block {name!r} has no member {member!r}")
+        return where.start + members.index(member)
+
+    def get(self, p: Any, name: str) -> Any:
+        """Block ``name`` of p (a scalar for one-element blocks)."""
+        where = self.slice(name)
+        return p[where.start] if where.stop - where.start == 1 else p[where]
+
+    def unpack(self, p: Any) -> ParameterBlocks:
+        """All blocks of p, by name."""
+        return ParameterBlocks(**{name: self.get(p, name) for name, _ in self.blocks})
+
+    def pack(self, **values: Any) -> np.ndarray:
+        """The numeric p from one value per block (keyword per block name; every block required)."""
+        missing = [name for name, _ in self.blocks if name not in values]
+        extra = sorted(set(values) - {name for name, _ in self.blocks})
+        if missing or extra:
+            raise KeyError(f"pack: missing blocks {missing}, unknown blocks {extra}")
+        parts = []
+        for name, n in self.blocks:
+            part = np.asarray(values[name], dtype=float).ravel()
+            if part.size != n:
+                raise ValueError(f"pack: block {name!r} needs {n} numbers, got {part.size}")
+            parts.append(part)
+        return np.concatenate(parts)
+
+
+PARAMS = ParameterLayout()
+NP = PARAMS.size
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where each stage's x and u live in the decision vector w = [x_0, u_0, x_1, u_1, …, x_P]."""
+
+    horizon: int
+
+    @property
+    def n_w(self) -> int:
+        """Number of decision variables."""
+        return (self.horizon + 1) * NX + self.horizon * NU
+
+    def x_index(self, k: int) -> slice:
+        """Slice of x_k in w."""
+        start = k * (NX + NU)
+        return slice(start, start + NX)
+
+    def u_index(self, k: int) -> slice:
+        """Slice of u_k in w."""
+        start = k * (NX + NU) + NX
+        return slice(start, start + NU)
+
+    def split(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(X (P+1)×12, U P×2) from a decision vector."""
+        w = np.asarray(w, float).ravel()
+        P = self.horizon
+        stages = w[:P * (NX + NU)].reshape(P, NX + NU)
+        X = np.vstack([stages[:, :NX], w[P * (NX + NU):][None, :]])
+        return X, stages[:, NX:].copy()
+
+    def join(self, X: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """Decision vector from X and U."""
+        P = self.horizon
+        return np.concatenate([np.hstack([X[:P], U]).ravel(), X[P]])
+
+    def shift(self, w: np.ndarray) -> np.ndarray:
+        """The plan one period later: stage k takes stage k+1, the last stage is repeated."""
+        w = np.asarray(w, float)
+        P, m = self.horizon, NX + NU
+        out = np.empty_like(w)
+        out[:(P - 1) * m] = w[m:P * m]
+        out[(P - 1) * m:(P - 1) * m + NX] = w[P * m:]  # x_{P-1} <- x_P
+        out[(P - 1) * m + NX:P * m] = w[(P - 1) * m + NX:P * m]  # u_{P-1} repeated
+        out[P * m:] = w[P * m:]  # x_P repeated
+        return out
