@@ -8,6 +8,7 @@ the safe input (gentle forward surge, zero yaw moment). The answer is never NaN.
 from __future__ import annotations
 
 import time
+import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,6 +97,8 @@ class RollAwareNmpc:
         self._wave_known = True
         self._backend: NmpcBackend = make_backend(self._functions, self.config)
         self._closed = False
+        # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
+        self._finalizer = weakref.finalize(self, self._backend.close)
         self._lbw, self._ubw = input_bounds(self.config, self.layout)
         self._safe = np.array([self.config.safe_surge_n, 0.0])
         self.reset()
@@ -107,7 +110,7 @@ class RollAwareNmpc:
         if self._closed:
             return
         self._closed = True
-        self._backend.close()
+        self._finalizer()  # backend.close(), once
 
     @property
     def closed(self) -> bool:
