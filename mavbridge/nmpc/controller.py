@@ -1,4 +1,8 @@
-"""RollAwareNmpc: builds the solver once, warm-starts it each period, and always answers with an input.
+"""RollAwareNmpc: owns its solver backend, warm-starts it each period, and always answers with an input.
+
+The built problem (immutable CasADi Functions) comes from the per-process cache in ``functions``; the
+backend — solver instances, the asrti worker — is this controller's own and ends with ``close()``. The
+wave the model predicts with and the weights are run-time parameters (``set_wave``): no rebuild.
 
 A solve that fails, or that finishes after the caller's deadline, is reported (``NmpcResult.fallback``)
 and answered with the next input of the previous plan when one is still within its horizon, else with

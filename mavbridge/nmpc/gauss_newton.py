@@ -15,7 +15,7 @@ import casadi as ca
 import numpy as np
 
 from .config import NmpcConfig
-from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, WEIGHT_NAMES
+from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, WEIGHT_NAMES, members
 from .problem import distance, heading_error
 
 NZ = NX + NU
@@ -30,10 +30,17 @@ def _smooth_max0(z: ca.SX) -> ca.SX:
 
 def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca.SX:
     """√Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u): their squares sum to the state cost."""
-    q, r, s = weights[0], weights[1], weights[2]
+    w = members("weights", weights)
+    q, r, s = w["q"], w["r"], w["s"]
     return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * x[3],
                       ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
                       np.sqrt(cfg.min_speed_weight) * _smooth_max0(cfg.min_speed_mps - x[6]))
+
+
+def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> list[ca.SX]:
+    """√W11·Δτ_X, √W22·Δτ_N; u_before is the augmented state's previous input z[NX:NZ]."""
+    w = members("weights", weights)
+    return [ca.sqrt(w["w_dtau_x"]) * (u[0] - u_before[0]), ca.sqrt(w["w_dtau_n"]) * (u[1] - u_before[1])]
 
 
 def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
@@ -55,7 +62,7 @@ def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     for k in range(P):
         z, u, z_next = z_at(k), u_at(k), z_at(k + 1)
         gaps.append(ca.vertcat(step(z[0:NX], u, t0 + k * cfg.period_s, wave), u) - z_next)
-        residuals += [ca.sqrt(weights[3]) * (u[0] - z[NX]), ca.sqrt(weights[4]) * (u[1] - z[NX + 1]),
+        residuals += [*_input_change_residuals(u, z[NX:NZ], weights),
                       _state_residuals(z_next[0:NX], waypoint, weights, cfg)]
     res = ca.vertcat(*residuals)
     gap = ca.vertcat(*gaps)
@@ -79,7 +86,7 @@ def linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
     wave = ca.SX.sym("wave", len(WAVE_NAMES))
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
-    res = ca.vertcat(ca.sqrt(weights[3]) * (u[0] - z[NX]), ca.sqrt(weights[4]) * (u[1] - z[NX + 1]),
+    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights),
                      on * _state_residuals(z[0:NX], waypoint, weights, cfg))
     zu = ca.vertcat(z, u)
     J = ca.jacobian(res, zu)

@@ -28,6 +28,14 @@ WAVE_NAMES = ("height_m", "wavenumber_rad_per_m", "frequency_rad_per_s", "cos_tr
               "phase_rad", "roll_sign")
 
 
+MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES}
+
+
+def members(block: str, values: Any) -> dict[str, Any]:
+    """The elements of the ``weights`` or ``wave`` block (numbers or symbols) by name."""
+    return {name: values[i] for i, name in enumerate(MEMBERS[block])}
+
+
 @dataclass(frozen=True)
 class ParameterBlocks:
     """The blocks of one parameter vector (numbers or CasADi symbols); scalars for one-element blocks."""
@@ -68,10 +76,10 @@ class ParameterLayout:
             if where.stop - where.start != 1:
                 raise KeyError(f"parameter block {name!r} has {where.stop - where.start} elements: name a member")
             return where.start
-        members = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES}.get(name, ())
-        if member not in members:
+        names = MEMBERS.get(name, ())
+        if member not in names:
             raise KeyError(f"parameter block {name!r} has no member {member!r}")
-        return where.start + members.index(member)
+        return where.start + names.index(member)
 
     def get(self, p: Any, name: str) -> Any:
         """Block ``name`` of p (a scalar for one-element blocks)."""

@@ -20,7 +20,7 @@ from vessel import OceanCurrent, OtterParameters, WaveField
 from vessel.dynamics import body_acceleration, kinematics
 
 from .config import NmpcConfig
-from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout
+from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout, members
 from .wave_model import CALM_PARAMETERS, ParametricRegularWaves
 
 __all__ = ["NP", "NU", "NX", "PARAMS", "Layout", "build_nlp", "discrete_model", "distance", "heading_error",
@@ -94,7 +94,8 @@ def pack_parameters(x0: np.ndarray, t: float, waypoint: np.ndarray, u_prev: np.n
 
 def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca.SX:
     """Q·e_ψ² + R·φ² + S·d + soft minimum-speed penalty for one predicted state."""
-    q, r, s = weights[0], weights[1], weights[2]
+    w = members("weights", weights)
+    q, r, s = w["q"], w["r"], w["s"]
     e = heading_error(x, waypoint)
     shortfall = ca.fmax(0, cfg.min_speed_mps - x[6])
     return q * e**2 + r * x[3] ** 2 + s * distance(x, waypoint) + cfg.min_speed_weight * shortfall**2
@@ -103,7 +104,8 @@ def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca
 def input_change_cost(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> ca.SX:
     """ΔUᵀ W ΔU with W = diag(W11, W22)."""
     du = u - u_before
-    return weights[3] * du[0] ** 2 + weights[4] * du[1] ** 2
+    w = members("weights", weights)
+    return w["w_dtau_x"] * du[0] ** 2 + w["w_dtau_n"] * du[1] ** 2
 
 
 def build_nlp(step: ca.Function, cfg: NmpcConfig) -> tuple[dict, Layout]:
