@@ -14,6 +14,7 @@ Parameter vector p (one built solver serves any run, time, tuning and regular wa
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -55,6 +56,14 @@ class ParameterLayout:
     blocks: tuple[tuple[str, int], ...] = (("x0", NX), ("t", 1), ("waypoint", 2), ("u_prev", NU),
                                            ("weights", len(WEIGHT_NAMES)), ("wave", len(WAVE_NAMES)))
 
+    @functools.cached_property
+    def _slices(self) -> dict[str, slice]:
+        slices, start = {}, 0
+        for block, n in self.blocks:
+            slices[block] = slice(start, start + n)
+            start += n
+        return slices
+
     @property
     def size(self) -> int:
         """Length of p."""
@@ -62,12 +71,10 @@ class ParameterLayout:
 
     def slice(self, name: str) -> slice:
         """The slice of block ``name`` in p."""
-        start = 0
-        for block, n in self.blocks:
-            if block == name:
-                return slice(start, start + n)
-            start += n
-        raise KeyError(f"no parameter block {name!r} (blocks: {', '.join(b for b, _ in self.blocks)})")
+        try:
+            return self._slices[name]
+        except KeyError:
+            raise KeyError(f"no parameter block {name!r} (blocks: {', '.join(self._slices)})") from None
 
     def index(self, name: str, member: str | None = None) -> int:
         """The index in p of a one-element block, or of ``member`` of the weights or wave block."""
@@ -92,17 +99,29 @@ class ParameterLayout:
 
     def pack(self, **values: Any) -> np.ndarray:
         """The numeric p from one value per block (keyword per block name; every block required)."""
-        missing = [name for name, _ in self.blocks if name not in values]
-        extra = sorted(set(values) - {name for name, _ in self.blocks})
-        if missing or extra:
-            raise KeyError(f"pack: missing blocks {missing}, unknown blocks {extra}")
-        parts = []
-        for name, n in self.blocks:
-            part = np.asarray(values[name], dtype=float).ravel()
-            if part.size != n:
-                raise ValueError(f"pack: block {name!r} needs {n} numbers, got {part.size}")
-            parts.append(part)
-        return np.concatenate(parts)
+        if len(values) != len(self.blocks):
+            names = {name for name, _ in self.blocks}
+            raise KeyError(f"pack: missing blocks {sorted(names - set(values))}, unknown blocks "
+                           f"{sorted(set(values) - names)}")
+        p = np.empty(self.size)
+        start = 0
+        for name, n in self.blocks:  # plain slice assignments: this runs every control step
+            value = values[name]
+            count = _count(value)
+            if count != n:
+                raise ValueError(f"pack: block {name!r} needs {n} numbers, got {count}")
+            p[start:start + n] = value
+            start += n
+        return p
+
+
+def _count(value: Any) -> int:
+    """How many numbers ``value`` holds (cheap: no conversion to an array)."""
+    if isinstance(value, np.ndarray):
+        return value.size
+    if isinstance(value, (int, float, np.floating)):
+        return 1
+    return len(value)
 
 
 PARAMS = ParameterLayout()

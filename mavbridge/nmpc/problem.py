@@ -86,10 +86,19 @@ def discrete_model(params: OtterParameters, waves: WaveField | None, current: Oc
     return ca.Function("nmpc_step", [x, u, t, wave], [xk], ["x", "u", "t", "wave"], ["x_next"])
 
 
+_BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave"))
+
+
 def pack_parameters(x0: np.ndarray, t: float, waypoint: np.ndarray, u_prev: np.ndarray,
                     weights: tuple[float, ...], wave: np.ndarray = CALM_PARAMETERS) -> np.ndarray:
-    """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``."""
-    return PARAMS.pack(x0=x0, t=t, waypoint=waypoint, u_prev=u_prev, weights=weights, wave=wave)
+    """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``.
+
+    The per-step fast path of ``PARAMS.pack`` (slices computed once; numpy rejects wrong block sizes).
+    """
+    p = np.empty(NP)
+    for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave), strict=True):
+        p[where] = value
+    return p
 
 
 def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca.SX:

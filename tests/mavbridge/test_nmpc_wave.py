@@ -4,6 +4,8 @@ serves any wave, ``set_wave(None)`` flies without the roll term, asrti's backgro
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pytest
@@ -141,3 +143,30 @@ def test_set_wave_rejects_bad_waves_with_the_field_named() -> None:
         with pytest.raises(TypeError, match="RegularWaves, CalmWater or None"):
             nmpc.set_wave("paper")  # type: ignore[arg-type]
         assert nmpc.waves == WAVES  # unchanged by the rejected calls
+
+
+@dataclass(frozen=True)
+class SteadySlope:
+    """A wave field the parametric regular wave cannot represent: a constant surface slope."""
+
+    alpha_n: float = 0.05
+    roll_sign: float = 1.0
+
+    def elevation(self, north: Any, east: Any, t: Any) -> Any:
+        return self.alpha_n * north
+
+    def slope_angles(self, north: Any, east: Any, t: Any) -> tuple[Any, Any]:
+        return 0 * north + self.alpha_n, 0 * north
+
+    def force_per_weight(self, north: Any, east: Any, t: Any) -> tuple[Any, Any]:
+        return 0 * north - 0.5 * math.sin(2 * self.alpha_n), 0 * north
+
+
+def test_another_wave_field_is_built_in_and_cannot_be_replaced() -> None:
+    with RollAwareNmpc(_cfg("rti"), otter_parameters(), SteadySlope()) as fixed, \
+            RollAwareNmpc(_cfg("rti"), otter_parameters(), CalmWater()) as calm:
+        assert fixed._functions is not calm._functions  # its own build, keyed by the field
+        a, b = fixed.prepare(_start(), 0.0, TARGET), calm.prepare(_start(), 0.0, TARGET)
+        assert a.success and not np.allclose(a.states, b.states, atol=1e-3)  # the slope is in its model
+        with pytest.raises(ValueError, match="fixed SteadySlope"):
+            fixed.set_wave(WAVES)
