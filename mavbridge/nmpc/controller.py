@@ -23,7 +23,7 @@ from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, Regula
 from .backend import NmpcBackend, SolveOutcome
 from .config import NmpcConfig
 from .functions import ProblemFunctions, problem_functions
-from .layout import NU, NX, PARAMS
+from .layout import NU, NX, PARAMS, Layout
 from .problem import input_bounds, pack_parameters
 from .wave_model import CALM_PARAMETERS, wave_parameters
 
@@ -73,6 +73,33 @@ def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str,
         label = f"{field_name}[{i}]" + (f" ({names[i]})" if names else "")
         raise ValueError(f"{label} is not finite: {arr[i]!r}")
     return arr
+
+
+def checked_inputs(x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
+    """(x0, t, waypoint) as finite numbers, or ValueError naming the field (and state name)."""
+    x = _check_finite(x0, NX, "x0", STATE_NAMES)
+    time_s = float(_check_finite([t], 1, "t")[0])
+    return x, time_s, _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
+
+
+def rollout(step: Any, layout: Layout, x0: np.ndarray, t: float, u: np.ndarray, period_s: float,
+            wave: np.ndarray) -> np.ndarray:
+    """A dynamically consistent cold-start guess: input u held over the horizon from x0 at t."""
+    X = np.empty((layout.horizon + 1, NX))
+    X[0] = x0
+    for k in range(layout.horizon):
+        nxt = np.asarray(step(X[k], u, t + k * period_s, wave)).ravel()
+        X[k + 1] = nxt if np.all(np.isfinite(nxt)) else X[k]
+    return layout.join(X, np.tile(u, (layout.horizon, 1)))
+
+
+def shift_duals(layout: Layout, lam_w: np.ndarray | None,
+                lam_g: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The multipliers of a plan shifted by one stage (None when there are none)."""
+    if lam_w is None or lam_g is None:
+        return None, None
+    gaps = lam_g[NX:].reshape(layout.horizon, NX)
+    return layout.shift(lam_w), np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
 
 
 class RollAwareNmpc:
@@ -179,22 +206,7 @@ class RollAwareNmpc:
         return self._u_applied.copy()
 
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
-        """A dynamically consistent cold-start guess: the safe input held over the horizon."""
-        X = np.empty((self.layout.horizon + 1, NX))
-        X[0] = x0
-        for k in range(self.layout.horizon):
-            nxt = np.asarray(self._step(X[k], self._safe, t + k * self.config.period_s, self._wave)).ravel()
-            X[k + 1] = nxt if np.all(np.isfinite(nxt)) else X[k]
-        U = np.tile(self._safe, (self.layout.horizon, 1))
-        return self.layout.join(X, U)
-
-    def _shift_duals(self) -> tuple[np.ndarray | None, np.ndarray | None]:
-        if self._lam_w is None or self._lam_g is None:
-            return None, None
-        lam_w = self.layout.shift(self._lam_w)
-        gaps = self._lam_g[NX:].reshape(self.layout.horizon, NX)
-        lam_g = np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
-        return lam_w, lam_g
+        return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._wave)
 
     def prepare(self, x0: Any, t: float, waypoint_ne: Any) -> NmpcResult:
         """The cold, full solve for (x0, t, waypoint), done before the control loop starts.
@@ -203,9 +215,7 @@ class RollAwareNmpc:
         ``solve`` at the same time ``t`` starts warm from it rather than with a full solve.
         """
         self._check_open()
-        x0 = _check_finite(x0, NX, "x0", STATE_NAMES)
-        t = float(_check_finite([t], 1, "t")[0])
-        waypoint = _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
+        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
         self.reset()
         start = time.perf_counter()
         guess = self._rollout(x0, t)
@@ -234,7 +244,7 @@ class RollAwareNmpc:
         else:
             guess = self.layout.shift(self._w)
         guess[self.layout.x_index(0)] = x0
-        lam_w, lam_g = (self._lam_w, self._lam_g) if current else self._shift_duals()
+        lam_w, lam_g = (self._lam_w, self._lam_g) if current else shift_duals(self.layout, self._lam_w, self._lam_g)
         return guess, lam_w, lam_g
 
     def solve(self, x0: Any, t: float, waypoint_ne: Any, deadline_s: float | None = None) -> NmpcResult:
@@ -245,9 +255,7 @@ class RollAwareNmpc:
         step's time (in real time that solve runs during the rest of the period); it is in ``stats``.
         """
         self._check_open()
-        x0 = _check_finite(x0, NX, "x0", STATE_NAMES)
-        t = float(_check_finite([t], 1, "t")[0])
-        waypoint = _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
+        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
         start = time.perf_counter()
         have_plan = self._w is not None and self._plan_age < self.layout.horizon
         guess, lam_w, lam_g = self._warm_guess(x0, t)
