@@ -9,24 +9,36 @@ its own (prepare ms); every step inside the loop counts. The ipopt reference has
 step is the cold solve, counted in its figures. asrti: the background solve's wall time (median / max) is given
 too; it runs on the second core during the period and must fit in it, the step time is the main loop's.
 Run it alone on the machine (one process, OMP_NUM_THREADS=1) for clean timings.
+
+The ``*-setwave`` rows call ``RollAwareNmpc.set_wave`` before every step with a freshly built wave, as the
+companion does with its wave source's estimate (``WaveEstimate.field()``); that call's time is added to
+the step's. ``asrti-setwave`` feeds the scenario's true wave (the closed loop must equal ``asrti``'s),
+``asrti-setwave-noisy`` the truth with seeded noise on phase and height (an estimator's jitter).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any, ClassVar
 
 import numpy as np
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import mavbridge.experiment
 from mavbridge.experiment import run_scenario
+from mavbridge.nmpc import NmpcResult, RollAwareNmpc
 from mavbridge.scenario import load_scenarios
+from mavbridge.seasource import WaveEstimate
+from vessel import RegularWaves
 
 # name -> controller overrides
 CONFIGS: dict[str, dict] = {
@@ -42,7 +54,50 @@ CONFIGS: dict[str, dict] = {
     "asrti-process": {"solver": "asrti", "as_worker": "process"},  # the background solve in a worker process
     "asrti-tight": {"solver": "asrti", "as_step_tol": 0.01},  # background solved to 0.01 N instead of 0.3 N
     "asrti-cap15": {"solver": "asrti", "as_max_iterations": 15},  # background capped at 15 SQP iterations
+    "asrti-setwave": {"solver": "asrti"},  # set_wave every step with the true wave
+    "asrti-setwave-noisy": {"solver": "asrti"},  # set_wave every step, truth + noise
 }
+# name -> (phase noise σ rad, relative height noise σ) of the wave handed to set_wave every step
+WAVE_FEEDS: dict[str, tuple[float, float]] = {"asrti-setwave": (0.0, 0.0), "asrti-setwave-noisy": (0.05, 0.03)}
+
+
+class WaveFedNmpc(RollAwareNmpc):
+    """A controller told the wave before every step, like the companion with an estimator (see the docstring)."""
+
+    noise: ClassVar[tuple[float, float]] = (0.0, 0.0)  # set by ``wave_fed``
+    set_wave_s: ClassVar[list[float]] = []  # seconds per set_wave, appended by every instance
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._truth = self.waves
+        self._rng = np.random.default_rng(12)
+
+    def solve(self, x0: Any, t: float, waypoint_ne: Any, deadline_s: float | None = None) -> NmpcResult:
+        """set_wave with this step's wave, then the solve; the step's wall time includes set_wave."""
+        start = time.perf_counter()
+        w = self._truth
+        if isinstance(w, RegularWaves):
+            phase_sd, height_sd = self.noise
+            estimate = WaveEstimate(w.height_m * (1 + height_sd * self._rng.standard_normal()), w.period_s,
+                                    w.length_m, w.travel_dir_rad, w.phase_rad + phase_sd * self._rng.standard_normal())
+            self.set_wave(estimate.field())
+        cost = time.perf_counter() - start
+        type(self).set_wave_s.append(cost)
+        result = super().solve(x0, t, waypoint_ne, deadline_s)
+        return dataclasses.replace(result, wall_time_s=result.wall_time_s + cost)
+
+
+@contextlib.contextmanager
+def wave_fed(noise: tuple[float, float]) -> Iterator[type[WaveFedNmpc]]:
+    """The experiment runner builds WaveFedNmpc controllers while inside (it builds its own controller)."""
+    original = mavbridge.experiment.RollAwareNmpc
+    WaveFedNmpc.noise = noise
+    WaveFedNmpc.set_wave_s = []
+    mavbridge.experiment.RollAwareNmpc = WaveFedNmpc
+    try:
+        yield WaveFedNmpc
+    finally:
+        mavbridge.experiment.RollAwareNmpc = original
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -61,11 +116,18 @@ def main(argv: list[str] | None = None) -> int:
     if args.t_max is not None:
         base = dataclasses.replace(base, t_max_s=args.t_max)
     rows = []
+    notes = []
     for name in names:
         scenario = dataclasses.replace(base, controller=base.controller.replace(**CONFIGS[name]))
         start = time.perf_counter()
-        result = run_scenario(scenario, None, plots=False)
+        feed = wave_fed(WAVE_FEEDS[name]) if name in WAVE_FEEDS else contextlib.nullcontext()
+        with feed as fed:
+            result = run_scenario(scenario, None, plots=False)
         wall = time.perf_counter() - start
+        if fed is not None:
+            us = np.array(fed.set_wave_s) * 1e6
+            notes.append(f"{name}: set_wave (WaveEstimate.field() + set_wave) per step median {np.median(us):.1f} µs, "
+                         f"p99 {np.percentile(us, 99):.1f} µs, max {us.max():.1f} µs over {len(us)} steps")
         ms = np.array(result.solve_ms)
         m = result.metrics
         arrival = f"{m['time_to_waypoint_s']:.1f}" if m["time_to_waypoint_s"] is not None else "N/A"
@@ -85,6 +147,8 @@ def main(argv: list[str] | None = None) -> int:
         prepare = "–" if r[6] is None else f"{r[6]:.1f}"
         print(f"| {r[0]} | {r[1]} | {r[2]:.2f} | {r[3]:.2f} | {r[4]:.2f} | {r[5]:.2f} | {prepare} | {r[7]:g} "
               f"| {r[8]} | {r[9]:.2f} | {r[10]:.2f} | {r[11]} | {r[12]} | {r[13]:.1f} |")
+    for note in notes:
+        print(note)
     return 0
 
 

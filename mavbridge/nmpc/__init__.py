@@ -2,16 +2,24 @@
 
 ``NmpcConfig`` (weights, horizon, discretisation, τ bounds, solver) -> ``RollAwareNmpc(config, params,
 waves, current).solve(x0, t, waypoint_ne, deadline_s=None) -> NmpcResult``, with ``prepare(x0, t,
-waypoint_ne)`` for the cold, full solve before the loop. Three solvers share one problem definition
-(``problem``): ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter 50); ``rti``,
-Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation; and ``asrti``,
-advanced-step RTI: a converged Gauss–Newton SQP for the predicted next state runs in a background thread
-during the period, and the step is one iteration from its plan (the same closed loop as ``ipopt``).
+waypoint_ne)`` for the cold, full solve before the loop, ``set_wave(RegularWaves | CalmWater | None)`` for
+the wave later solves predict with (a run-time parameter: no rebuild), and ``close()`` / ``with``.
+
+Modules: ``layout`` (named blocks of the decision and parameter vectors), ``wave_model`` (the regular
+wave as parameters), ``problem`` (model, costs, NLP), ``functions`` (the per-process cache of immutable
+built Functions), ``backend`` (the solver protocol: prepare / solve / advance / reset / close), and three
+backends: ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter 50); ``rti``,
+Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation (``gauss_newton``,
+``codegen``); and ``asrti``, advanced-step RTI: a converged Gauss–Newton SQP for the predicted next state
+runs in a background worker during the period, and the step is one iteration from its plan (the same
+closed loop as ``ipopt``).
 """
 
 from .config import INTEGRATORS, SOLVERS, NmpcConfig
 from .controller import NmpcResult, RollAwareNmpc
+from .layout import PARAMS, Layout, ParameterLayout
 from .problem import discrete_model, heading_error, wrap_angle
+from .wave_model import wave_parameters
 
-__all__ = ["INTEGRATORS", "SOLVERS", "NmpcConfig", "NmpcResult", "RollAwareNmpc", "discrete_model",
-           "heading_error", "wrap_angle"]
+__all__ = ["INTEGRATORS", "PARAMS", "SOLVERS", "Layout", "NmpcConfig", "NmpcResult", "ParameterLayout",
+           "RollAwareNmpc", "discrete_model", "heading_error", "wave_parameters", "wrap_angle"]

@@ -1,8 +1,25 @@
-"""What every solver backend returns from one solve."""
+"""The seam between the controller and a solver: the backend protocol and what one solve returns.
+
+The controller (``RollAwareNmpc``) owns everything that is the same for every solver: the stored plan and
+its shifting, the parameter vector (measured state, time, waypoint, weights, wave), the fallback policy
+and the input limits. A backend owns its solver instances and their lifetime:
+
+* ``prepare(w0, p, lbw, ubw)`` — the cold solve to convergence before the loop (and the place to get
+  ready: a worker started, a solver warmed up);
+* ``solve(w0, p, lbw, ubw, lam_w0, lam_g0)`` — one real-time step from a warm guess (no duals: a cold
+  solve, as after a failure);
+* ``advance(w_plan, p, tau)`` — the step's input ``tau`` has been applied: work ahead for the next
+  period (asrti starts its background solve here; a preparation phase would go here too);
+* ``reset()`` — forget any work ahead (a new run); ``close()`` — free solvers and workers, idempotent.
+
+p is laid out as ``layout.PARAMS``; w as ``layout.Layout``. A backend never raises for a solver
+failure: it answers with an unusable ``SolveOutcome``.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -18,8 +35,38 @@ class SolveOutcome:
     status: str
     iterations: int
     violation: float = float("nan")
+    start: np.ndarray | None = None  # the iterate the solve started from, when not the caller's guess
+    wait_s: float = 0.0  # time spent waiting for work of the previous period (not this step's cost)
+    stats: dict = field(default_factory=dict)  # backend-specific figures for the log
 
     @classmethod
     def failed(cls, status: str) -> SolveOutcome:
         """An outcome with no iterate at all (the solver raised)."""
         return cls(w=None, lam_w=None, lam_g=None, usable=False, status=status, iterations=0)
+
+
+class NmpcBackend(Protocol):
+    """What the controller needs from a solver (see the module docstring)."""
+
+    name: str
+
+    def prepare(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray) -> SolveOutcome:
+        """Cold solve to convergence from the guess ``w0``."""
+        ...
+
+    def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
+              lam_w0: np.ndarray | None, lam_g0: np.ndarray | None) -> SolveOutcome:
+        """One step from a warm guess (cold when the duals are None)."""
+        ...
+
+    def advance(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> None:
+        """Work ahead for the next period after ``tau`` was applied (may do nothing)."""
+        ...
+
+    def reset(self) -> None:
+        """Drop any work ahead."""
+        ...
+
+    def close(self) -> None:
+        """Free solver instances and workers; calling it again does nothing."""
+        ...

@@ -45,14 +45,13 @@ def function_hash(fn: ca.Function) -> str:
     return digest.hexdigest()[:20]
 
 
-def compiled(fn: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> tuple[ca.Function, str]:
-    """(Function, how): a compiled equivalent of ``fn`` from the cache (built if missing), or ``fn``."""
+def compiled_library(fn: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> tuple[Path | None, str]:
+    """(path of the shared library for ``fn``, how), built into the cache if missing; (None, why) if none."""
     cc = compiler()
     if cc is None:
-        return fn, "sx-vm (no C compiler)"
+        return None, "sx-vm (no C compiler)"
     directory = cache_dir()
-    name = fn.name()
-    library = directory / f"{name}_{function_hash(fn)}.so"
+    library = directory / f"{fn.name()}_{function_hash(fn)}.so"
     try:
         directory.mkdir(parents=True, exist_ok=True)
         if not library.exists():
@@ -60,11 +59,22 @@ def compiled(fn: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> tuple[ca.Fun
                 fcntl.flock(lock, fcntl.LOCK_EX)  # another process may be building the same library
                 if not library.exists():
                     _build(fn, library, cc, flags)
-        return ca.external(name, str(library)), f"compiled ({library.name})"
+        return library, f"compiled ({library.name})"
     except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
-        warnings.warn(f"compiling {name} failed ({str(exc).splitlines()[0]}); using the SX virtual machine",
+        warnings.warn(f"compiling {fn.name()} failed ({str(exc).splitlines()[0]}); using the SX virtual machine",
                       RuntimeWarning, stacklevel=2)
-        return fn, "sx-vm (compilation failed)"
+        return None, "sx-vm (compilation failed)"
+
+
+def load(fn: ca.Function, library: Path | None) -> ca.Function:
+    """A new instance of ``fn``: loaded from ``library`` when there is one, else ``fn`` itself (SX VM)."""
+    return fn if library is None else ca.external(fn.name(), str(library))
+
+
+def compiled(fn: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> tuple[ca.Function, str]:
+    """(Function, how): a compiled equivalent of ``fn`` from the cache (built if missing), or ``fn``."""
+    library, how = compiled_library(fn, flags)
+    return load(fn, library), how
 
 
 def _build(fn: ca.Function, library: Path, cc: str, flags: tuple[str, ...]) -> None:

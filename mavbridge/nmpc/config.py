@@ -4,16 +4,27 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 from vessel.config import ConfigError, bounded, validate
 
 SOLVERS = ("ipopt", "rti", "asrti")
 INTEGRATORS = ("euler", "rk4")
+STRUCTURAL = "structural"  # field metadata key: the field changes the built problem
 
 
 def choice(default: str, choices: tuple[str, ...], doc: str = "") -> str:
     """A text field restricted to ``choices`` (checked by vessel.config on load)."""
     return dataclasses.field(default=default, metadata={"choices": choices, "doc": doc})
+
+
+def structural(spec: Any) -> Any:
+    """Mark a field as structural: it changes the built CasADi problem, so it is part of the build key.
+
+    The other fields are run-time parameters of the NLP (weights) or options of a solver instance,
+    which every controller builds for itself.
+    """
+    return dataclasses.field(default=spec.default, metadata={**spec.metadata, STRUCTURAL: True})
 
 
 @dataclass(frozen=True)
@@ -25,15 +36,15 @@ class NmpcConfig:
     s: float = bounded(2.0, 0.0, 1e6, "", "distance weight S (per m)")
     w_dtau_x: float = bounded(1.0, 0.0, 1e6, "", "input-change weight W11 (per N²)")
     w_dtau_n: float = bounded(1.0, 0.0, 1e6, "", "input-change weight W22 (per (N·m)²)")
-    horizon: int = bounded(40, 1, 400, "steps", "prediction horizon P")
-    period_s: float = bounded(0.1, 0.01, 2.0, "s", "sampling period T")
-    substeps: int = bounded(2, 1, 50, "", "integrator sub-steps per period")
-    integrator: str = choice("euler", INTEGRATORS, "explicit Euler or RK4 per sub-step")
+    horizon: int = structural(bounded(40, 1, 400, "steps", "prediction horizon P"))
+    period_s: float = structural(bounded(0.1, 0.01, 2.0, "s", "sampling period T"))
+    substeps: int = structural(bounded(2, 1, 50, "", "integrator sub-steps per period"))
+    integrator: str = structural(choice("euler", INTEGRATORS, "explicit Euler or RK4 per sub-step"))
     tau_x_max_n: float = bounded(150.0, 1.0, 1000.0, "N", "largest forward surge force")
     tau_x_min_n: float = bounded(-150.0, -1000.0, 0.0, "N", "largest reverse surge force (negative)")
     tau_n_max_nm: float = bounded(73.6, 0.1, 1000.0, "N·m", "largest |yaw moment|")
-    min_speed_mps: float = bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed")
-    min_speed_weight: float = bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it")
+    min_speed_mps: float = structural(bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed"))
+    min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))
     solver: str = choice("ipopt", SOLVERS, "ipopt (reference), rti (Gauss–Newton SQP with HPIPM) or asrti "
                          "(rti corrected from a converged SQP solve for the predicted state, run in the background)")
     max_iter: int = bounded(50, 0, 10000, "", "IPOPT iteration limit")
@@ -71,13 +82,9 @@ class NmpcConfig:
         """(Q, R, S, W11, W22), the runtime parameters of the NLP."""
         return (self.q, self.r, self.s, self.w_dtau_x, self.w_dtau_n)
 
-    def structural(self) -> tuple:
-        """The fields that change the NLP's structure (a new solver must be built when they change)."""
-        return (self.horizon, self.period_s, self.substeps, self.integrator, self.min_speed_mps,
-                self.min_speed_weight, self.solver, self.max_iter, self.rti_iterations, self.rti_max_iterations,
-                self.rti_step_tol, self.rti_qp_iter_max,
-                self.as_iterations, self.as_max_iterations, self.as_step_tol, self.as_worker,
-                self.rti_codegen, self.tau_x_max_n, self.tau_x_min_n, self.tau_n_max_nm)
+    def structural(self) -> tuple[tuple[str, Any], ...]:
+        """(name, value) of the fields marked ``structural``: the key of the built CasADi problem."""
+        return tuple((f.name, getattr(self, f.name)) for f in dataclasses.fields(self) if f.metadata.get(STRUCTURAL))
 
     def replace(self, **changes: object) -> NmpcConfig:
         """A copy with some fields changed (validated)."""

@@ -1,4 +1,8 @@
-"""RollAwareNmpc: builds the solver once, warm-starts it each period, and always answers with an input.
+"""RollAwareNmpc: owns its solver backend, warm-starts it each period, and always answers with an input.
+
+The built problem (immutable CasADi Functions) comes from the per-process cache in ``functions``; the
+backend — solver instances, the asrti worker — is this controller's own and ends with ``close()``. The
+wave the model predicts with and the weights are run-time parameters (``set_wave``): no rebuild.
 
 A solve that fails, or that finishes after the caller's deadline, is reported (``NmpcResult.fallback``)
 and answered with the next input of the previous plan when one is still within its horizon, else with
@@ -7,22 +11,21 @@ the safe input (gentle forward surge, zero yaw moment). The answer is never NaN.
 
 from __future__ import annotations
 
-import contextlib
 import time
-from concurrent.futures import TimeoutError as FuturesTimeout
+import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, WaveField, otter_parameters
+from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, RegularWaves, WaveField, otter_parameters
 
-from .backend import SolveOutcome
+from .backend import NmpcBackend, SolveOutcome
 from .config import NmpcConfig
-from .ipopt import IpoptBackend
-from .problem import NU, NX, Layout, build_nlp, discrete_model, input_bounds, pack_parameters
-
-_BUILT: dict[Any, tuple[Any, Any, Layout]] = {}
+from .functions import ProblemFunctions, problem_functions
+from .layout import NU, NX, PARAMS, Layout
+from .problem import input_bounds, pack_parameters
+from .wave_model import CALM_PARAMETERS, wave_parameters
 
 
 @dataclass(frozen=True)
@@ -39,29 +42,22 @@ class NmpcResult:
     fallback: str | None = None  # None, or why the input came from elsewhere
     fallback_source: str | None = None  # "previous_plan" or "safe"
     stats: dict = field(default_factory=dict)
+    roll_term_active: bool = True  # the solve weighted roll (R > 0 and a wave known; see ``set_wave``)
 
 
-def _build(params: OtterParameters, waves: WaveField, current: OceanCurrent, cfg: NmpcConfig):
-    """Discrete model, NLP layout and backend for a structure; cached per process."""
-    key = (params, waves, current, cfg.structural())
-    try:
-        cached = _BUILT.get(key)
-    except TypeError:  # an unhashable wave field: build every time
-        key, cached = None, None
-    if cached is not None:
-        return cached
-    step = discrete_model(params, waves, current, cfg)
-    nlp, layout = build_nlp(step, cfg)
-    if cfg.solver in ("rti", "asrti"):
-        from .rti import RtiBackend  # optional, heavier to build
+def make_backend(functions: ProblemFunctions, cfg: NmpcConfig) -> NmpcBackend:
+    """A new backend (its own solver instances) for the configured solver."""
+    if cfg.solver == "asrti":
+        from .asrti import AsrtiBackend  # optional, heavier to build
 
-        backend = RtiBackend(nlp, layout, cfg, step, background=cfg.solver == "asrti", problem=(params, waves, current))
-    else:
-        backend = IpoptBackend(nlp, layout, cfg)
-    built = (step, backend, layout)
-    if key is not None:
-        _BUILT[key] = built
-    return built
+        return AsrtiBackend(functions, cfg)
+    if cfg.solver == "rti":
+        from .rti import RtiBackend
+
+        return RtiBackend(functions, cfg)
+    from .ipopt import IpoptBackend
+
+    return IpoptBackend(functions, cfg)
 
 
 def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str, ...] | None = None) -> np.ndarray:
@@ -79,19 +75,88 @@ def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str,
     return arr
 
 
+def checked_inputs(x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
+    """(x0, t, waypoint) as finite numbers, or ValueError naming the field (and state name)."""
+    x = _check_finite(x0, NX, "x0", STATE_NAMES)
+    time_s = float(_check_finite([t], 1, "t")[0])
+    return x, time_s, _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
+
+
+def rollout(step: Any, layout: Layout, x0: np.ndarray, t: float, u: np.ndarray, period_s: float,
+            wave: np.ndarray) -> np.ndarray:
+    """A dynamically consistent cold-start guess: input u held over the horizon from x0 at t."""
+    X = np.empty((layout.horizon + 1, NX))
+    X[0] = x0
+    for k in range(layout.horizon):
+        nxt = np.asarray(step(X[k], u, t + k * period_s, wave)).ravel()
+        X[k + 1] = nxt if np.all(np.isfinite(nxt)) else X[k]
+    return layout.join(X, np.tile(u, (layout.horizon, 1)))
+
+
+def shift_duals(layout: Layout, lam_w: np.ndarray | None,
+                lam_g: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The multipliers of a plan shifted by one stage (None when there are none)."""
+    if lam_w is None or lam_g is None:
+        return None, None
+    gaps = lam_g[NX:].reshape(layout.horizon, NX)
+    return layout.shift(lam_w), np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
+
+
 class RollAwareNmpc:
-    """The paper's roll-aware NMPC for the Otter; ``solve`` once per control period."""
+    """The paper's roll-aware NMPC for the Otter; ``solve`` once per control period.
+
+    Each controller owns its backend (solver instances, the asrti worker); only immutable CasADi Functions
+    are shared between controllers of the same structure. ``close()`` (or leaving a ``with`` block) stops
+    the worker and frees the solvers; it is idempotent, and a closed controller refuses to solve.
+
+    The wave the model predicts with is a run-time parameter: ``waves`` at construction (RegularWaves or
+    CalmWater), then whatever ``set_wave`` gives. Any other WaveField is built into the model instead
+    (one build per field) and cannot be changed.
+    """
 
     def __init__(self, config: NmpcConfig | None = None, params: OtterParameters | None = None,
                  waves: WaveField | None = None, current: OceanCurrent | None = None) -> None:
         self.config = config or NmpcConfig()
         self.params = params or otter_parameters("published")
-        self.waves = waves or CalmWater()
+        self.waves: WaveField = waves or CalmWater()
         self.current = current or OceanCurrent()
-        self._step, self._backend, self.layout = _build(self.params, self.waves, self.current, self.config)
+        self._functions = problem_functions(self.params, self.waves, self.current, self.config)
+        self._step = self._functions.step
+        self.layout = self._functions.layout
+        self._wave = CALM_PARAMETERS.copy() if self._functions.fixed_waves is not None else wave_parameters(
+            self.waves)
+        self._wave_known = True
+        self._backend: NmpcBackend = make_backend(self._functions, self.config)
+        self._closed = False
+        # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
+        self._finalizer = weakref.finalize(self, self._backend.close)
         self._lbw, self._ubw = input_bounds(self.config, self.layout)
         self._safe = np.array([self.config.safe_surge_n, 0.0])
         self.reset()
+
+    # --- lifetime -------------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Stop the background worker and free the solver instances; calling it again does nothing."""
+        if self._closed:
+            return
+        self._closed = True
+        self._finalizer()  # backend.close(), once
+
+    @property
+    def closed(self) -> bool:
+        """True after ``close()``."""
+        return self._closed
+
+    def __enter__(self) -> RollAwareNmpc:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RuntimeError("RollAwareNmpc: solve after close()")
 
     def reset(self) -> None:
         """Forget the previous plan, multipliers and last input (a new run starts from a cold start)."""
@@ -101,13 +166,39 @@ class RollAwareNmpc:
         self._plan_age = 0
         self._plan_t: float | None = None  # the time the stored plan starts at
         self._u_applied = np.zeros(NU)
-        pending = getattr(self, "_pending", None)
-        if pending is not None:  # let a running background solve end before the model is used here again
-            with contextlib.suppress(FuturesTimeout):
-                pending[0].result(timeout=self.config.as_wait_s)
-        self._pending = None  # asrti: (Future, key) of the background solve for the next period
-        if hasattr(self._backend, "reset"):
-            self._backend.reset()
+        if not self._closed:
+            self._backend.reset()  # asrti: let a running background solve end, and forget it
+
+    # --- the wave -------------------------------------------------------------------------------------
+
+    def set_wave(self, waves: RegularWaves | CalmWater | None) -> None:
+        """The wave later solves predict with; no rebuild, the stored plan stays the warm start.
+
+        ``None`` means no confident wave knowledge: the model predicts calm water and the roll weight R
+        is 0 for those solves (the Direct behaviour); ``NmpcResult.roll_term_active`` says which applied.
+        A background (asrti) solve already running keeps the wave it was started with.
+        """
+        if self._functions.fixed_waves is not None:
+            raise ValueError(f"set_wave: this controller was built with a fixed "
+                             f"{type(self._functions.fixed_waves).__name__}; only RegularWaves or CalmWater "
+                             f"controllers take a run-time wave")
+        self._wave = wave_parameters(waves)
+        self._wave_known = waves is not None
+        self.waves = waves or CalmWater()
+
+    @property
+    def roll_term_active(self) -> bool:
+        """True when solves weight roll: R > 0 and a wave (or calm water) is known."""
+        return self._wave_known and self.config.r > 0
+
+    def _parameters(self, x0: np.ndarray, t: float, waypoint: np.ndarray) -> np.ndarray:
+        weights = self.config.weights
+        p = pack_parameters(x0, t, waypoint, self._u_applied, weights, self._wave)
+        if not self._wave_known:
+            p[PARAMS.index("weights", "r")] = 0.0
+        return p
+
+    # --- solving --------------------------------------------------------------------------------------
 
     @property
     def last_input(self) -> np.ndarray:
@@ -115,22 +206,7 @@ class RollAwareNmpc:
         return self._u_applied.copy()
 
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
-        """A dynamically consistent cold-start guess: the safe input held over the horizon."""
-        X = np.empty((self.layout.horizon + 1, NX))
-        X[0] = x0
-        for k in range(self.layout.horizon):
-            nxt = np.asarray(self._step(X[k], self._safe, t + k * self.config.period_s)).ravel()
-            X[k + 1] = nxt if np.all(np.isfinite(nxt)) else X[k]
-        U = np.tile(self._safe, (self.layout.horizon, 1))
-        return self.layout.join(X, U)
-
-    def _shift_duals(self) -> tuple[np.ndarray | None, np.ndarray | None]:
-        if self._lam_w is None or self._lam_g is None:
-            return None, None
-        lam_w = self.layout.shift(self._lam_w)
-        gaps = self._lam_g[NX:].reshape(self.layout.horizon, NX)
-        lam_g = np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
-        return lam_w, lam_g
+        return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._wave)
 
     def prepare(self, x0: Any, t: float, waypoint_ne: Any) -> NmpcResult:
         """The cold, full solve for (x0, t, waypoint), done before the control loop starts.
@@ -138,17 +214,13 @@ class RollAwareNmpc:
         The plan is kept (the input is not applied and the last input stays as it was), so the first
         ``solve`` at the same time ``t`` starts warm from it rather than with a full solve.
         """
-        x0 = _check_finite(x0, NX, "x0", STATE_NAMES)
-        t = float(_check_finite([t], 1, "t")[0])
-        waypoint = _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
+        self._check_open()
+        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
         self.reset()
-        if hasattr(self._backend, "warm_up") and self.config.solver == "asrti":
-            self._backend.warm_up()
         start = time.perf_counter()
-        cfg = self.config
         guess = self._rollout(x0, t)
-        p = pack_parameters(x0, t, waypoint, self._u_applied, cfg.weights)
-        outcome: SolveOutcome = self._backend.solve(guess, p, self._lbw, self._ubw, None, None)
+        p = self._parameters(x0, t, waypoint)
+        outcome: SolveOutcome = self._backend.prepare(guess, p, self._lbw, self._ubw)
         wall = time.perf_counter() - start
         plan = guess
         if outcome.usable:
@@ -160,26 +232,20 @@ class RollAwareNmpc:
                           wall_time_s=wall, iterations=outcome.iterations, status=outcome.status,
                           success=outcome.usable, fallback=None if outcome.usable else f"solver failed: "
                           f"{outcome.status}", fallback_source=None if outcome.usable else "safe",
-                          stats={"violation": outcome.violation})
+                          stats={"violation": outcome.violation}, roll_term_active=self.roll_term_active)
 
-    def _collect_background(self, t: float, waypoint: np.ndarray) -> tuple[np.ndarray | None, dict]:
-        """asrti: the background plan for time t (waiting for it up to ``as_wait_s``), if it fits this step."""
-        if self._pending is None:
-            return None, {}
-        future, t_expected, waypoint_expected = self._pending
-        self._pending = None
-        try:
-            w, p_next, seconds, iterations = future.result(timeout=self.config.as_wait_s)
-        except FuturesTimeout:
-            return None, {"background": "late"}
-        info = {"background_solve_s": seconds, "background_iterations": iterations}
-        stale = abs(t - t_expected) > 0.5 * self.config.period_s
-        if (w is None or stale or not np.array_equal(waypoint, waypoint_expected)
-                or not np.array_equal(p_next[NX + 3:NX + 5], self._u_applied)):
-            info["background"] = "unused"
-            return None, info
-        info["background"] = "used"
-        return w, info
+    def _warm_guess(self, x0: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """(primal guess with x0 in place, λ_w, λ_g): the stored plan (shifted unless it starts at t)."""
+        current = self._plan_t is not None and abs(self._plan_t - t) < 1e-9  # the plan from ``prepare``
+        if self._w is None:
+            guess = self._rollout(x0, t)
+        elif current:
+            guess = self._w.copy()
+        else:
+            guess = self.layout.shift(self._w)
+        guess[self.layout.x_index(0)] = x0
+        lam_w, lam_g = (self._lam_w, self._lam_g) if current else shift_duals(self.layout, self._lam_w, self._lam_g)
+        return guess, lam_w, lam_g
 
     def solve(self, x0: Any, t: float, waypoint_ne: Any, deadline_s: float | None = None) -> NmpcResult:
         """Plan from state x0 (12 rigid-body states) at time t (s) towards waypoint (north, east) m.
@@ -188,62 +254,51 @@ class RollAwareNmpc:
         asrti solver, the wait for the background solve started at the previous step is not part of the
         step's time (in real time that solve runs during the rest of the period); it is in ``stats``.
         """
-        x0 = _check_finite(x0, NX, "x0", STATE_NAMES)
-        t = float(_check_finite([t], 1, "t")[0])
-        waypoint = _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
-        wait_start = time.perf_counter()
-        prepared, extra = self._collect_background(t, waypoint)
-        extra["background_wait_s"] = time.perf_counter() - wait_start
+        self._check_open()
+        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
         start = time.perf_counter()
-        cfg = self.config
         have_plan = self._w is not None and self._plan_age < self.layout.horizon
-        current = self._plan_t is not None and abs(self._plan_t - t) < 1e-9  # the plan from ``prepare``
-        if self._w is None:
-            guess = self._rollout(x0, t)
-        elif prepared is not None:
-            guess = prepared.copy()
-        elif current:
-            guess = self._w.copy()
-        else:
-            guess = self.layout.shift(self._w)
-        guess[self.layout.x_index(0)] = x0
-        lam_w, lam_g = (self._lam_w, self._lam_g) if current else self._shift_duals()
-        planned_next = guess[self.layout.u_index(0)].copy()
-        p = pack_parameters(x0, t, waypoint, self._u_applied, cfg.weights)
+        guess, lam_w, lam_g = self._warm_guess(x0, t)
+        p = self._parameters(x0, t, waypoint)
         outcome: SolveOutcome = self._backend.solve(guess, p, self._lbw, self._ubw, lam_w, lam_g)
-        wall = time.perf_counter() - start
+        if outcome.start is not None:  # the backend started from its own plan (asrti: the background one)
+            guess = outcome.start
+        wall = time.perf_counter() - start - outcome.wait_s
+        tau, plan, fallback, source = self._choose_input(outcome, guess, lam_w, lam_g, have_plan, t)
+        if fallback is None and deadline_s is not None and wall > deadline_s:
+            fallback = f"late: {wall * 1e3:.1f} ms > deadline {deadline_s * 1e3:.1f} ms"
+            tau, source = self._fallback_input(guess, have_plan, outcome.usable)
+        cfg = self.config
+        tau = np.clip(tau, [cfg.tau_x_min_n, -cfg.tau_n_max_nm], [cfg.tau_x_max_n, cfg.tau_n_max_nm])
+        self._u_applied = tau.copy()
+        if outcome.usable:
+            self._backend.advance(plan, p, tau)
+            wall = time.perf_counter() - start - outcome.wait_s  # starting work ahead is part of the step
+        X, U = self.layout.split(plan)
+        stats = {"violation": outcome.violation, "background_wait_s": outcome.wait_s, **outcome.stats}
+        return NmpcResult(tau=tau, states=X, inputs=U, wall_time_s=wall, iterations=outcome.iterations,
+                          status=outcome.status, success=outcome.usable, fallback=fallback,
+                          fallback_source=source, stats=stats, roll_term_active=self.roll_term_active)
 
-        fallback = None
+    def _choose_input(self, outcome: SolveOutcome, guess: np.ndarray, lam_w: np.ndarray | None,
+                      lam_g: np.ndarray | None, have_plan: bool,
+                      t: float) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
+        """(τ, plan, fallback reason, fallback source) after a solve; stores the plan for the next step."""
+        self._plan_t = t
         if outcome.usable:
             self._w, self._lam_w, self._lam_g = outcome.w, outcome.lam_w, outcome.lam_g
             self._plan_age = 0
-            self._plan_t = t
-            plan = outcome.w
-            tau = outcome.w[self.layout.u_index(0)].copy()
-            if deadline_s is not None and wall > deadline_s:
-                fallback = f"late: {wall * 1e3:.1f} ms > deadline {deadline_s * 1e3:.1f} ms"
-        else:
-            fallback = f"solver failed: {outcome.status}"
-            self._w, self._lam_w, self._lam_g = guess, lam_w, lam_g
-            self._plan_age += 1
-            self._plan_t = t
-            plan = guess
-            tau = planned_next
-        source = None
-        if fallback is not None:
-            if have_plan and np.all(np.isfinite(planned_next)):
-                tau, source = planned_next, "previous_plan"
-            else:
-                tau, source = self._safe.copy(), "safe"
-                if not outcome.usable:  # nothing worth warm-starting from: the next solve starts cold
-                    self._w, self._lam_w, self._lam_g = None, None, None
-        tau = np.clip(tau, [cfg.tau_x_min_n, -cfg.tau_n_max_nm], [cfg.tau_x_max_n, cfg.tau_n_max_nm])
-        self._u_applied = tau.copy()
-        if cfg.solver == "asrti" and outcome.usable and self._lam_w is not None:
-            future = self._backend.start_background(plan, p, tau)
-            self._pending = (future, t + cfg.period_s, waypoint.copy())
-            wall = time.perf_counter() - start  # starting the background solve is part of the step's time
-        X, U = self.layout.split(plan)
-        return NmpcResult(tau=tau, states=X, inputs=U, wall_time_s=wall, iterations=outcome.iterations,
-                          status=outcome.status, success=outcome.usable, fallback=fallback,
-                          fallback_source=source, stats={"violation": outcome.violation, **extra})
+            return outcome.w[self.layout.u_index(0)].copy(), outcome.w, None, None
+        self._w, self._lam_w, self._lam_g = guess, lam_w, lam_g
+        self._plan_age += 1
+        tau, source = self._fallback_input(guess, have_plan, usable=False)
+        return tau, guess, f"solver failed: {outcome.status}", source
+
+    def _fallback_input(self, guess: np.ndarray, have_plan: bool, usable: bool) -> tuple[np.ndarray, str]:
+        """The previous plan's next input while it is within its horizon, else the safe input."""
+        planned_next = guess[self.layout.u_index(0)].copy()
+        if have_plan and np.all(np.isfinite(planned_next)):
+            return planned_next, "previous_plan"
+        if not usable:  # nothing worth warm-starting from: the next solve starts cold
+            self._w, self._lam_w, self._lam_g = None, None, None
+        return self._safe.copy(), "safe"

@@ -7,7 +7,7 @@ import numpy as np
 
 from .backend import SolveOutcome
 from .config import NmpcConfig
-from .problem import Layout
+from .functions import ProblemFunctions
 
 SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 ITERATION_LIMIT = "Maximum_Iterations_Exceeded"
@@ -33,18 +33,34 @@ def ipopt_options(cfg: NmpcConfig) -> dict:
 
 
 class IpoptBackend:
-    """Builds the IPOPT solver once; ``solve`` runs it from a given primal/dual guess."""
+    """Its own IPOPT instance, built from the shared NLP expressions; ``solve`` runs it from a guess."""
 
     name = "ipopt"
 
-    def __init__(self, nlp: dict, layout: Layout, cfg: NmpcConfig) -> None:
-        self.layout = layout
-        self.n_g = nlp["g"].numel()
-        self.solver = ca.nlpsol("nmpc_ipopt", "ipopt", nlp, ipopt_options(cfg))
+    def __init__(self, functions: ProblemFunctions, cfg: NmpcConfig) -> None:
+        self.layout = functions.layout
+        self.n_g = functions.nlp["g"].numel()
+        self.solver: ca.Function | None = ca.nlpsol("nmpc_ipopt", "ipopt", dict(functions.nlp), ipopt_options(cfg))
+
+    def prepare(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray) -> SolveOutcome:
+        """The cold solve: IPOPT from the guess without multipliers."""
+        return self.solve(w0, p, lbw, ubw, None, None)
+
+    def advance(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> None:
+        """Nothing to do ahead of the next period."""
+
+    def reset(self) -> None:
+        """Nothing is kept between solves but the caller's guess."""
+
+    def close(self) -> None:
+        """Drop the solver instance (a later solve is refused)."""
+        self.solver = None
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
               lam_w0: np.ndarray | None, lam_g0: np.ndarray | None) -> SolveOutcome:
         """One NLP solve; never raises for solver failures (they come back as an unusable outcome)."""
+        if self.solver is None:
+            raise RuntimeError("IpoptBackend: solve after close()")
         args = {"x0": w0, "p": p, "lbx": lbw, "ubx": ubw, "lbg": 0.0, "ubg": 0.0}
         if lam_w0 is not None and lam_g0 is not None:
             args["lam_x0"] = lam_w0

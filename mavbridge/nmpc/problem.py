@@ -1,8 +1,9 @@
-"""The paper's optimal control problem, written once in CasADi: discrete model, cost terms, NLP layout.
+"""The paper's optimal control problem, written once in CasADi: discrete model, cost terms, NLP.
 
 Decision vector (stage-wise, multiple shooting): w = [x_0, u_0, x_1, u_1, …, x_{P−1}, u_{P−1}, x_P],
-x_k the 12 rigid-body states, u_k = (τ_X N, τ_N N·m). Parameters p = [x̂ (12), t (s), waypoint (north,
-east m), u_prev (2), Q, R, S, W11, W22], so one built solver serves any run, time and tuning.
+x_k the 12 rigid-body states, u_k = (τ_X N, τ_N N·m). Parameters p: the named blocks of
+``layout.PARAMS`` (x̂, t, waypoint, u_prev, weights, wave), so one built solver serves any run, time,
+tuning and regular wave.
 
 Cost (paper eq. 9, stage costs on the predicted states 1..P, input changes on the P inputs):
     J = Σ_{i=1..P} [Q·e_ψ,i² + R·φ_i² + S·d_i + w_min·max(0, u_min − u_i)²] + Σ_{k=0..P−1} ΔU_kᵀ W ΔU_k
@@ -12,19 +13,18 @@ with e_ψ = wrap(atan2(Δeast, Δnorth) − ψ), d = sqrt(Δnorth² + Δeast² +
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import casadi as ca
 import numpy as np
 
-from vessel import NX_RIGID, OceanCurrent, OtterParameters, WaveField, rigid_body_ode
-from vessel.plant import rk4_step
+from vessel import OceanCurrent, OtterParameters, WaveField
+from vessel.dynamics import body_acceleration, kinematics
 
 from .config import NmpcConfig
+from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout, members
+from .wave_model import CALM_PARAMETERS, ParametricRegularWaves
 
-NX = NX_RIGID
-NU = 2
-NP = NX + 1 + 2 + NU + 5  # x̂, t, waypoint, u_prev, weights
+__all__ = ["NP", "NU", "NX", "PARAMS", "Layout", "build_nlp", "discrete_model", "distance", "heading_error",
+           "input_bounds", "model_ode", "pack_parameters", "wrap_angle"]
 DIST_EPS = 1e-6
 
 
@@ -44,85 +44,67 @@ def distance(x: ca.SX, waypoint: ca.SX) -> ca.SX:
     return ca.sqrt((waypoint[0] - x[0]) ** 2 + (waypoint[1] - x[1]) ** 2 + DIST_EPS)
 
 
-def discrete_model(params: OtterParameters, waves: WaveField, current: OceanCurrent,
+def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCurrent) -> ca.Function:
+    """The paper's model (vessel ``rigid_body_ode``) with the wave as an input: (x, τ, t, wave[7]) -> ẋ.
+
+    ``waves`` None: the wave is the ``wave`` input (a ``ParametricRegularWaves``), so one Function predicts
+    with any regular wave. A WaveField: that field is built in and ``wave`` is unused.
+    """
+    wave = ca.SX.sym("wave", len(WAVE_NAMES))
+    field = ParametricRegularWaves.from_vector(wave) if waves is None else waves
+    x = ca.SX.sym("x", NX)
+    tau = ca.SX.sym("tau", NU)
+    t = ca.SX.sym("t")
+    nu_dot = body_acceleration(params, field, current, x[0:6], x[6:12], tau[0], tau[1], t)
+    xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot)
+    return ca.Function("nmpc_ode", [x, tau, t, wave], [xdot], ["x", "tau", "t", "wave"], ["xdot"])
+
+
+def discrete_model(params: OtterParameters, waves: WaveField | None, current: OceanCurrent,
                    cfg: NmpcConfig) -> ca.Function:
-    """One control period of the NMPC model: (x[12], u[2], t) -> x after period_s, held input."""
-    ode = rigid_body_ode(params, waves, current)
+    """One control period of the NMPC model: (x[12], u[2], t, wave[7]) -> x after period_s, held input.
+
+    ``waves`` as in ``model_ode`` (None: the wave is the run-time ``wave`` input).
+    """
+    ode = model_ode(params, waves, current)
     h = cfg.period_s / cfg.substeps
     x = ca.SX.sym("x", NX)
     u = ca.SX.sym("u", NU)
     t = ca.SX.sym("t")
+    wave = ca.SX.sym("wave", len(WAVE_NAMES))
     xk = x
-    if cfg.integrator == "rk4":
-        step = rk4_step(ode, h)
-        for i in range(cfg.substeps):
-            xk = step(xk, u, t + i * h)
-    else:
-        for i in range(cfg.substeps):
-            xk = xk + h * ode(xk, u, t + i * h)
-    return ca.Function("nmpc_step", [x, u, t], [xk], ["x", "u", "t"], ["x_next"])
+    for i in range(cfg.substeps):
+        ti = t + i * h
+        if cfg.integrator == "rk4":  # classical Runge–Kutta, as vessel.plant.rk4_step
+            k1 = ode(xk, u, ti, wave)
+            k2 = ode(xk + h / 2 * k1, u, ti + h / 2, wave)
+            k3 = ode(xk + h / 2 * k2, u, ti + h / 2, wave)
+            k4 = ode(xk + h * k3, u, ti + h, wave)
+            xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        else:
+            xk = xk + h * ode(xk, u, ti, wave)
+    return ca.Function("nmpc_step", [x, u, t, wave], [xk], ["x", "u", "t", "wave"], ["x_next"])
 
 
-@dataclass(frozen=True)
-class Layout:
-    """Where each stage's x and u live in the decision vector w."""
-
-    horizon: int
-
-    @property
-    def n_w(self) -> int:
-        """Number of decision variables."""
-        return (self.horizon + 1) * NX + self.horizon * NU
-
-    def x_index(self, k: int) -> slice:
-        """Slice of x_k in w."""
-        start = k * (NX + NU)
-        return slice(start, start + NX)
-
-    def u_index(self, k: int) -> slice:
-        """Slice of u_k in w."""
-        start = k * (NX + NU) + NX
-        return slice(start, start + NU)
-
-    def split(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(X (P+1)×12, U P×2) from a decision vector."""
-        w = np.asarray(w, float).ravel()
-        P = self.horizon
-        stages = w[:P * (NX + NU)].reshape(P, NX + NU)
-        X = np.vstack([stages[:, :NX], w[P * (NX + NU):][None, :]])
-        return X, stages[:, NX:].copy()
-
-    def join(self, X: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """Decision vector from X and U."""
-        P = self.horizon
-        return np.concatenate([np.hstack([X[:P], U]).ravel(), X[P]])
-
-    def shift(self, w: np.ndarray) -> np.ndarray:
-        """The plan one period later: stage k takes stage k+1, the last stage is repeated."""
-        w = np.asarray(w, float)
-        P, m = self.horizon, NX + NU
-        out = np.empty_like(w)
-        out[:(P - 1) * m] = w[m:P * m]
-        out[(P - 1) * m:(P - 1) * m + NX] = w[P * m:]  # x_{P-1} <- x_P
-        out[(P - 1) * m + NX:P * m] = w[(P - 1) * m + NX:P * m]  # u_{P-1} repeated
-        out[P * m:] = w[P * m:]  # x_P repeated
-        return out
-
-
-def unpack_parameters(p: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX, ca.SX]:
-    """(x̂, t, waypoint, u_prev, weights) from the parameter vector."""
-    return p[0:NX], p[NX], p[NX + 1:NX + 3], p[NX + 3:NX + 5], p[NX + 5:NX + 10]
+_BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave"))
 
 
 def pack_parameters(x0: np.ndarray, t: float, waypoint: np.ndarray, u_prev: np.ndarray,
-                    weights: tuple[float, ...]) -> np.ndarray:
-    """The numeric parameter vector."""
-    return np.concatenate([x0, [t], waypoint, u_prev, weights]).astype(float)
+                    weights: tuple[float, ...], wave: np.ndarray = CALM_PARAMETERS) -> np.ndarray:
+    """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``.
+
+    The per-step fast path of ``PARAMS.pack`` (slices computed once; numpy rejects wrong block sizes).
+    """
+    p = np.empty(NP)
+    for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave), strict=True):
+        p[where] = value
+    return p
 
 
 def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca.SX:
     """Q·e_ψ² + R·φ² + S·d + soft minimum-speed penalty for one predicted state."""
-    q, r, s = weights[0], weights[1], weights[2]
+    w = members("weights", weights)
+    q, r, s = w["q"], w["r"], w["s"]
     e = heading_error(x, waypoint)
     shortfall = ca.fmax(0, cfg.min_speed_mps - x[6])
     return q * e**2 + r * x[3] ** 2 + s * distance(x, waypoint) + cfg.min_speed_weight * shortfall**2
@@ -131,23 +113,24 @@ def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca
 def input_change_cost(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> ca.SX:
     """ΔUᵀ W ΔU with W = diag(W11, W22)."""
     du = u - u_before
-    return weights[3] * du[0] ** 2 + weights[4] * du[1] ** 2
+    w = members("weights", weights)
+    return w["w_dtau_x"] * du[0] ** 2 + w["w_dtau_n"] * du[1] ** 2
 
 
 def build_nlp(step: ca.Function, cfg: NmpcConfig) -> tuple[dict, Layout]:
-    """The multiple-shooting NLP {x, p, f, g}; g = [x_0 − x̂, F(x_k, u_k, t_k) − x_{k+1} …] = 0."""
+    """The multiple-shooting NLP {x, p, f, g}; g = [x_0 − x̂, F(x_k, u_k, t_k, wave) − x_{k+1} …] = 0."""
     layout = Layout(cfg.horizon)
     w = ca.SX.sym("w", layout.n_w)
     p = ca.SX.sym("p", NP)
-    x_hat, t0, waypoint, u_prev, weights = unpack_parameters(p)
-    g = [w[layout.x_index(0)] - x_hat]
+    par = PARAMS.unpack(p)
+    g = [w[layout.x_index(0)] - par.x0]
     f = 0
-    u_before = u_prev
+    u_before = par.u_prev
     for k in range(cfg.horizon):
         xk, uk = w[layout.x_index(k)], w[layout.u_index(k)]
         x_next = w[layout.x_index(k + 1)]
-        g.append(step(xk, uk, t0 + k * cfg.period_s) - x_next)
-        f += input_change_cost(uk, u_before, weights) + state_cost(x_next, waypoint, weights, cfg)
+        g.append(step(xk, uk, par.t + k * cfg.period_s, par.wave) - x_next)
+        f += input_change_cost(uk, u_before, par.weights) + state_cost(x_next, par.waypoint, par.weights, cfg)
         u_before = uk
     return {"x": w, "p": p, "f": f, "g": ca.vertcat(*g)}, layout
 

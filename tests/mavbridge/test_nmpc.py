@@ -142,7 +142,8 @@ def test_one_solver_serves_many_weights_and_waypoints() -> None:
     params = otter_parameters()
     a = RollAwareNmpc(NmpcConfig(horizon=6, r=0.0), params, PAPER_WAVES)
     b = RollAwareNmpc(NmpcConfig(horizon=6, r=2500.0), params, PAPER_WAVES)
-    assert a._backend is b._backend
+    assert a._functions is b._functions  # one built problem (immutable Functions) ...
+    assert a._backend is not b._backend  # ... and a solver instance each
     x = _state(psi=0.0, u=1.0)
     ra = a.solve(x, 0.0, (50.0, 0.0))
     rb = b.solve(x, 0.0, (-50.0, 0.0))

@@ -13,8 +13,10 @@ import pytest
 from mavbridge.experiment import run_scenario
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
 from mavbridge.nmpc.codegen import compiler
+from mavbridge.nmpc.layout import PARAMS
 from mavbridge.nmpc.problem import discrete_model
 from mavbridge.nmpc.rti import linearisation, linearisation_inlined
+from mavbridge.nmpc.wave_model import wave_parameters
 from mavbridge.scenario import scenario_from_mapping
 from vessel import OceanCurrent, RegularWaves, otter_parameters
 from vessel.config import ConfigError
@@ -24,11 +26,12 @@ WAVES = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2)
 
 def test_mapped_linearisation_equals_the_inlined_one() -> None:
     cfg = NmpcConfig(horizon=4)
-    step = discrete_model(otter_parameters(), WAVES, OceanCurrent(), cfg)
+    step = discrete_model(otter_parameters(), None, OceanCurrent(), cfg)  # the wave from p
     mapped, inlined = linearisation(step, cfg), linearisation_inlined(step, cfg)
     rng = np.random.default_rng(3)
     w = rng.normal(size=mapped.size1_in(0)) * 0.3
-    p = np.concatenate([rng.normal(size=12), [7.0, 85.0, 75.0], [20.0, 1.0], [5, 1550, 2, 1, 1]])
+    p = PARAMS.pack(x0=rng.normal(size=12), t=7.0, waypoint=[85.0, 75.0], u_prev=[20.0, 1.0],
+                    weights=[5, 1550, 2, 1, 1], wave=wave_parameters(WAVES))
     for a, b in zip(mapped(w, p), inlined(w, p), strict=True):
         np.testing.assert_allclose(ca.densify(a).full(), ca.densify(b).full(), atol=1e-10)
 
@@ -150,7 +153,7 @@ def test_compiled_linearisation_is_cached_by_model_hash(tmp_path: Path, monkeypa
     stamp = libraries[0].stat().st_mtime_ns
     from mavbridge.nmpc.rti import RtiBackend
 
-    again = RtiBackend({"x": None}, nmpc.layout, cfg, nmpc._step, ipopt=nmpc._backend.ipopt)
+    again = RtiBackend(nmpc._functions, cfg, ipopt=nmpc._backend.ipopt)
     assert again.codegen == nmpc._backend.codegen
     assert libraries[0].stat().st_mtime_ns == stamp
     x = np.zeros(12)

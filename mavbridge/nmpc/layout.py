@@ -1,0 +1,174 @@
+"""Named layouts of the NLP's two vectors: the decision vector w and the parameter vector p.
+
+Every piece of code that reads or writes a block of ``w`` or ``p`` goes through these objects, so no
+index arithmetic (``p[NX + 3:NX + 5]``) is spread over the solvers. Both layouts are immutable.
+
+Parameter vector p (one built solver serves any run, time, tuning and regular wave):
+    x0 (12)        measured rigid-body state [x y z φ θ ψ u v w p q r], NED position, body velocities
+    t (1)          time of stage 0, s (the wave's clock)
+    waypoint (2)   target (north, east), m, NED
+    u_prev (2)     input applied in the previous period (τ_X N, τ_N N·m)
+    weights (5)    Q, R, S, W11, W22
+    wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vessel import NX_RIGID
+
+NX = NX_RIGID
+NU = 2
+WEIGHT_NAMES = ("q", "r", "s", "w_dtau_x", "w_dtau_n")
+WAVE_NAMES = ("height_m", "wavenumber_rad_per_m", "frequency_rad_per_s", "cos_travel_dir", "sin_travel_dir",
+              "phase_rad", "roll_sign")
+
+
+MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES}
+
+
+def members(block: str, values: Any) -> dict[str, Any]:
+    """The elements of the ``weights`` or ``wave`` block (numbers or symbols) by name."""
+    return {name: values[i] for i, name in enumerate(MEMBERS[block])}
+
+
+@dataclass(frozen=True)
+class ParameterBlocks:
+    """The blocks of one parameter vector (numbers or CasADi symbols); scalars for one-element blocks."""
+
+    x0: Any
+    t: Any
+    waypoint: Any
+    u_prev: Any
+    weights: Any
+    wave: Any
+
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Where each named block lives in the parameter vector p (order fixed, sizes in ``blocks``)."""
+
+    blocks: tuple[tuple[str, int], ...] = (("x0", NX), ("t", 1), ("waypoint", 2), ("u_prev", NU),
+                                           ("weights", len(WEIGHT_NAMES)), ("wave", len(WAVE_NAMES)))
+
+    @functools.cached_property
+    def _slices(self) -> dict[str, slice]:
+        slices, start = {}, 0
+        for block, n in self.blocks:
+            slices[block] = slice(start, start + n)
+            start += n
+        return slices
+
+    @property
+    def size(self) -> int:
+        """Length of p."""
+        return sum(n for _, n in self.blocks)
+
+    def slice(self, name: str) -> slice:
+        """The slice of block ``name`` in p."""
+        try:
+            return self._slices[name]
+        except KeyError:
+            raise KeyError(f"no parameter block {name!r} (blocks: {', '.join(self._slices)})") from None
+
+    def index(self, name: str, member: str | None = None) -> int:
+        """The index in p of a one-element block, or of ``member`` of the weights or wave block."""
+        where = self.slice(name)
+        if member is None:
+            if where.stop - where.start != 1:
+                raise KeyError(f"parameter block {name!r} has {where.stop - where.start} elements: name a member")
+            return where.start
+        names = MEMBERS.get(name, ())
+        if member not in names:
+            raise KeyError(f"parameter block {name!r} has no member {member!r}")
+        return where.start + names.index(member)
+
+    def get(self, p: Any, name: str) -> Any:
+        """Block ``name`` of p (a scalar for one-element blocks)."""
+        where = self.slice(name)
+        return p[where.start] if where.stop - where.start == 1 else p[where]
+
+    def unpack(self, p: Any) -> ParameterBlocks:
+        """All blocks of p, by name."""
+        return ParameterBlocks(**{name: self.get(p, name) for name, _ in self.blocks})
+
+    def pack(self, **values: Any) -> np.ndarray:
+        """The numeric p from one value per block (keyword per block name; every block required)."""
+        if len(values) != len(self.blocks):
+            names = {name for name, _ in self.blocks}
+            raise KeyError(f"pack: missing blocks {sorted(names - set(values))}, unknown blocks "
+                           f"{sorted(set(values) - names)}")
+        p = np.empty(self.size)
+        start = 0
+        for name, n in self.blocks:  # plain slice assignments: this runs every control step
+            value = values[name]
+            count = _count(value)
+            if count != n:
+                raise ValueError(f"pack: block {name!r} needs {n} numbers, got {count}")
+            p[start:start + n] = value
+            start += n
+        return p
+
+
+def _count(value: Any) -> int:
+    """How many numbers ``value`` holds (cheap: no conversion to an array)."""
+    if isinstance(value, np.ndarray):
+        return value.size
+    if isinstance(value, (int, float, np.floating)):
+        return 1
+    return len(value)
+
+
+PARAMS = ParameterLayout()
+NP = PARAMS.size
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where each stage's x and u live in the decision vector w = [x_0, u_0, x_1, u_1, …, x_P]."""
+
+    horizon: int
+
+    @property
+    def n_w(self) -> int:
+        """Number of decision variables."""
+        return (self.horizon + 1) * NX + self.horizon * NU
+
+    def x_index(self, k: int) -> slice:
+        """Slice of x_k in w."""
+        start = k * (NX + NU)
+        return slice(start, start + NX)
+
+    def u_index(self, k: int) -> slice:
+        """Slice of u_k in w."""
+        start = k * (NX + NU) + NX
+        return slice(start, start + NU)
+
+    def split(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(X (P+1)×12, U P×2) from a decision vector."""
+        w = np.asarray(w, float).ravel()
+        P = self.horizon
+        stages = w[:P * (NX + NU)].reshape(P, NX + NU)
+        X = np.vstack([stages[:, :NX], w[P * (NX + NU):][None, :]])
+        return X, stages[:, NX:].copy()
+
+    def join(self, X: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """Decision vector from X and U."""
+        P = self.horizon
+        return np.concatenate([np.hstack([X[:P], U]).ravel(), X[P]])
+
+    def shift(self, w: np.ndarray) -> np.ndarray:
+        """The plan one period later: stage k takes stage k+1, the last stage is repeated."""
+        w = np.asarray(w, float)
+        P, m = self.horizon, NX + NU
+        out = np.empty_like(w)
+        out[:(P - 1) * m] = w[m:P * m]
+        out[(P - 1) * m:(P - 1) * m + NX] = w[P * m:]  # x_{P-1} <- x_P
+        out[(P - 1) * m + NX:P * m] = w[(P - 1) * m + NX:P * m]  # u_{P-1} repeated
+        out[P * m:] = w[P * m:]  # x_P repeated
+        return out

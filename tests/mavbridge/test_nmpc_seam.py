@@ -1,0 +1,158 @@
+"""The NMPC's backend seam: controllers share only immutable built Functions, own and close their solvers
+and workers; named parameter layout; structural configuration fields marked on the fields."""
+
+from __future__ import annotations
+
+import dataclasses
+import gc
+import math
+import threading
+
+import numpy as np
+import pytest
+
+from mavbridge.nmpc import PARAMS, NmpcConfig, RollAwareNmpc
+from mavbridge.nmpc.config import STRUCTURAL
+from mavbridge.nmpc.functions import problem_functions
+from mavbridge.nmpc.layout import WAVE_NAMES, WEIGHT_NAMES
+from mavbridge.nmpc.problem import pack_parameters
+from vessel import OceanCurrent, RegularWaves, otter_parameters
+
+WAVES = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2)
+TARGET = (85.0, 75.0)
+
+
+def _start() -> np.ndarray:
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    return x
+
+
+def _asrti(**changes: object) -> NmpcConfig:
+    return NmpcConfig(horizon=6, solver="asrti", rti_codegen="off", **changes)
+
+
+def _fly(nmpc: RollAwareNmpc, steps: int, target: tuple[float, float] = TARGET) -> list[np.ndarray]:
+    """Prepare, then follow the controller's own plan for ``steps`` periods; the inputs applied."""
+    x = _start()
+    nmpc.prepare(x, 0.0, target)
+    taus = []
+    for k in range(steps):
+        result = nmpc.solve(x, 0.1 * k, target)
+        assert result.success, result.status
+        taus.append(result.tau)
+        x = result.states[1]
+    return taus
+
+
+def _new_threads(before: set[threading.Thread]) -> set[threading.Thread]:
+    return {t for t in threading.enumerate() if t not in before}
+
+
+def test_two_controllers_share_no_mutable_state() -> None:
+    a, b = RollAwareNmpc(_asrti(), otter_parameters(), WAVES), RollAwareNmpc(_asrti(), otter_parameters(), WAVES)
+    try:
+        assert a._functions is b._functions  # the immutable built problem is shared ...
+        assert a._backend is not b._backend  # ... solver instances and workers are not
+        assert a._backend.advanced is not b._backend.advanced
+        assert a._backend.sqp is not b._backend.sqp and a._backend.sqp.qp is not b._backend.sqp.qp
+        assert a._backend.ipopt.solver is not b._backend.ipopt.solver
+        x = _start()
+        a.prepare(x, 0.0, TARGET)
+        b.prepare(x, 0.0, (40.0, -20.0))
+        assert not np.shares_memory(a._w, b._w)
+        # Interleaved steps towards different waypoints give exactly the inputs of a controller flying alone.
+        xa, xb, interleaved = x, x, []
+        for k in range(4):
+            ra = a.solve(xa, 0.1 * k, TARGET)
+            rb = b.solve(xb, 0.1 * k, (40.0, -20.0))
+            assert ra.success and rb.success
+            interleaved.append(ra.tau)
+            xa, xb = ra.states[1], rb.states[1]
+        assert ra.stats["background"] == "used" and rb.stats["background"] == "used"
+    finally:
+        a.close()
+        b.close()
+    with RollAwareNmpc(_asrti(), otter_parameters(), WAVES) as alone:
+        np.testing.assert_array_equal(np.array(interleaved), np.array(_fly(alone, 4)))
+
+
+def test_closing_one_controller_leaves_the_other_solving() -> None:
+    before = set(threading.enumerate())
+    a = RollAwareNmpc(_asrti(), otter_parameters(), WAVES)
+    _fly(a, 2)
+    threads_a = _new_threads(before)
+    assert threads_a, "the asrti controller started no worker thread"
+    b = RollAwareNmpc(_asrti(), otter_parameters(), WAVES)
+    _fly(b, 2)
+    threads_b = _new_threads(before | threads_a)
+    a.close()
+    assert not any(t.is_alive() for t in threads_a), "closing a left its worker running"
+    assert all(t.is_alive() for t in threads_b), "closing a stopped b's worker"
+    a.close()  # idempotent
+    with pytest.raises(RuntimeError, match="after close"):
+        a.solve(_start(), 0.0, TARGET)
+    x, result = _start(), None
+    for k in range(2, 5):  # b carries on, still from its own background solves
+        result = b.solve(x, 0.1 * k, TARGET)
+        assert result.success
+        x = result.states[1]
+    assert result.stats["background"] == "used"
+    with b:
+        pass
+    assert b.closed and not any(t.is_alive() for t in threads_b)
+    b.close()
+
+
+def test_a_controller_dropped_without_close_stops_its_worker() -> None:
+    before = set(threading.enumerate())
+    nmpc = RollAwareNmpc(_asrti(), otter_parameters(), WAVES)
+    _fly(nmpc, 2)
+    threads = _new_threads(before)
+    assert threads
+    del nmpc
+    gc.collect()
+    assert not any(t.is_alive() for t in threads)
+
+
+@pytest.mark.parametrize("solver", ["ipopt", "rti"])
+def test_every_backend_closes_idempotently(solver: str) -> None:
+    with RollAwareNmpc(NmpcConfig(horizon=5, solver=solver, rti_codegen="off"), otter_parameters(), WAVES) as n:
+        assert n.solve(_start(), 0.0, TARGET).success
+    assert n.closed
+    n.close()
+    with pytest.raises(RuntimeError, match="after close"):
+        n.prepare(_start(), 0.0, TARGET)
+
+
+def test_structural_fields_are_marked_on_the_fields_and_key_the_build() -> None:
+    marked = {f.name for f in dataclasses.fields(NmpcConfig) if f.metadata.get(STRUCTURAL)}
+    assert marked == {"horizon", "period_s", "substeps", "integrator", "min_speed_mps", "min_speed_weight"}
+    cfg = NmpcConfig(horizon=5)
+    assert dict(cfg.structural()) == {name: getattr(cfg, name) for name in marked}
+    built = problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg)
+    # Weights, solver, bounds and the regular wave are not structural: the same built problem serves them.
+    for other, waves in ((cfg.replace(r=0.0, solver="rti", tau_x_max_n=100.0), WAVES),
+                         (cfg, RegularWaves(1.0, 50.0, 7.0, 0.3, phase_rad=1.0)), (cfg, None)):
+        assert problem_functions(otter_parameters(), waves, OceanCurrent(), other) is built
+    assert problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg.replace(horizon=6)) is not built
+
+
+def test_parameter_layout_names_every_block() -> None:
+    assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave"]
+    assert PARAMS.size == 12 + 1 + 2 + 2 + len(WEIGHT_NAMES) + len(WAVE_NAMES)
+    x0 = np.arange(12.0)
+    p = pack_parameters(x0, 3.5, np.array([85.0, 75.0]), np.array([20.0, -1.0]), (5.0, 1550.0, 2.0, 1.0, 1.0),
+                        np.arange(7.0) + 100)
+    blocks = PARAMS.unpack(p)
+    np.testing.assert_array_equal(blocks.x0, x0)
+    assert blocks.t == 3.5
+    np.testing.assert_array_equal(blocks.u_prev, [20.0, -1.0])
+    assert p[PARAMS.index("weights", "r")] == 1550.0
+    assert p[PARAMS.index("wave", "phase_rad")] == 105.0
+    with pytest.raises(KeyError, match="no parameter block"):
+        PARAMS.slice("wind")
+    with pytest.raises(KeyError, match="name a member"):
+        PARAMS.index("weights")
+    with pytest.raises(ValueError, match="'waypoint' needs 2"):
+        PARAMS.pack(x0=x0, t=0.0, waypoint=[1.0], u_prev=[0, 0], weights=np.zeros(5), wave=np.zeros(7))
