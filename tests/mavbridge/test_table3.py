@@ -63,27 +63,36 @@ def east_overshoot(track: Track) -> float:
     return float(np.max(track.east) - track.east[-1])
 
 
-def findings(metrics: dict[str, dict], tracks: dict[str, Track]) -> list[str]:
-    """Every Table III finding that does not hold, as text (empty: all hold)."""
+def _arrival_findings(arrival: dict[str, float | None]) -> list[str]:
+    """Direct is the fastest run that arrives; the right runs arrive and the others do not."""
     problems = []
-    arrival = {name: m["time_to_waypoint_s"] for name, m in metrics.items()}
-    roll = {name: m["avg_roll_deg"] for name, m in metrics.items()}
     arrived = {name: t for name, t in arrival.items() if t is not None}
     if "direct" not in arrived or any(t < arrived["direct"] for name, t in arrived.items() if name != "direct"):
         problems.append(f"direct is not the fastest run that arrives: {arrived}")
-    for higher, lower in pairwise(ROLL_ORDER):
-        if not roll[higher] > roll[lower]:
-            problems.append(f"average roll does not fall from {higher} ({roll[higher]:.2f}°) to {lower} "
-                            f"({roll[lower]:.2f}°)")
+    problems += [f"{name} reaches the waypoint ({arrival[name]:.1f} s)" for name in NEVER_ARRIVE
+                 if arrival[name] is not None]
+    problems += [f"{name} does not reach the waypoint" for name in ARRIVE if arrival[name] is None]
+    return problems
+
+
+def _roll_findings(roll: dict[str, float]) -> list[str]:
+    """Average roll falls along ROLL_ORDER, Low Roll is below Balanced, Balanced cuts enough against Direct."""
+    problems = [f"average roll does not fall from {higher} ({roll[higher]:.2f}°) to {lower} ({roll[lower]:.2f}°)"
+                for higher, lower in pairwise(ROLL_ORDER) if not roll[higher] > roll[lower]]
     if not roll["low_roll"] < roll["balanced"]:
         problems.append(f"low_roll's average roll {roll['low_roll']:.2f}° is not below balanced's "
                         f"{roll['balanced']:.2f}°")
-    for name in NEVER_ARRIVE:
-        if arrival[name] is not None:
-            problems.append(f"{name} reaches the waypoint ({arrival[name]:.1f} s)")
-    for name in ARRIVE:
-        if arrival[name] is None:
-            problems.append(f"{name} does not reach the waypoint")
+    reduction = 1 - roll["balanced"] / roll["direct"]
+    if reduction < MIN_REDUCTION:
+        problems.append(f"balanced cuts average roll by {100 * reduction:.0f} % against direct "
+                        f"(at least {100 * MIN_REDUCTION:.0f} %)")
+    return problems
+
+
+def findings(metrics: dict[str, dict], tracks: dict[str, Track]) -> list[str]:
+    """Every Table III finding that does not hold, as text (empty: all hold)."""
+    problems = _arrival_findings({name: m["time_to_waypoint_s"] for name, m in metrics.items()})
+    problems += _roll_findings({name: m["avg_roll_deg"] for name, m in metrics.items()})
     for name in TACKING:
         overshoot, changes = east_overshoot(tracks[name]), sign_changes(tracks[name])
         if overshoot < MIN_OVERSHOOT_M or changes < 1:
@@ -91,10 +100,6 @@ def findings(metrics: dict[str, dict], tracks: dict[str, Track]) -> list[str]:
                             "changes")
     if east_overshoot(tracks["direct"]) >= MIN_OVERSHOOT_M or sign_changes(tracks["direct"]) > 0:
         problems.append("direct tacks")
-    reduction = 1 - roll["balanced"] / roll["direct"]
-    if reduction < MIN_REDUCTION:
-        problems.append(f"balanced cuts average roll by {100 * reduction:.0f} % against direct "
-                        f"(at least {100 * MIN_REDUCTION:.0f} %)")
     return problems
 
 
