@@ -11,6 +11,7 @@ from pathlib import Path
 
 from vessel import ConfigError
 
+from .cli_args import positive
 from .cli_run import add_demo_parser, add_run_parser, demo_command, run_command
 from .nmpc.config import SOLVERS
 from .preflight.cli import add_check_parser, check_command
@@ -27,16 +28,6 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with its subcommands."""
     parser = _Parser(prog="mavbridge", description="Roll-aware NMPC companion for the Otter USV.")
@@ -47,7 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
                                      "and table3.md for a set of runs.")
     exp.add_argument("scenario", help="scenario YAML file (a single scenario or base + runs)")
     exp.add_argument("--out", help="output folder (default: runs/<scenario file name>)")
-    exp.add_argument("--jobs", type=_positive_int, default=None,
+    exp.add_argument("--jobs", type=positive, default=None,
                      help="parallel processes (default: all cores)")
     exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
     exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
@@ -82,6 +73,12 @@ def _experiment(args: argparse.Namespace) -> int:
     return 0
 
 
+def _first_line(exc: BaseException) -> str:
+    """The error's own first line, without Python's quotes (its repr only when it has no text)."""
+    text = str(exc)
+    return text.splitlines()[0] if text else repr(exc)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; bad input prints one line to stderr and exits with code 2."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -100,10 +97,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "tune":
             return tune_command(args)
     except (ConfigError, ValueError) as exc:
-        sys.stderr.write(f"mavbridge: error: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
+        sys.stderr.write(f"mavbridge: error: {_first_line(exc)}\n")
         return 2
     except (FloatingPointError, RuntimeError) as exc:
-        sys.stderr.write(f"mavbridge: run failed: {str(exc).splitlines()[0] if str(exc) else exc!r}\n")
+        sys.stderr.write(f"mavbridge: run failed: {_first_line(exc)}\n")
         return 1
     except KeyboardInterrupt:
         sys.stderr.write("mavbridge: interrupted\n")

@@ -74,8 +74,9 @@ def run_command(args: argparse.Namespace) -> int:
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
     waves = ScenarioTruth(scenario.sea.waves())  # the only source so far: simulation truth, logged as such
-    nmpc = build_nmpc(scenario, waves)  # seconds of building, before any link is open
-    return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode, args.dry_run).run()
+    with build_nmpc(scenario, waves) as nmpc:  # seconds of building, before any link is open; closed after
+        return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
+                         args.dry_run).run()
 
 
 def demo_command(args: argparse.Namespace) -> int:

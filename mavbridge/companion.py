@@ -227,9 +227,13 @@ class Companion:
             columns = self.output.command(link, result, now_ms)
         except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
             self.log(f"warning: {exc}; holding heading with zero thrust")
-            self.record.failures += 1
+            if result.success:  # a failed solve is counted by the recorder already
+                self.record.failures += 1
             self.output.neutral(link, self.state)
-            self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=0, **wave)
+            # the neutral command is a command: released on a mode change or at the end, refreshed each step
+            self._commanding = self.output.sends
+            self._last_command_wall = time.monotonic()
+            self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave)
             return
         self._commanding = self.output.sends
         self._last_command_wall = time.monotonic()
@@ -303,6 +307,8 @@ class Companion:
         link.heartbeat_if_due()
         link.recv(0.05)
         link.drain()  # act on the newest state, never on a backlog
+        if self.mission.changed and self._commanding:
+            self._stand_down(link)  # the download blocks for seconds: never leave the last command running
         self.mission.reload_if_changed(link, self.state.set_home)
         phase_before = self.supervisor.phase
         if self.supervisor.tick(time.monotonic()) != phase_before:

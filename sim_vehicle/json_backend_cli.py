@@ -140,29 +140,42 @@ def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent,
     return world.vessel, world.sea.waves(), world.sea.current(), x0
 
 
+def _bind(host: str, port: int) -> socket.socket:
+    """The backend's UDP socket, or a one-line ConfigError naming the address."""
+    try:
+        return open_socket(host, port)
+    except OSError as exc:
+        raise ConfigError(f"--json-backend: cannot bind UDP {host}:{port} ({exc.strerror or exc}); "
+                          "is another physics backend or a stale SITL still running?") from None
+
+
+def _run_folder(args: argparse.Namespace, seed: int, waves: WaveField, current: OceanCurrent, vessel: str,
+                x0: np.ndarray) -> JsonStateCsv | None:
+    """sea.json and state.csv in --log-dir (a folder that already holds a run is refused, never overwritten)."""
+    if args.log_dir is None:
+        return None
+    args.log_dir.mkdir(parents=True, exist_ok=True)
+    earlier = [name for name in ("state.csv", "sea.json") if (args.log_dir / name).exists()]
+    if earlier:
+        raise ConfigError(f"--log-dir: {args.log_dir} already holds a run ({', '.join(earlier)}); "
+                          "give an empty or new folder, runs are never overwritten")
+    write_sea_record(args.log_dir / "sea.json", seed, waves, current, vessel, x0)
+    return JsonStateCsv(args.log_dir / "state.csv", waves)
+
+
 def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
-    """World, run folder and socket; ConfigError/OSError for the caller to report."""
+    """World, socket, then run folder (nothing is written when the port cannot be had); errors for the caller."""
     vessel, waves, current, x0 = build_world(args)
     seed = args.seed if args.seed is not None else secrets.randbits(32)
     waves = seeded_waves(waves, seed)
-    state_csv = None
-    if args.log_dir is not None:
-        args.log_dir.mkdir(parents=True, exist_ok=True)
-        earlier = [name for name in ("state.csv", "sea.json") if (args.log_dir / name).exists()]
-        if earlier:
-            raise ConfigError(f"--log-dir: {args.log_dir} already holds a run ({', '.join(earlier)}); "
-                              "give an empty or new folder, runs are never overwritten")
-        write_sea_record(args.log_dir / "sea.json", seed, waves, current, vessel, x0)
-        state_csv = JsonStateCsv(args.log_dir / "state.csv", waves)
-    physics = JsonPhysics(otter_parameters(vessel), waves, current, x0)
     host, port = args.json_backend
+    sock = _bind(host, port)
     try:
-        sock = open_socket(host, port)
-    except OSError as exc:
-        if state_csv is not None:
-            state_csv.close()
-        raise ConfigError(f"--json-backend: cannot bind UDP {host}:{port} ({exc.strerror or exc}); "
-                          "is another physics backend or a stale SITL still running?") from None
+        state_csv = _run_folder(args, seed, waves, current, vessel, x0)
+    except (ConfigError, OSError):
+        sock.close()
+        raise
+    physics = JsonPhysics(otter_parameters(vessel), waves, current, x0)
     log.info("json-backend: listening on UDP %s:%d, sea seed %d", host, port, seed)
     return JsonBackend(physics, state_csv), sock
 

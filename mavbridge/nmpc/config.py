@@ -57,7 +57,9 @@ class NmpcConfig:
     as_max_iterations: int = bounded(30, 1, 200, "", "asrti: SQP iteration limit of the background solve")
     as_step_tol: float = bounded(0.3, 0.0, 1e6, "N, N·m", "asrti: the background solve stops when every input "
                                  "step is below this")
-    as_wait_s: float = bounded(1.0, 0.0, 60.0, "s", "asrti: longest wait at a step for the background solve "
+    # 60 s: in-process experiments and sweeps wait for the background solve whatever the machine's load, so
+    # a run is the same on every computer and executor; the companion caps it at a quarter period (wall time).
+    as_wait_s: float = bounded(60.0, 0.0, 60.0, "s", "asrti: longest wait at a step for the background solve "
                                "started at the previous one (beyond it: plain rti from the shifted plan)")
     as_worker: str = choice("thread", ("thread", "process"), "asrti: run the background solve in a thread (CasADi "
                             "releases the GIL while it computes) or in a worker process (no GIL sharing)")

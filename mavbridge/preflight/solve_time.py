@@ -17,13 +17,13 @@ def solve_time(scenario: Any, solves: int, report: Report, log: Callable[[str], 
         return
     period_s = float(scenario.controller.period_s)
     log(f"timing {solves} NMPC solves ({scenario.controller.solver})...")
-    nmpc = RollAwareNmpc(scenario.controller, scenario.params(), scenario.sea.waves(), scenario.sea.current())
     x, t, walls = scenario.start.state(), 0.0, []
     target = (scenario.waypoint.north_m, scenario.waypoint.east_m)
-    for _ in range(solves):
-        result = nmpc.solve(x, t, target)
-        walls.append(result.wall_time_s)
-        x, t = np.asarray(result.states)[1], t + period_s
+    with RollAwareNmpc(scenario.controller, scenario.params(), scenario.sea.waves(), scenario.sea.current()) as nmpc:
+        for _ in range(solves):
+            result = nmpc.solve(x, t, target)
+            walls.append(result.wall_time_s)
+            x, t = np.asarray(result.states)[1], t + period_s
     steady = np.array(walls[min(5, len(walls) - 1):]) * 1e3
     median, p95, worst = np.median(steady), np.percentile(steady, 95), np.max(steady)
     period_ms = period_s * 1e3

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from vessel import ConfigError
 
+from ..cli_args import positive
 from ..scenario import load_scenarios
 from .executors import open_executor, parse_executor
 from .runner import SweepOutcome, run_sweep
@@ -35,7 +36,7 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("spec", help="sweep SPEC YAML (base, axes, sample, reference, max_cases)")
     p.add_argument("--executor", type=_executor_flag, default="local",
                    help="local (process pool, default) | dask-local:N | tcp://HOST:PORT (a Dask scheduler)")
-    p.add_argument("--jobs", type=int, default=None, help="processes for the local executor (default: all cores)")
+    p.add_argument("--jobs", type=positive, default=None, help="processes for the local executor (default: all cores)")
     p.add_argument("--out", default=None, help="output folder (default: runs/sweep-<spec name>); reused to resume")
     p.add_argument("--yes", action="store_true", help="run a sweep larger than the spec's max_cases")
     p.add_argument("--heatmap", default=None, metavar="X_AXIS,Y_AXIS",
@@ -53,7 +54,7 @@ def add_tune_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-time", type=float, default=None, help="latest arrival, s (> 0)")
     p.add_argument("--executor", type=_executor_flag, default="local",
                    help="local (default) | dask-local:N | tcp://HOST:PORT")
-    p.add_argument("--jobs", type=int, default=None, help="processes for the local executor (default: all cores)")
+    p.add_argument("--jobs", type=positive, default=None, help="processes for the local executor (default: all cores)")
     p.add_argument("--out", default=None, help="output folder (default: runs/tune-<scenario name>); reused to resume")
     p.add_argument("--headings", default=None, help="start headings for the robustness re-runs, deg "
                                                      "(default 90,60,120,30,150)")
@@ -82,8 +83,6 @@ def _tune_target(args: argparse.Namespace) -> Target:
 
 def tune_command(args: argparse.Namespace) -> int:
     """Run the tuning procedure; 0 if weights meeting the target were found, 1 if not, 130 if interrupted."""
-    if args.jobs is not None and args.jobs < 1:
-        raise ConfigError(f"--jobs: expected a whole number >= 1, got {args.jobs}")
     target = _tune_target(args)
     headings = _float_list(args.headings, "--headings") if args.headings else list(ROBUST_HEADINGS_DEG)
     scenarios = load_scenarios(args.scenario)
@@ -137,8 +136,6 @@ def write_summary(spec: SweepSpec, outcome: SweepOutcome, out: Path, heatmap: tu
 
 def sweep_command(args: argparse.Namespace) -> int:
     """Run the sweep; 0 when every case finished, 1 if some failed, 130 when interrupted."""
-    if args.jobs is not None and args.jobs < 1:
-        raise ConfigError(f"--jobs: expected a whole number >= 1, got {args.jobs}")
     spec = load_spec(args.spec, allow_large=args.yes)
     heatmap = _heatmap_axes(spec, args.heatmap)
     out = Path(args.out) if args.out else Path("runs") / f"sweep-{Path(args.spec).stem}"

@@ -53,6 +53,18 @@ def _import_distributed():
     return distributed
 
 
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel queued cases and end the worker processes: a case still running after an interrupt is stopped,
+    not left to finish (or be orphaned) after the sweep has said what remains. The pool keeps its processes
+    in a private map; there is no public way to end a running task."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.terminate()
+    for proc in processes:
+        proc.join(timeout=30)
+
+
 @contextlib.contextmanager
 def open_executor(text: str, jobs: int | None = None) -> Iterator[Executor]:
     """The executor named by ``text``, shut down (cluster and client closed) on leaving the block."""
@@ -63,7 +75,7 @@ def open_executor(text: str, jobs: int | None = None) -> Iterator[Executor]:
         try:
             yield pool
         finally:
-            pool.shutdown(wait=False, cancel_futures=True)
+            _stop_pool(pool)
         return
     distributed = _import_distributed()
     if kind == "dask-local":
