@@ -160,14 +160,13 @@ class PlantTelemetry(SimClock):
 
     def vfr_hud(self) -> mavlink.MAVLink_message:
         """Ground speed (also in the airspeed field), heading, throttle %, altitude, climb."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
+        (n, e, d), (vn, ve, vd), _ = self._nav()
         speed = math.hypot(vn, ve)
-        _, _, alt = self._position()
+        _, _, alt = self.home.to_geodetic(n, e, d)
         return mavlink.MAVLink_vfr_hud_message(
             airspeed=speed,
             groundspeed=speed,
-            heading=cdeg(float(x[5])) // 100,
+            heading=cdeg(self._attitude()[0][2]) // 100,
             throttle=min(100, round(abs(self.vehicle.throttle) * 100)),
             alt=alt,
             climb=-vd,
