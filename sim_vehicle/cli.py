@@ -275,15 +275,20 @@ def sea_and_sensor_options(args: argparse.Namespace, world: World) -> dict[str, 
             "ideal_sensors": args.ideal_sensors, "surface_heave": heave == "surface"}
 
 
-def announce(opts: Options) -> None:
-    """The start line: sea, seed, sensors, heave; and a note that an irregular plant compiles first."""
+def announce_compiling(opts: Options) -> None:
+    """Before an irregular sea's plant compiles (1–4 s, ``vessel.jit``): say so; simulated time starts after."""
+    if opts.world.sea.spectrum is not None:
+        print("sim-vehicle: compiling the irregular sea's plant (1-4 s); simulated time starts after",
+              file=sys.stderr, flush=True)
+
+
+def announce(opts: Options, startup_s: float) -> None:
+    """The start line: sea, seed (or phase at boot), sensor mode, heave model, start-up time."""
     sea = opts.world.sea
     phase = f"seed {opts.seed}" if opts.seed is not None else f"phase origin at boot, noise seed {opts.noise_seed}"
     print(f"sim-vehicle: {sea.describe()}; {phase}; sensors {'ideal' if opts.ideal_sensors else 'realistic'}; "
-          f"heave {'surface' if opts.surface_heave else 'paper'}", file=sys.stderr, flush=True)
-    if sea.spectrum is not None:
-        print("sim-vehicle: compiling the irregular sea's plant (1-4 s); simulated time starts after",
-              file=sys.stderr, flush=True)
+          f"heave {'surface' if opts.surface_heave else 'paper'}; ready in {startup_s:.1f} s",
+          file=sys.stderr, flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -322,7 +327,7 @@ def main(argv: list[str] | None = None) -> int:
             wait_for_client=args.wait_for_client,
             **sea_and_sensor_options(args, world),
         )
-        announce(opts)
+        announce_compiling(opts)
         sim = Simulator(opts)
     except ConfigError as exc:
         print(f"sim-vehicle: error: {exc}", file=sys.stderr)
@@ -337,6 +342,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    announce(opts, sim.startup_s)
     try:
         sim.run()
     except FloatingPointError as exc:
