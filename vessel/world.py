@@ -76,16 +76,15 @@ class World:
 
 
 def sea_to_mapping(sea: SeaState) -> dict[str, Any]:
-    """A sea as its scenario section reads it back: ``spectrum: {kind, …}``, ``seed`` and ``sea_state`` beside."""
+    """A sea as plain data that both ``sea:`` and ``from_mapping(SeaState, …)`` read back.
+
+    A regular sea is written exactly as before (no ``spectrum`` key); an irregular one as
+    ``spectrum: {spectrum: jonswap, hs_m, …, seed, sea_state}`` — IrregularSea's own field names, which
+    the ``sea:`` section accepts beside its ``kind`` / top-level ``seed`` / ``sea_state`` spelling.
+    """
     data = to_mapping(sea)
-    irregular = data.pop("spectrum")
-    if irregular is None:
-        return data
-    data["seed"] = irregular.pop("seed")
-    if irregular.get("sea_state") is not None:
-        data["sea_state"] = irregular["sea_state"]
-    irregular.pop("sea_state")
-    data["spectrum"] = {"kind": irregular.pop("spectrum"), **irregular}
+    if data["spectrum"] is None:
+        del data["spectrum"]
     return data
 
 
@@ -110,9 +109,9 @@ def check_sections(data: Mapping[str, Any], where: str, allowed: tuple[str, ...]
         raise ConfigError(f"{prefix}unknown key '{unknown[0]}' (allowed: {', '.join(sorted(allowed))})")
 
 
-SPECTRUM_KEYS: tuple[str, ...] = ("kind", *(f.name for f in dataclasses.fields(IrregularSea)
-                                           if f.name not in ("spectrum", "sea_state", "seed")))
-"""The keys of a ``sea.spectrum`` mapping (``kind`` is jonswap or pm); ``seed`` and ``sea_state`` sit beside it."""
+SPECTRUM_KEYS: tuple[str, ...] = ("kind", *(f.name for f in dataclasses.fields(IrregularSea)))
+"""The keys of a ``sea.spectrum`` mapping: ``kind`` (jonswap or pm; IrregularSea's ``spectrum``, also accepted
+under that name), and IrregularSea's other fields; ``seed`` and ``sea_state`` may also sit beside it."""
 
 
 def _irregular_fields(value: Mapping[str, Any], where: str) -> dict[str, Any]:
@@ -132,8 +131,13 @@ def _irregular_fields(value: Mapping[str, Any], where: str) -> dict[str, Any]:
         raise ConfigError(f"{where}.spectrum: expected a mapping with keys {', '.join(SPECTRUM_KEYS)}, "
                           f"got {spectrum!r}")
     check_sections(spectrum, f"{where}.spectrum", SPECTRUM_KEYS)
+    if "kind" in spectrum and "spectrum" in spectrum:
+        raise ConfigError(f"{where}.spectrum: give kind or spectrum, not both")
     irregular = {("spectrum" if k == "kind" else k): v for k, v in spectrum.items()
                  if not (k == "spreading_s" and v is None)}
+    for name, value in (("seed", seed), ("sea_state", state)):
+        if value is not None and name in irregular:
+            raise ConfigError(f"{where}: give {name} beside spectrum or inside it, not both")
     if seed is not None:
         irregular["seed"] = seed
     if state is not None:
