@@ -19,7 +19,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 
-START_TIMEOUT_S = 20.0
+START_TIMEOUT_S = 45.0  # an irregular sea compiles its plant (1–4 s, more on a busy machine) before the port opens
 
 
 def free_port(kind: int = socket.SOCK_STREAM) -> int:

@@ -108,6 +108,8 @@ def test_gps_rate_and_lag(tmp_path: Path) -> None:
         keep = t_true > 4.0
         lags.append(t_fix - float(np.interp(north_fix, north_true[keep], t_true[keep])))
     assert abs(np.mean(lags) - lag_s) < 0.2 * lag_s, (np.mean(lags), lag_s)
+    print(f"GPS: fix interval {np.mean(np.diff(times)):.4f} s (configured {1 / rate_hz:g}), "
+          f"lag {np.mean(lags) * 1000:.1f} ms (configured {lag_s * 1000:g})")
 
 
 def _raw_imu_z(sim: SimProcess, seconds: float) -> np.ndarray:
