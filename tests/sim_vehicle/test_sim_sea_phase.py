@@ -23,7 +23,7 @@ from tests.waits import command, wait_for
 RUN_S = 3.0
 
 
-def _run(tmp_path: Path, name: str, *flags: str) -> tuple[np.ndarray, np.ndarray, str]:
+def _run(tmp_path: Path, name: str, *flags: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """A short unpaced run without links; (t s, elevation m, slope E rad) from its state.csv, and its stderr."""
     log_dir = tmp_path / name
     proc = subprocess.run([sys.executable, "-m", "sim_vehicle", "--no-tcp", "--no-out", "--speedup", "0",
