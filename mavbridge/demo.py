@@ -94,7 +94,10 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str) -> int:
     sim_cmd = [python, "-m", "sim_vehicle.cli", "--tcp", str(tcp_port), "--out", f"udp:127.0.0.1:{gcs_port}",
                "--out", f"udp:127.0.0.1:{companion_port}", "--scenario", resolved, f"--home={home.text()}",
                "--params-store", str(out / "sim_state" / "params.json"), "--wipe", "--log-dir", str(out / "sim"),
-               "--speedup", f"{speedup:g}"]
+               "--speedup", f"{speedup:g}",
+               # the companion flies on the scenario's true sea (same phase origin) and, until it filters
+               # noisy, lagged sensors, on exact ones: the simulator's realistic defaults are opt-in here
+               "--sea-phase", "boot", "--ideal-sensors"]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
                      "--scenario", resolved]

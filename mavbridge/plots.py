@@ -32,7 +32,11 @@ def plot_path(path: Path, north: np.ndarray, east: np.ndarray, waypoint: tuple[f
         if hasattr(waves, "slope_along_travel"):  # crests: zero slope where the surface is high
             slope = np.ma.masked_where(zeta < 0, np.asarray(waves.slope_along_travel(gn, ge, t_end), float))
             ax.contour(ge, gn, slope, levels=[0.0], colors="navy", linewidths=0.8)
-        fig.colorbar(mesh, ax=ax, label=f"sea surface at t = {t_end:.1f} s (m); lines: crests")
+            lines = "crests"
+        else:  # an irregular sea has no single crest line: outline the highest 15 % of the surface
+            ax.contour(ge, gn, zeta, levels=[float(np.percentile(zeta, 85))], colors="navy", linewidths=0.8)
+            lines = "highest 15 %"
+        fig.colorbar(mesh, ax=ax, label=f"sea surface at t = {t_end:.1f} s (m); lines: {lines}")
     ax.plot(east, north, "k-", lw=1.6, label="path")
     ax.plot(east[0], north[0], "go", label="start")
     ax.plot(waypoint[1], waypoint[0], "r*", ms=14, label="waypoint")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import secrets
 import shutil
 import signal
 import sys
@@ -13,7 +14,7 @@ from typing import NoReturn
 
 from vessel.config import ConfigError
 from vessel.geo import Home, parse_home
-from vessel.world import SEA_PRESETS
+from vessel.world import SEA_PRESETS, World
 
 from .params import ParamTable, is_param_name, read_parm
 from .scenario import sim_world
@@ -21,6 +22,8 @@ from .sim import Options, Simulator
 
 DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
 DEFAULT_OUTPUTS = ["udp:127.0.0.1:14550", "udp:127.0.0.1:14551"]
+SEED_MAX = 2**32 - 1
+NEGATIVE_VALUE_FLAGS = ("--home", "--sea", "--current", "--seed", "--sea-state")  # values may start with '-'
 
 
 class _Parser(argparse.ArgumentParser):
@@ -98,6 +101,28 @@ def _duration(text: str) -> float:
     return value
 
 
+def _seed(text: str) -> int:
+    """A seed: a whole number in [0, 2^32 − 1]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {text!r}") from None
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {value}")
+    return value
+
+
+def _sea_state(text: str) -> int:
+    """A NATO sea state number in [0, 8]."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {text!r}") from None
+    if not 0 <= value <= 8:
+        raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also documents every option)."""
     p = _Parser(prog="sim-vehicle", description="SITL Otter boat that speaks MAVLink like ArduPilot Rover.")
@@ -144,6 +169,19 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="H,LENGTH,PERIOD,DIR",
         help="regular waves instead of --waves: height m, wavelength m, period s, travel direction deg",
     )
+    p.add_argument("--sea-state", type=_sea_state, metavar="N",
+                   help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
+    p.add_argument("--seed", type=_seed, metavar="N",
+                   help="seed of the sea's hidden phase origin and the sensor noise, integer in "
+                        f"[0, {SEED_MAX}] (default: a fresh one each start, printed and written to sea.json)")
+    p.add_argument("--sea-phase", choices=("hidden", "boot"), default="hidden",
+                   help="hidden (default): phase origin drawn from --seed; boot: the sea as written, phase 0 at "
+                        "boot (only for tests that compare with the in-process simulation truth)")
+    p.add_argument("--ideal-sensors", action="store_true",
+                   help="report the true state exactly (no SIM_* sensor noise, lag or GPS rate)")
+    p.add_argument("--heave", choices=("surface", "paper"), default=None,
+                   help="surface: the hull heaves with the sea; paper: the paper's model (default: paper with "
+                        "--ideal-sensors in a regular sea, else surface)")
     p.add_argument(
         "--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg"
     )
@@ -218,7 +256,7 @@ def _join_negative_values(argv: list[str]) -> list[str]:
     i = 0
     while i < len(argv):
         flag = argv[i]
-        if flag in ("--home", "--sea", "--current") and i + 1 < len(argv) and argv[i + 1][:2].replace(".", "0") \
+        if flag in NEGATIVE_VALUE_FLAGS and i + 1 < len(argv) and argv[i + 1][:2].replace(".", "0") \
                 in {f"-{d}" for d in "0123456789"}:
             joined.append(f"{flag}={argv[i + 1]}")
             i += 2
@@ -226,6 +264,31 @@ def _join_negative_values(argv: list[str]) -> list[str]:
         joined.append(flag)
         i += 1
     return joined
+
+
+def sea_and_sensor_options(args: argparse.Namespace, world: World) -> dict[str, object]:
+    """Seed (fresh unless given), sensor mode and heave model from the flags (see ``--heave``'s default)."""
+    seed = args.seed if args.seed is not None else secrets.randbits(32)
+    irregular = world.sea.spectrum is not None
+    heave = args.heave or ("paper" if args.ideal_sensors and not irregular else "surface")
+    return {"seed": seed if args.sea_phase == "hidden" else None, "noise_seed": seed,
+            "ideal_sensors": args.ideal_sensors, "surface_heave": heave == "surface"}
+
+
+def announce_compiling(opts: Options) -> None:
+    """Before an irregular sea's plant compiles (1–4 s, ``vessel.jit``): say so; simulated time starts after."""
+    if opts.world.sea.spectrum is not None:
+        print("sim-vehicle: compiling the irregular sea's plant (1-4 s); simulated time starts after",
+              file=sys.stderr, flush=True)
+
+
+def announce(opts: Options, startup_s: float) -> None:
+    """The start line: sea, seed (or phase at boot), sensor mode, heave model, start-up time."""
+    sea = opts.world.sea
+    phase = f"seed {opts.seed}" if opts.seed is not None else f"phase origin at boot, noise seed {opts.noise_seed}"
+    print(f"sim-vehicle: {sea.describe()}; {phase}; sensors {'ideal' if opts.ideal_sensors else 'realistic'}; "
+          f"heave {'surface' if opts.surface_heave else 'paper'}; ready in {startup_s:.1f} s",
+          file=sys.stderr, flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -243,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     try:
         home = args.home or Home()
-        world = sim_world(args.scenario, args.waves, args.sea, args.current, home)  # before anything is written
+        world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state)  # before writing
         params = _load_params(args)
         if args.log_dir is not None:
             args.log_dir.mkdir(parents=True, exist_ok=True)
@@ -262,7 +325,9 @@ def main(argv: list[str] | None = None) -> int:
             mission_store=mission_store(args.params_store),
             serial=args.serial,
             wait_for_client=args.wait_for_client,
+            **sea_and_sensor_options(args, world),
         )
+        announce_compiling(opts)
         sim = Simulator(opts)
     except ConfigError as exc:
         print(f"sim-vehicle: error: {exc}", file=sys.stderr)
@@ -277,6 +342,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    announce(opts, sim.startup_s)
     try:
         sim.run()
     except FloatingPointError as exc:

@@ -7,7 +7,6 @@ simulator's parser stays as it is. Bad input gives one line on stderr and exit s
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import logging
 import math
 import secrets
@@ -19,7 +18,7 @@ from typing import NoReturn
 
 import numpy as np
 
-from vessel import OceanCurrent, RegularWaves, WaveField, otter_parameters
+from vessel import OceanCurrent, WaveField, otter_parameters
 from vessel.config import ConfigError
 from vessel.geo import Home
 from vessel.world import SEA_PRESETS
@@ -27,7 +26,7 @@ from vessel.world import SEA_PRESETS
 from .json_backend import JsonBackend, open_socket, serve
 from .json_backend_log import JsonStateCsv, write_sea_record
 from .json_backend_model import JsonPhysics
-from .scenario import sim_world
+from .scenario import seeded_waves, sim_world
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9002
@@ -121,14 +120,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="stop after S s of physics time")
     p.add_argument("-v", "--verbose", action="store_true", help="log restarts and rate changes to stderr")
     return p
-
-
-def seeded_waves(waves: WaveField, seed: int) -> WaveField:
-    """The sea with its phase origin drawn from ``seed`` (regular waves: a phase in [0, 2π))."""
-    if isinstance(waves, RegularWaves):
-        phase = float(np.random.default_rng(seed).uniform(0.0, 2 * math.pi))
-        return dataclasses.replace(waves, phase_rad=phase)
-    return waves
 
 
 def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent, np.ndarray]:

@@ -84,7 +84,9 @@ def _plain(value: Any) -> Any:
 
 
 def write_sea_record(path: Path, seed: int | None, waves: WaveField, current: OceanCurrent,
-                     vessel: str, x0: np.ndarray) -> None:
+                     vessel: str, x0: np.ndarray,
+                     note: str = "known to the physics only; nothing in the JSON replies carries the sea or its phase",
+                     ) -> None:
     """sea.json: what the boat sails in — the seed, the wave field (with its phase), current and start."""
     record = {
         "seed": seed,
@@ -92,6 +94,6 @@ def write_sea_record(path: Path, seed: int | None, waves: WaveField, current: Oc
         "current": _plain(current),
         "vessel": vessel,
         "x0": [float(v) for v in x0],
-        "note": "known to the physics only; nothing in the JSON replies carries the sea or its phase",
+        "note": note,
     }
     path.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")

@@ -32,6 +32,8 @@ CSV_COLUMNS = (
     "wave_slope_rad",
     "mode",
     "armed",
+    "wave_slope_n_rad",
+    "wave_slope_e_rad",
 )
 
 
@@ -64,15 +66,19 @@ class StateCsv:
         t: float,
         x: np.ndarray,
         n_cmd: tuple[float, float],
-        wave: tuple[float, float],
+        wave: tuple[float, float, float, float],
         mode: int,
         armed: bool,
     ) -> None:
-        """One row; floats with enough digits to compare exactly with float32 telemetry."""
+        """One row; floats with enough digits to compare exactly with float32 telemetry.
+
+        ``wave``: the true elevation (m), slope along travel (rad), slope angles N and E (rad) at the boat.
+        """
         row = (
             [f"{t:.3f}"]
             + [repr(float(v)) for v in x]
-            + [repr(n_cmd[0]), repr(n_cmd[1]), repr(wave[0]), repr(wave[1]), mode, int(armed)]
+            + [repr(n_cmd[0]), repr(n_cmd[1]), repr(wave[0]), repr(wave[1]), mode, int(armed),
+               repr(wave[2]), repr(wave[3])]
         )
         self._writer.writerow(row)
 

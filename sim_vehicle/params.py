@@ -17,6 +17,8 @@ from pathlib import Path
 
 from vessel.config import ConfigError
 
+from .sensing import sim_param_defaults
+
 INT8, INT16, INT32, REAL32 = 2, 4, 6, 9  # MAV_PARAM_TYPE values
 _INT_LIMITS = {INT8: (-128, 127), INT16: (-32768, 32767), INT32: (-(2**31), 2**31 - 1)}
 
@@ -120,6 +122,7 @@ def _defs() -> list[ParamDef]:
             (f"SERVO{n}_MAX", i16, 1900),
             (f"SERVO{n}_REVERSED", i8, 0),
         ]
+    table += [(name, r, default) for name, default in sim_param_defaults()]  # sensor model, see sensing.py
     for ch in range(N_STREAM_CHANNELS):
         table += [(f"SR{ch}_{s}", i16, _STREAM_DEFAULTS.get(s, 1)) for s in STREAM_NAMES]
     return [ParamDef(name, ptype, float(default)) for name, ptype, default in table]

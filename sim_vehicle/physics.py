@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,6 +12,8 @@ from vessel import Plant, World
 
 from .control import NavState
 from .mixer import output_to_shaft_speed
+from .scenario import seeded_waves
+from .sensing import Sensing
 
 PHYSICS_DT_S = 0.01
 
@@ -22,15 +25,27 @@ class Physics:
     plant: Plant
     n_max: float
     n_min: float
+    sensing: Sensing | None = None  # what the autopilot senses; None: the true state (see attach_sensing)
 
     @classmethod
-    def create(cls, world: World) -> Physics:
-        """An Otter stepped at 100 Hz in the world's sea, from the world's start (propellers stopped)."""
+    def create(cls, world: World, seed: int | None = None, surface_heave: bool = False) -> Physics:
+        """An Otter stepped at 100 Hz in the world's sea, from the world's start (propellers stopped).
+
+        ``seed`` gives the sea its hidden phase origin (``scenario.seeded_waves``; None: the sea as
+        written, phase 0 at boot); ``surface_heave`` makes the hull heave with the surface.
+        """
         params = world.params()
-        plant = Plant(params, world.sea.waves(), world.sea.current(), dt=PHYSICS_DT_S, integrator="rk4",
-                      x0=world.plant_state())
+        waves = world.sea.waves(params)
+        if seed is not None:
+            waves = seeded_waves(waves, seed)
+        plant = Plant(params, waves, world.sea.current(), dt=PHYSICS_DT_S, integrator="rk4",
+                      x0=world.plant_state(), surface_heave=surface_heave)
         limits = params.matrices()
         return cls(plant, float(limits.n_max), float(limits.n_min))
+
+    def attach_sensing(self, read: Callable[[str], float], ideal: bool, seed: int) -> None:
+        """Sensors on the plant, set by the SIM_* parameters ``read(name)``; ``ideal`` forces exact readings."""
+        self.sensing = Sensing(self.plant, read, ideal, seed)
 
     def shaft_commands(self, outputs: tuple[float, float]) -> tuple[float, float]:
         """Left/right motor outputs in [-1, 1] -> commanded shaft speeds (rad/s)."""
@@ -39,11 +54,13 @@ class Physics:
             output_to_shaft_speed(outputs[1], self.n_max, self.n_min),
         )
 
-    def wave_at(self, north: float, east: float, t: float) -> tuple[float, float]:
-        """Wave elevation (m) and slope along the travel direction (rad) at a point, for logging."""
+    def wave_at(self, north: float, east: float, t: float) -> tuple[float, float, float, float]:
+        """Wave elevation (m, up), slope along the travel direction (rad; 0 for an irregular sea) and the
+        slope angles towards North and East (rad, ``WaveField.slope_angles``) at a point, for logging."""
         waves = self.plant.waves
         slope = waves.slope_along_travel(north, east, t) if hasattr(waves, "slope_along_travel") else 0.0
-        return float(waves.elevation(north, east, t)), float(slope)
+        slope_n, slope_e = waves.slope_angles(north, east, t)
+        return float(waves.elevation(north, east, t)), float(slope), float(slope_n), float(slope_e)
 
 
 def ned_velocity(x: np.ndarray) -> tuple[float, float, float]:

@@ -1,9 +1,15 @@
-"""The simulator's world from its command line: ``--scenario``, ``--waves``, ``--sea``, ``--current``, ``--home``.
+"""The simulator's world from its command line: ``--scenario``, ``--waves``, ``--sea``, ``--sea-state``,
+``--current``, ``--home``; and the sea's hidden phase origin drawn from ``--seed``.
 
 The world (vessel, sea, start) comes from ``vessel.world`` — ``load_world`` for a scenario file (the loader
 ``mavbridge`` uses too, with the same rule for unknown sections), a named preset for ``--waves`` — and the
 flags given on top replace parts of it: ``--waves``/``--sea`` the waves, ``--current`` the current. Without
-a scenario the boat starts at rest at home, pointing the home heading.
+a scenario the boat starts at rest at home, pointing the home heading. ``--sea`` takes the regular
+``H,LENGTH,PERIOD,DIR`` or an irregular ``jonswap:HS,TP,DIR[,GAMMA[,SPREADING]]`` / ``pm:HS,TP,DIR``.
+
+:func:`seeded_waves` gives the sea a phase origin nobody is told: regular waves a phase in [0, 2π),
+irregular seas a time origin in [0, 1 h) (every component's phase advanced by ωᵢ·t₀), both from the
+run's seed. The simulator and the JSON backend use it, and write the seed only to their run folders.
 """
 
 from __future__ import annotations
@@ -12,10 +18,17 @@ import dataclasses
 import math
 from pathlib import Path
 
+import numpy as np
+
 from vessel.config import ConfigError, validate
 from vessel.geo import Home
+from vessel.irregular import IrregularWaves
+from vessel.irregular_sea import IrregularSea, parse_sea_spec
 from vessel.sea_state import SeaState, Start
+from vessel.waves import RegularWaves, WaveField
 from vessel.world import World, load_world, sea_preset, world_preset
+
+TIME_ORIGIN_MAX_S = 3600.0  # an irregular sea's hidden time origin is drawn from [0, this)
 
 
 def parse_numbers(text: str, count: int, what: str) -> list[float]:
@@ -42,10 +55,34 @@ def _checked(sea: SeaState, what: str) -> SeaState:
 
 
 def parse_sea(text: str, base: SeaState) -> SeaState:
-    """``H_M,LENGTH_M,PERIOD_S,DIR_DEG`` -> ``base`` with these regular waves, travelling towards DIR_DEG."""
+    """``H_M,LENGTH_M,PERIOD_S,DIR_DEG`` (regular) or ``jonswap:…``/``pm:…`` (irregular) -> ``base``, these waves."""
+    if ":" in text:
+        return dataclasses.replace(base, spectrum=parse_sea_spec(text, "--sea"))
     height, length, period, direction = parse_numbers(text, 4, "--sea")
-    sea = dataclasses.replace(base, height_m=height, length_m=length, period_s=period, travel_dir_deg=direction)
+    sea = dataclasses.replace(base, height_m=height, length_m=length, period_s=period, travel_dir_deg=direction,
+                              spectrum=None)
     return _checked(sea, "--sea")
+
+
+def parse_sea_state(number: int, base: SeaState) -> SeaState:
+    """``--sea-state N``: ``base`` with a JONSWAP sea of NATO sea state N (paper Table I), N in [0, 8]."""
+    try:
+        return dataclasses.replace(base, spectrum=IrregularSea(sea_state=number, tp_s=6.0 if number == 1 else None))
+    except ConfigError as exc:
+        raise ConfigError(f"--sea-state: {exc}") from None
+
+
+def seeded_waves(waves: WaveField, seed: int) -> WaveField:
+    """The sea with its phase origin drawn from ``seed``: a phase (regular) or a time origin (irregular)."""
+    rng = np.random.default_rng(seed)
+    if isinstance(waves, RegularWaves):
+        return dataclasses.replace(waves, phase_rad=float(rng.uniform(0.0, 2 * math.pi)))
+    if isinstance(waves, IrregularWaves):
+        t0 = float(rng.uniform(0.0, TIME_ORIGIN_MAX_S))
+        phase = np.mod(waves.phase_rad + waves.frequency_rad_s * t0, 2 * math.pi)
+        return IrregularWaves(waves.amplitude_m, waves.frequency_rad_s, waves.wavenumber_rad_m,
+                              waves.direction_rad, phase, waves.roll_sign)
+    return waves
 
 
 def parse_current(text: str, base: SeaState) -> SeaState:
@@ -57,7 +94,7 @@ def parse_current(text: str, base: SeaState) -> SeaState:
 
 
 def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current: str | None,
-              home: Home) -> World:
+              home: Home, sea_state: int | None = None) -> World:
     """The world the simulator runs in, from the flags as given (None: not given); one-line ConfigErrors."""
     if scenario is not None:
         world = load_world(scenario)
@@ -68,6 +105,8 @@ def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current
         world = dataclasses.replace(world, start=Start(heading_deg=home.heading_deg))
     if sea is not None:
         world = dataclasses.replace(world, sea=parse_sea(sea, world.sea))
+    if sea_state is not None:
+        world = dataclasses.replace(world, sea=parse_sea_state(sea_state, world.sea))
     if current is not None:
         world = dataclasses.replace(world, sea=parse_current(current, world.sea))
     return world

@@ -17,6 +17,7 @@ from vessel.geo import Home
 from .battery import Battery
 from .clock import Pacer
 from .gcs import Gcs
+from .json_backend_log import write_sea_record
 from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
 from .modes import Mode
@@ -51,6 +52,10 @@ class Options:
     duration_s: float | None = None
     serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
     wait_for_client: bool = False  # hold simulated time at 0 until the first MAVLink message arrives
+    seed: int | None = None  # the sea's hidden phase origin; None: the sea as written (phase 0 at boot)
+    noise_seed: int = 0  # the sensor noise's seed
+    ideal_sensors: bool = False  # report the true state exactly (no SIM_* sensor model)
+    surface_heave: bool = False  # the hull heaves with the sea surface (off: the paper's model)
 
 
 class Simulator:
@@ -60,7 +65,14 @@ class Simulator:
         self.opts = opts
         self.params = opts.params
         self.home = opts.home
-        self.physics = Physics.create(opts.world)
+        started = time.monotonic()
+        self.physics = Physics.create(opts.world, opts.seed, opts.surface_heave)
+        self.physics.attach_sensing(self.params.__getitem__, opts.ideal_sensors, opts.noise_seed)
+        self.startup_s = time.monotonic() - started  # an irregular plant compiles (vessel.jit) before time starts
+        if opts.log_dir is not None:
+            write_sea_record(opts.log_dir / "sea.json", opts.seed, self.physics.plant.waves,
+                             self.physics.plant.current, opts.world.vessel, opts.world.plant_state(),
+                             note="known to the simulator only; nothing it sends over MAVLink carries the sea")
         self.store = MissionStore(opts.mission_store)
         self.boot_unix_us = int(time.time() * 1e6)
         self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
@@ -137,6 +149,8 @@ class Simulator:
         self.n_cmd = self.physics.shaft_commands(outputs)
         self.battery.update(outputs, PHYSICS_DT_S)
         x = plant.step(self.n_cmd)
+        if self.physics.sensing is not None:
+            self.physics.sensing.update()
         self._log_state(x)
         self.gcs.send_due(plant.time)
 
@@ -163,6 +177,8 @@ class Simulator:
             )
         log.info("sim_vehicle running: mode %s, speedup %g", Mode(self.vehicle.mode).name, self.opts.speedup)
         try:
+            if self.physics.sensing is not None:
+                self.physics.sensing.update()  # the first reading, at t = 0
             if self.opts.wait_for_client:
                 self._hold_until_a_client_speaks()
             pacer = Pacer(self.opts.speedup)  # simulated time starts now

@@ -8,7 +8,7 @@ from .params import N_STREAM_CHANNELS, ParamTable
 
 # Message ids in each stream, as Rover groups them (only the ones this simulator produces).
 STREAM_MESSAGES: dict[str, tuple[int, ...]] = {
-    "RAW_SENS": (),
+    "RAW_SENS": (27, 116),  # RAW_IMU, SCALED_IMU2 (SCALED_IMU only on request, as in Rover)
     "EXT_STAT": (1, 42, 24, 62),  # SYS_STATUS, MISSION_CURRENT, GPS_RAW_INT, NAV_CONTROLLER_OUTPUT
     "RC_CHAN": (36, 65),  # SERVO_OUTPUT_RAW, RC_CHANNELS
     "RAW_CTRL": (34,),  # RC_CHANNELS_SCALED

@@ -102,6 +102,9 @@ class Telemetry(SimClock):
             M.MAVLINK_MSG_ID_BATTERY_STATUS: self.battery_status,
             M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: self.autopilot_version,
             M.MAVLINK_MSG_ID_HOME_POSITION: self.plant.home_position,
+            M.MAVLINK_MSG_ID_RAW_IMU: self.plant.raw_imu,
+            M.MAVLINK_MSG_ID_SCALED_IMU: self.plant.scaled_imu,
+            M.MAVLINK_MSG_ID_SCALED_IMU2: self.plant.scaled_imu2,
         }
 
     # time

@@ -1,6 +1,8 @@
-"""Telemetry of the plant's true state as a Rover reports it: fix, position, velocity, attitude, home.
+"""Telemetry of the plant's state as a Rover reports it: fix, position, velocity, attitude, IMU, home.
 
-Also the simulated clock every message is stamped with (``time_boot_ms``, ``time_usec``).
+Values come from the simulator's sensors (``sim_vehicle.sensing``: noisy, lagged, GPS at its own rate)
+or, with ideal sensing, from the true state. Also the simulated clock every message is stamped with
+(``time_boot_ms``, ``time_usec``).
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from vessel.geo import Home, wrap_pi
 
 from .physics import Physics, ned_velocity
 from .vehicle import Vehicle
+
+MG_PER_MPS2 = 1000.0 / 9.80665  # ArduPilot reports accelerations in mG with GRAVITY_MSS
 
 
 def cdeg(rad: float) -> int:
@@ -54,20 +58,31 @@ class PlantTelemetry(SimClock):
         super().__init__(physics)
         self.vehicle, self.home = vehicle, home
 
-    def _position(self) -> tuple[float, float, float]:
-        """Latitude, longitude (deg) and altitude AMSL (m) of the boat now."""
-        x = self.physics.plant.state
-        return self.home.to_geodetic(float(x[0]), float(x[1]), float(x[2]))
+    def _nav(self) -> tuple[tuple[float, float, float], tuple[float, float, float], float]:
+        """(N, E, D m from home; vN, vE, vD m/s; time s the values are from): the GPS fix or the true state."""
+        fix = self.physics.sensing.gps() if self.physics.sensing is not None else None
+        if fix is None:
+            x = self.physics.plant.state
+            return (float(x[0]), float(x[1]), float(x[2])), ned_velocity(x), self.t
+        pos, vel, t_fix = fix
+        return (float(pos[0]), float(pos[1]), float(pos[2])), (float(vel[0]), float(vel[1]), float(vel[2])), t_fix
+
+    def _attitude(self) -> tuple[list[float], list[float]]:
+        """(φ, θ, ψ) rad and (p, q, r) rad/s as reported: sensed, or the true state."""
+        if self.physics.sensing is None:
+            x = self.physics.plant.state
+            return [float(v) for v in x[3:6]], [float(v) for v in x[9:12]]
+        att, rates = self.physics.sensing.attitude()
+        return [float(v) for v in att], [float(v) for v in rates]
 
     def gps_raw_int(self) -> mavlink.MAVLink_message:
-        """A perfect 3-D fix."""
-        x = self.physics.plant.state
-        lat, lon, alt = self._position()
-        vn, ve, _ = ned_velocity(x)
+        """A 3-D fix; ``time_usec`` is when the latest fix arrived (boot clock), as Rover sends it."""
+        (n, e, d), (vn, ve, _), t_fix = self._nav()
+        lat, lon, alt = self.home.to_geodetic(n, e, d)
         speed = math.hypot(vn, ve)
         cog = cdeg(math.atan2(ve, vn)) if speed > 0.05 else 0
         return mavlink.MAVLink_gps_raw_int_message(
-            time_usec=self.boot_us,
+            time_usec=round(t_fix * 1e6),
             fix_type=mavlink.GPS_FIX_TYPE_3D_FIX,
             lat=round(lat * 1e7),
             lon=round(lon * 1e7),
@@ -86,53 +101,72 @@ class PlantTelemetry(SimClock):
         )
 
     def attitude(self) -> mavlink.MAVLink_message:
-        """Euler angles and body rates of the plant now."""
-        x = self.physics.plant.state
+        """Euler angles and body rates (the AHRS estimate; exact with ideal sensing)."""
+        (roll, pitch, yaw), (p, q, r) = self._attitude()
         return mavlink.MAVLink_attitude_message(
-            time_boot_ms=self.boot_ms,
-            roll=float(x[3]),
-            pitch=float(x[4]),
-            yaw=wrap_pi(float(x[5])),
-            rollspeed=float(x[9]),
-            pitchspeed=float(x[10]),
-            yawspeed=float(x[11]),
+            time_boot_ms=self.boot_ms, roll=roll, pitch=pitch, yaw=wrap_pi(yaw),
+            rollspeed=p, pitchspeed=q, yawspeed=r,
         )
 
     def global_position_int(self) -> mavlink.MAVLink_message:
         """Position, NED velocity and heading."""
-        x = self.physics.plant.state
-        lat, lon, alt = self._position()
-        vn, ve, vd = ned_velocity(x)
+        (n, e, d), (vn, ve, vd), _ = self._nav()
+        lat, lon, alt = self.home.to_geodetic(n, e, d)
         return mavlink.MAVLink_global_position_int_message(
             time_boot_ms=self.boot_ms,
             lat=round(lat * 1e7),
             lon=round(lon * 1e7),
             alt=round(alt * 1000),
-            relative_alt=round(-float(x[2]) * 1000),
+            relative_alt=round(-d * 1000),
             vx=i16(vn * 100),
             vy=i16(ve * 100),
             vz=i16(vd * 100),
-            hdg=cdeg(float(x[5])),
+            hdg=cdeg(self._attitude()[0][2]),
         )
 
     def local_position_ned(self) -> mavlink.MAVLink_message:
         """Position and velocity relative to the EKF origin (home)."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
+        (n, e, d), (vn, ve, vd), _ = self._nav()
         return mavlink.MAVLink_local_position_ned_message(
-            time_boot_ms=self.boot_ms, x=float(x[0]), y=float(x[1]), z=float(x[2]), vx=vn, vy=ve, vz=vd
+            time_boot_ms=self.boot_ms, x=n, y=e, z=d, vx=vn, vy=ve, vz=vd
         )
+
+    def _imu(self) -> tuple[list[float], list[float]]:
+        """(body specific force m/s², body rates rad/s), FRD."""
+        sensing = self.physics.sensing
+        if sensing is None:
+            return [0.0, 0.0, -9.81], [float(v) for v in self.physics.plant.state[9:12]]
+        force, rates = sensing.imu_reading()
+        return [float(v) for v in force], [float(v) for v in rates]
+
+    def _imu_fields(self) -> dict[str, int]:
+        """The accelerometer (mG) and gyro (mrad/s) fields shared by RAW_IMU and SCALED_IMU*."""
+        force, rates = self._imu()
+        acc = {f"{a}acc": i16(v * MG_PER_MPS2) for a, v in zip("xyz", force, strict=True)}
+        gyro = {f"{a}gyro": i16(v * 1000.0) for a, v in zip("xyz", rates, strict=True)}
+        return {**acc, **gyro, "xmag": 0, "ymag": 0, "zmag": 0}
+
+    def raw_imu(self) -> mavlink.MAVLink_message:
+        """RAW_IMU as ArduPilot fills it: the first IMU's values in mG and mrad/s (RAW_SENS stream)."""
+        return mavlink.MAVLink_raw_imu_message(time_usec=self.boot_us, id=0, temperature=0, **self._imu_fields())
+
+    def scaled_imu(self) -> mavlink.MAVLink_message:
+        """SCALED_IMU: the first IMU (on request only, as in Rover)."""
+        return mavlink.MAVLink_scaled_imu_message(time_boot_ms=self.boot_ms, temperature=0, **self._imu_fields())
+
+    def scaled_imu2(self) -> mavlink.MAVLink_message:
+        """SCALED_IMU2: the second IMU (RAW_SENS stream; SITL has two): here the same sensor's reading."""
+        return mavlink.MAVLink_scaled_imu2_message(time_boot_ms=self.boot_ms, temperature=0, **self._imu_fields())
 
     def vfr_hud(self) -> mavlink.MAVLink_message:
         """Ground speed (also in the airspeed field), heading, throttle %, altitude, climb."""
-        x = self.physics.plant.state
-        vn, ve, vd = ned_velocity(x)
+        (n, e, d), (vn, ve, vd), _ = self._nav()
         speed = math.hypot(vn, ve)
-        _, _, alt = self._position()
+        _, _, alt = self.home.to_geodetic(n, e, d)
         return mavlink.MAVLink_vfr_hud_message(
             airspeed=speed,
             groundspeed=speed,
-            heading=cdeg(float(x[5])) // 100,
+            heading=cdeg(self._attitude()[0][2]) // 100,
             throttle=min(100, round(abs(self.vehicle.throttle) * 100)),
             alt=alt,
             climb=-vd,

@@ -51,9 +51,12 @@ def specific_force(nu: Any, nu_dot: Any, phi: Any, theta: Any, g: float) -> Any:
 
 
 def imu_function(params: OtterParameters, waves: WaveField | None = None,
-                 current: OceanCurrent | None = None) -> ca.Function:
-    """(x[14], t s) -> imu[6] = (f_x, f_y, f_z m/s², p, q, r rad/s), body FRD, from the plant's own ẋ."""
-    ode = plant_ode(params, waves or CalmWater(), current or OceanCurrent())
+                 current: OceanCurrent | None = None, surface_heave: bool = False) -> ca.Function:
+    """(x[14], t s) -> imu[6] = (f_x, f_y, f_z m/s², p, q, r rad/s), body FRD, from the plant's own ẋ.
+
+    ``surface_heave`` must match the plant's (``Plant.surface_heave``): it changes ẇ.
+    """
+    ode = plant_ode(params, waves or CalmWater(), current or OceanCurrent(), surface_heave)
     x = ca.SX.sym("x", NX_PLANT)
     t = ca.SX.sym("t")
     xdot = ode(x, ca.DM.zeros(2), t)  # shaft commands only move ṅ, which the IMU does not see
@@ -76,8 +79,8 @@ class ImuModel:
     """The ideal IMU of one plant configuration, evaluated through CasADi's buffer interface (≈ 1 µs)."""
 
     def __init__(self, params: OtterParameters, waves: WaveField | None = None,
-                 current: OceanCurrent | None = None) -> None:
-        self._function = imu_function(params, waves, current)
+                 current: OceanCurrent | None = None, surface_heave: bool = False) -> None:
+        self._function = imu_function(params, waves, current, surface_heave)
         self._x = np.zeros(NX_PLANT)
         self._t = np.zeros(1)
         self._out = np.zeros(6)
@@ -89,8 +92,8 @@ class ImuModel:
 
     @classmethod
     def for_plant(cls, plant: Plant) -> ImuModel:
-        """The IMU of this plant's vessel, sea and current."""
-        return cls(plant.params, plant.waves, plant.current)
+        """The IMU of this plant's vessel, sea, current and heave model."""
+        return cls(plant.params, plant.waves, plant.current, plant.surface_heave)
 
     def measure(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(specific force m/s², body rates rad/s), both body FRD, at plant state x[14] and time t (s)."""

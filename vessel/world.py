@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .config import ConfigError, from_mapping, read_yaml, to_mapping
+from .irregular_sea import IrregularSea
 from .params import PARAMETER_SETS, OtterParameters, otter_parameters
 from .sea_state import SeaState, Start
 
@@ -69,7 +70,22 @@ class World:
 
     def to_mapping(self) -> dict[str, Any]:
         """The world as the three scenario sections, plain data (for a resolved scenario file)."""
-        return {name: to_mapping(getattr(self, name)) for name in WORLD_SECTIONS}
+        data = {name: to_mapping(getattr(self, name)) for name in WORLD_SECTIONS}
+        data["sea"] = sea_to_mapping(self.sea)
+        return data
+
+
+def sea_to_mapping(sea: SeaState) -> dict[str, Any]:
+    """A sea as plain data that both ``sea:`` and ``from_mapping(SeaState, …)`` read back.
+
+    A regular sea is written exactly as before (no ``spectrum`` key); an irregular one as
+    ``spectrum: {spectrum: jonswap, hs_m, …, seed, sea_state}`` — IrregularSea's own field names, which
+    the ``sea:`` section accepts beside its ``kind`` / top-level ``seed`` / ``sea_state`` spelling.
+    """
+    data = to_mapping(sea)
+    if data["spectrum"] is None:
+        del data["spectrum"]
+    return data
 
 
 def sea_preset(name: str, where: str = "sea") -> SeaState:
@@ -93,10 +109,50 @@ def check_sections(data: Mapping[str, Any], where: str, allowed: tuple[str, ...]
         raise ConfigError(f"{prefix}unknown key '{unknown[0]}' (allowed: {', '.join(sorted(allowed))})")
 
 
+SPECTRUM_KEYS: tuple[str, ...] = ("kind", *(f.name for f in dataclasses.fields(IrregularSea)))
+"""The keys of a ``sea.spectrum`` mapping: ``kind`` (jonswap or pm; IrregularSea's ``spectrum``, also accepted
+under that name), and IrregularSea's other fields; ``seed`` and ``sea_state`` may also sit beside it."""
+
+
+def _irregular_fields(value: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """``sea:`` with ``spectrum: {kind, hs_m, …}``, ``seed:`` and/or ``sea_state:`` as SeaState fields.
+
+    ``spectrum.kind`` is IrregularSea's ``spectrum``; ``spreading_s: null`` means long-crested; a
+    ``sea_state`` alone is a JONSWAP sea from the paper's Table I. Unknown keys are one-line errors.
+    """
+    fields = dict(value)
+    spectrum = fields.pop("spectrum", None)
+    seed, state = fields.pop("seed", None), fields.pop("sea_state", None)
+    if spectrum is None and seed is None and state is None:
+        return fields
+    if spectrum is None:
+        spectrum = {}
+    if not isinstance(spectrum, Mapping):
+        raise ConfigError(f"{where}.spectrum: expected a mapping with keys {', '.join(SPECTRUM_KEYS)}, "
+                          f"got {spectrum!r}")
+    check_sections(spectrum, f"{where}.spectrum", SPECTRUM_KEYS)
+    if "kind" in spectrum and "spectrum" in spectrum:
+        raise ConfigError(f"{where}.spectrum: give kind or spectrum, not both")
+    irregular = {("spectrum" if k == "kind" else k): v for k, v in spectrum.items()
+                 if not (k == "spreading_s" and v is None)}
+    for name, value in (("seed", seed), ("sea_state", state)):
+        if value is not None and name in irregular:
+            raise ConfigError(f"{where}: give {name} beside spectrum or inside it, not both")
+    if seed is not None:
+        irregular["seed"] = seed
+    if state is not None:
+        irregular["sea_state"] = state
+    fields["spectrum"] = irregular
+    return fields
+
+
 def _sea(value: Any, where: str) -> SeaState:
     """``sea:`` as a preset name or a mapping of SeaState fields; the wave field is built to check it."""
-    sea = sea_preset(value, f"{where}sea") if isinstance(value, str) else from_mapping(SeaState, value,
-                                                                                     f"{where}sea")
+    if isinstance(value, str):
+        sea = sea_preset(value, f"{where}sea")
+    else:
+        fields = _irregular_fields(value, f"{where}sea") if isinstance(value, Mapping) else value
+        sea = from_mapping(SeaState, fields, f"{where}sea")
     try:
         sea.waves()
     except ConfigError as exc:  # e.g. a breaking wave: a cross-field check of the wave field

@@ -132,3 +132,47 @@ def test_a_resolved_scenario_gives_both_loaders_the_same_world(tmp_path: Path) -
     path.write_text(yaml.safe_dump(scenario.to_mapping(), sort_keys=False))
     (again,) = load_scenarios(path)
     assert again == scenario and load_world(path) == scenario.world
+
+
+@pytest.mark.parametrize(("flags", "expected"), [
+    (("--sea", "jonswap:0,6,-90"), "--sea HS: 0.0 is outside the allowed range (0, 30] m"),
+    (("--sea", "jonswap:1,0.5,-90"), "--sea TP: 0.5 is outside the allowed range [1, 30] s"),
+    (("--sea", "jonswap:1,31,-90"), "--sea TP: 31.0 is outside the allowed range [1, 30] s"),
+    (("--sea", "jonswap:1,6,-90,0.5"), "--sea GAMMA: 0.5 is outside the allowed range [1, 10]"),
+    (("--sea", "jonswap:1,6,-90,11"), "--sea GAMMA: 11.0 is outside the allowed range [1, 10]"),
+    (("--sea", "jonswap:1,6,-90,3.3,-1"), "--sea SPREADING: -1.0 is outside the allowed range >= 0"),
+    (("--sea", "swell:1,6,-90"), "--sea: 'swell:1,6,-90' is not of the form"),
+    (("--sea-state", "9"), "argument --sea-state: sea state must be an integer in [0, 8], got 9"),
+    (("--sea-state", "-1"), "argument --sea-state: sea state must be an integer in [0, 8], got -1"),
+    (("--sea-state", "2.5"), "argument --sea-state: sea state must be an integer in [0, 8], got '2.5'"),
+    (("--seed", "1.5"), "argument --seed: seed must be an integer in [0, 4294967295], got '1.5'"),
+    (("--seed", "-3"), "argument --seed: seed must be an integer in [0, 4294967295], got -3"),
+    (("--heave", "up"), "argument --heave: invalid choice: 'up'"),
+])
+def test_bad_irregular_sea_and_seed_flags_are_one_line(tmp_path: Path, flags: tuple[str, ...], expected: str) -> None:
+    """Hs ≤ 0, Tp outside 1–30 s, γ outside 1–10, spreading < 0, sea state outside 0–8, a non-integer seed."""
+    out = _sim_cli(*flags, "--log-dir", str(tmp_path / "logs"))
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert expected in out.stderr
+    assert not (tmp_path / "logs").exists()
+
+
+def test_bad_scenario_sea_keys_are_one_line(tmp_path: Path) -> None:
+    """An unknown key in a scenario's irregular sea: one line naming the field, exit 2."""
+    path = tmp_path / "s.yaml"
+    path.write_text("sea:\n  spectrum: {kind: jonswap, hs_m: 1.75, tpp_s: 6}\n  seed: 7\n")
+    out = _sim_cli("--scenario", str(path))
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert "sea.spectrum: unknown key 'tpp_s'" in out.stderr
+
+
+def test_scenario_irregular_sea_reaches_the_simulator(tmp_path: Path) -> None:
+    """A scenario's irregular sea drives the simulator's plant; it says it compiles, then starts."""
+    path = tmp_path / "s.yaml"
+    path.write_text("sea:\n  spectrum: {kind: jonswap, hs_m: 1.75, tp_s: 6, n_components: 100}\n  seed: 7\n")
+    out = _sim_cli("--scenario", str(path), "--seed", "3", "--log-dir", str(tmp_path / "logs"))
+    assert out.returncode == 0, out.stderr
+    assert "compiling the irregular sea's plant" in out.stderr and "jonswap Hs 1.75 m" in out.stderr
+    with (tmp_path / "logs" / "state.csv").open() as f:
+        elevations = [float(r["wave_elevation_m"]) for r in csv.DictReader(f)]
+    assert len(set(elevations)) > 5 and max(map(abs, elevations)) > 0.0

@@ -82,3 +82,52 @@ def test_tau_plant_rolls_in_the_worlds_waves_only() -> None:
     assert calm.rigid_state[3] == 0.0 and calm.rigid_state[7] == 0.0  # no roll, no sway in calm water
     assert abs(waves.rigid_state[3]) > math.radians(0.5)  # the paper's beam sea rolls the boat
     assert calm.shaft_speeds is None
+
+
+IRREGULAR = {"spectrum": {"kind": "jonswap", "hs_m": 1.75, "tp_s": 6, "gamma": 3.3, "travel_dir_deg": -90,
+                          "spreading_s": None, "n_components": 120}, "seed": 7}
+
+
+def test_irregular_sea_section_builds_the_irregular_field_and_round_trips() -> None:
+    """``sea: {spectrum: {kind, …}, seed}`` -> an IrregularWaves with that seed; to_mapping reads back equal."""
+    from vessel.irregular import IrregularWaves
+
+    world = world_from_mapping({"sea": {**IRREGULAR, "current_speed_mps": 0.3}}, "f.yaml")
+    sea = world.sea
+    assert sea.spectrum is not None and sea.spectrum.seed == 7 and sea.spectrum.spreading_s == 0.0
+    waves = sea.waves(world.params())
+    assert isinstance(waves, IrregularWaves) and waves.n_components == 120
+    other = world_from_mapping({"sea": {**IRREGULAR, "seed": 8}}, "f.yaml").sea.waves()
+    assert not np.array_equal(waves.phase_rad, other.phase_rad)
+    assert world_from_mapping(world.to_mapping(), "resolved") == world
+    assert "jonswap Hs 1.75 m, Tp 6 s" in sea.describe() and "current 0.3 m/s" in sea.describe()
+    assert SeaState(spectrum=None) == SEA_PRESETS["paper"]  # the paper's sea is untouched
+
+
+def test_sea_state_alone_is_a_jonswap_sea_from_table_one() -> None:
+    sea = world_from_mapping({"sea": {"sea_state": 4}}, "f.yaml").sea
+    assert sea.spectrum is not None and sea.spectrum.sea_state == 4 and sea.spectrum.spectrum == "jonswap"
+    assert 1.25 <= sea.spectrum.significant_height_m <= 2.5  # Table I band of sea state 4
+    assert isinstance(world_from_mapping({"sea": {"sea_state": 0}}, "f.yaml").sea.waves(), CalmWater)
+
+
+@pytest.mark.parametrize(("sea", "message"), [
+    ({"spectrum": {"hs_m": 0}}, r"f.yaml: sea.spectrum.hs_m: 0 is outside the allowed range \(0, 30\] m"),
+    ({"spectrum": {"tp_s": 0.5}}, r"sea.spectrum.tp_s: 0.5 is outside the allowed range \[1, 30\] s"),
+    ({"spectrum": {"tp_s": 31}}, r"sea.spectrum.tp_s: 31 is outside the allowed range \[1, 30\] s"),
+    ({"spectrum": {"gamma": 0.5}}, r"sea.spectrum.gamma: 0.5 is outside the allowed range \[1, 10\]"),
+    ({"spectrum": {"gamma": 11}}, r"sea.spectrum.gamma: 11 is outside the allowed range \[1, 10\]"),
+    ({"sea_state": 9}, r"sea.spectrum.sea_state: 9 is outside the allowed range \[0, 8\]"),
+    ({"sea_state": -1}, r"sea.spectrum.sea_state: -1 is outside the allowed range \[0, 8\]"),
+    ({"spectrum": {"spreading_s": -1}}, r"sea.spectrum.spreading_s: -1 is outside the allowed range >= 0"),
+    ({"seed": 1.5}, r"sea.spectrum.seed: expected an integer"),
+    ({"seed": "x"}, r"sea.spectrum.seed: expected an integer"),
+    ({"spectrum": {"kind": "bretschneider"}}, r"sea.spectrum.spectrum: 'bretschneider' is not one of jonswap, pm"),
+    ({"spectrum": {"hsm": 1}}, r"sea.spectrum: unknown key 'hsm'"),
+    ({"spectrum": 3}, r"sea.spectrum: expected a mapping"),
+    ({"sead": 3}, r"sea: unknown key 'sead'"),
+])
+def test_bad_irregular_sea_fields_are_one_line_errors(sea: dict, message: str) -> None:
+    with pytest.raises(ConfigError, match=message) as info:
+        world_from_mapping({"sea": sea}, "f.yaml")
+    assert "\n" not in str(info.value)

@@ -1,0 +1,105 @@
+"""A phase nobody is told: the simulator's sea gets its phase origin from ``--seed``, written only to its run folder.
+
+Crest timing is read from the true-state CSV (``wave_elevation_m`` under the boat at each simulated
+time); what goes over MAVLink is compared between seeds by message types and field names.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim_vehicle.harness import SimProcess
+from tests.rover import SET_MESSAGE_INTERVAL
+from tests.waits import command, wait_for
+
+RUN_S = 3.0
+
+
+def _run(tmp_path: Path, name: str, *flags: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """A short unpaced run without links; (t s, elevation m, slope E rad) from its state.csv, and its stderr."""
+    log_dir = tmp_path / name
+    proc = subprocess.run([sys.executable, "-m", "sim_vehicle", "--no-tcp", "--no-out", "--speedup", "0",
+                           "--duration", str(RUN_S), "--log-dir", str(log_dir), "--params-store",
+                           str(tmp_path / f"{name}.params.json"), *flags],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    with (log_dir / "state.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    t = np.array([float(r["t_s"]) for r in rows])
+    zeta = np.array([float(r["wave_elevation_m"]) for r in rows])
+    slope_e = np.array([float(r["wave_slope_e_rad"]) for r in rows])
+    return t, zeta, slope_e, proc.stderr
+
+
+@pytest.mark.parametrize("sea", [["--waves", "paper"], ["--sea", "jonswap:1.75,6,-90"]], ids=["regular", "jonswap"])
+def test_seed_sets_crest_timing(tmp_path: Path, sea: list[str]) -> None:
+    """Different seeds: different elevations at the same boot times; the same seed: the same record."""
+    t1, z1, s1, err1 = _run(tmp_path, "a", *sea, "--seed", "11")
+    t2, z2, _, _ = _run(tmp_path, "b", *sea, "--seed", "11")
+    t3, z3, _, _ = _run(tmp_path, "c", *sea, "--seed", "12")
+    assert np.array_equal(t1, t2) and np.array_equal(t1, t3)
+    assert np.array_equal(z1, z2), "the same seed gave a different sea"
+    assert np.max(np.abs(z1 - z3)) > 0.2, "different seeds gave (nearly) the same crest timing"
+    assert np.max(np.abs(s1)) > 0.02, "the true slope (East) is not recorded"  # waves travel West
+    assert "seed 11" in err1, err1
+    record = json.loads((tmp_path / "a" / "sea.json").read_text())
+    assert record["seed"] == 11
+
+
+def test_fresh_seed_by_default(tmp_path: Path) -> None:
+    """Without --seed each start draws its own phase origin (and says which in its start line)."""
+    _, z1, _, err1 = _run(tmp_path, "a", "--waves", "paper")
+    _, z2, _, err2 = _run(tmp_path, "b", "--waves", "paper")
+    seeds = [json.loads((tmp_path / n / "sea.json").read_text())["seed"] for n in ("a", "b")]
+    assert seeds[0] != seeds[1]
+    assert f"seed {seeds[0]}" in err1 and f"seed {seeds[1]}" in err2
+    assert np.max(np.abs(z1 - z2)) > 0.05
+
+
+def test_sea_phase_boot_keeps_the_paper_sea(tmp_path: Path) -> None:
+    """--sea-phase boot: phase 0 at boot, ζ = (H/2)·sin(ωt − k·s) at the boat as before (for truth tests)."""
+    t, z, _, _ = _run(tmp_path, "a", "--waves", "paper", "--sea-phase", "boot", "--ideal-sensors")
+    with (tmp_path / "a" / "state.csv").open() as f:
+        east = np.array([float(r["east_m"]) for r in csv.DictReader(f)])
+    omega, k = 2 * np.pi / 6.0, 2 * np.pi / 35.0
+    assert z[0] == 0.0  # sin(0) at the origin at t = 0
+    assert np.allclose(z, 0.875 * np.sin(omega * t + k * east), atol=1e-6)  # travelling West: s = −E
+
+
+def _fields_seen(seed: int, workdir: Path) -> dict[str, frozenset[str]]:
+    """Message types and field names a ground station receives over ~3 simulated seconds, all streams on."""
+    fields: dict[str, frozenset[str]] = {}
+    with SimProcess(workdir, speedup=10, waves="paper", sensors="realistic", sea_phase="hidden",
+                    extra=["--seed", str(seed)]) as sim:
+        conn = sim.connect()
+        conn.mav.request_data_stream_send(1, 1, 0, 10, 1)
+        assert command(conn, SET_MESSAGE_INTERVAL, 26, 100000) == 0  # SCALED_IMU (on request only)
+        start = wait_for(conn, "ATTITUDE", 10).time_boot_ms
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            msg = conn.recv_match(blocking=True, timeout=0.5)
+            if msg is None or msg.get_type() == "BAD_DATA":
+                continue
+            fields[msg.get_type()] = frozenset(msg.get_fieldnames())
+            if msg.get_type() == "ATTITUDE" and msg.time_boot_ms - start > 3000:
+                break
+        else:
+            raise TimeoutError("3 simulated seconds of ATTITUDE did not arrive in 30 s")
+    return fields
+
+
+def test_mavlink_field_sets_do_not_depend_on_the_seed(tmp_path: Path) -> None:
+    """Two seeds: the same message types with the same fields (the sea shows only through the motion)."""
+    a = _fields_seen(1, tmp_path / "a")
+    b = _fields_seen(2, tmp_path / "b")
+    assert {"ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "RAW_IMU",
+            "SCALED_IMU2", "SCALED_IMU"} <= set(a)
+    assert a == b
