@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import signal
 import sys
@@ -11,6 +12,7 @@ from pathlib import Path
 from vessel import ConfigError
 
 from ..cli_args import positive
+from ..nmpc.config import SOLVERS
 from ..scenario import load_scenarios
 from .executors import open_executor, parse_executor
 from .runner import SweepOutcome, run_sweep
@@ -58,6 +60,7 @@ def add_tune_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default=None, help="output folder (default: runs/tune-<scenario name>); reused to resume")
     p.add_argument("--headings", default=None, help="start headings for the robustness re-runs, deg "
                                                      "(default 90,60,120,30,150)")
+    p.add_argument("--solver", choices=SOLVERS, default=None, help="override the scenario's controller.solver")
 
 
 def _float_list(text: str, flag: str) -> list[float]:
@@ -88,6 +91,8 @@ def tune_command(args: argparse.Namespace) -> int:
     scenarios = load_scenarios(args.scenario)
     if len(scenarios) != 1:
         raise ConfigError(f"{args.scenario}: {len(scenarios)} runs; give a single scenario")
+    if args.solver:
+        scenarios = [dataclasses.replace(scenarios[0], controller=scenarios[0].controller.replace(solver=args.solver))]
     out = Path(args.out) if args.out else Path("runs") / f"tune-{Path(args.scenario).stem}"
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out: {out} exists and is not a folder")
