@@ -180,7 +180,7 @@ class WaveEstimator:
         """Watch the heading: a turn or a jump changes ω_e, so the settling clock restarts."""
         if self._psi_prev is not None:
             step = math.remainder(psi - self._psi_prev, 2 * math.pi)
-            self._turn_rate += lpf_gain(dt, 1.0) * (step / dt - self._turn_rate)
+            self._turn_rate += lpf_gain(dt, self.s.turn_filter_s) * (step / dt - self._turn_rate)
             if abs(step) > 0.35 or abs(self._turn_rate) > self.s.turn_rate_rad_s:
                 self._quiet_since = self._t or 0.0
         self._psi_prev = psi
