@@ -134,7 +134,7 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
     plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
                            scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source)
     say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
-    return plant, WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say)
+    return plant, WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s)
 
 
 def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: bool = True,

@@ -138,7 +138,7 @@ class WaveFeed:
     """
 
     def __init__(self, mode: str, source: WaveSource, truth: WaveField, horizon_s: float,
-                 say: Any = None) -> None:
+                 say: Any = None, hold_s: float = 0.0) -> None:
         self.mode, self.source, self.truth, self.horizon_s = mode, source, truth, horizon_s
         self.say = say
         self.notes: list[str] = []
@@ -147,6 +147,9 @@ class WaveFeed:
         self.estimator_ms: list[float] = []
         self.first_errors: dict[str, float | None] = {}
         self._confident: bool | None = None
+        self.hold_s = hold_s  # keep flying on the last confident estimate this long (its phase is fixed)
+        self._held: WaveEstimate | None = None
+        self._held_t = -math.inf
 
     def _note(self, line: str) -> None:
         self.notes.append(line)
@@ -165,16 +168,23 @@ class WaveFeed:
             est = self.source.estimate(t)
             self.estimator_ms.append((time.perf_counter() - start) * 1e3)
             return est.row() if est is not None else {}
-        est = self.source.estimate(t)
+        est = self._with_hold(t, self.source.estimate(t))
         nmpc.set_wave(est.field() if est is not None else None)
         self.estimator_ms.append((time.perf_counter() - start) * 1e3)
         if est is not None and self.first_confident_s is None:
             self.first_errors = estimate_metrics(est, self.truth, t, plant.rigid_state, self.horizon_s)
-        self._track(t, est is not None)
+        self._track(t, est is not None, bool(getattr(nmpc, "roll_term_active", True)))
         latest = self.source.latest(t) if hasattr(self.source, "latest") else est
         return latest.row() if latest is not None else {}
 
-    def _track(self, t: float, confident: bool) -> None:
+    def _with_hold(self, t: float, est: WaveEstimate | None) -> WaveEstimate | None:
+        """The estimate, or the last confident one for ``hold_s`` after the confidence dropped."""
+        if est is not None:
+            self._held, self._held_t = est, t
+            return est
+        return self._held if t - self._held_t <= self.hold_s else None
+
+    def _track(self, t: float, confident: bool, roll_term: bool) -> None:
         """Count confident steps; say when the roll term is off at the start and when confidence changes."""
         if confident:
             self.confident_steps += 1
@@ -185,7 +195,8 @@ class WaveFeed:
         if self._confident is None and not confident:
             self._note(f"t = {t:.1f} s: no confident wave estimate yet: flying without the roll term (Direct)")
         elif confident:
-            self._note(f"t = {t:.1f} s: wave estimate confident: the roll term is on")
+            self._note(f"t = {t:.1f} s: wave estimate confident: "
+                       + ("the roll term is on" if roll_term else "planning with it (R = 0: no roll term)"))
         elif self._confident:
             self._note(f"t = {t:.1f} s: wave estimate confidence dropped: flying without the roll term (Direct)")
         self._confident = confident
