@@ -85,3 +85,36 @@ def _write(tmp_path: Path, data: dict) -> Path:
     path = tmp_path / "s.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return path
+
+
+# ------------------------------------------------------------------------------------------- acceptance
+BOUNDS = {"direction_err_deg": 10.0, "period_err_pct": 5.0, "length_err_pct": 15.0, "height_err_pct": 15.0,
+          "phase_err_deg": 30.0}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2])
+def test_paper_sea_heading_90_confident_within_30_s_and_accurate(seed: int) -> None:
+    """Issue 12: confident within 30 s; direction, period, wavelength, height, horizon-end phase in bounds."""
+    (sc,) = load_scenarios(ROOT / "scenarios" / "estimated_heading90.yaml")
+    sc = dataclasses.replace(sc, estimation=dataclasses.replace(sc.estimation, seed=seed))
+    metrics = run_scenario(sc, None, plots=False).metrics
+    assert metrics["time_to_confident_s"] is not None, f"seed {seed}: never confident in {sc.t_max_s:g} s"
+    assert metrics["time_to_confident_s"] <= 30.0, f"seed {seed}: confident only at {metrics['time_to_confident_s']} s"
+    errors = metrics["at_first_confident"]
+    for name, bound in BOUNDS.items():
+        assert abs(errors[name]) <= bound, f"seed {seed}: {name} = {errors[name]:+.1f} (bound ±{bound:g})"
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured on this plant: the hull heaving with the sea yaws and surges "
+                   "hard under the NMPC, the estimate is confident only part of the time and Balanced on it "
+                   "does not cut roll by 35 % (see the report and README)")
+def test_balanced_on_the_estimate_cuts_roll_35_pct_against_direct_on_it(tmp_path: Path) -> None:
+    runs = {sc.name: sc for sc in load_scenarios(ROOT / "scenarios" / "estimated.yaml")}
+    direct = run_scenario(runs["direct"], None, plots=False).metrics
+    balanced = run_scenario(runs["balanced"], None, plots=False).metrics
+    assert balanced["time_to_waypoint_s"] is not None, "balanced on the estimate did not reach the waypoint"
+    cut = 1.0 - balanced["avg_roll_deg"] / direct["avg_roll_deg"]
+    assert cut >= 0.35, f"avg roll cut {100 * cut:.0f} % (direct {direct['avg_roll_deg']:.2f}°, " \
+                        f"balanced {balanced['avg_roll_deg']:.2f}°)"
