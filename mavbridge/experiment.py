@@ -47,6 +47,7 @@ class RunResult:
     out_dir: Path
     metrics: dict
     solve_ms: list[float] = field(default_factory=list)
+    estimator_ms: list[float] = field(default_factory=list)  # the wave source's work per step (realistic loop)
 
 
 def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: np.ndarray, t: float,
@@ -175,7 +176,8 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
                                            encoding="utf-8")
         if plots:
             _write_plots(out, scenario, record.rows, feed)
-    return RunResult(scenario.name, out if out is not None else Path("."), metrics, list(record.solve_ms))
+    return RunResult(scenario.name, out if out is not None else Path("."), metrics, list(record.solve_ms),
+                     list(feed.estimator_ms) if feed is not None else [])
 
 
 def _write_plots(out: Path, scenario: Scenario, rows: list[dict[str, Any]], feed: WaveFeed | None = None) -> None:
