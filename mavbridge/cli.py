@@ -18,6 +18,7 @@ from .preflight.cli import add_check_parser, check_command
 from .sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.scenario.PLANTS (kept import-light)
+WAVE_SOURCES = ("truth", "estimated")  # mirrors mavbridge.scenario.WAVE_SOURCES
 
 
 class _Parser(argparse.ArgumentParser):
@@ -43,6 +44,10 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
     exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
     exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
+    exp.add_argument("--waves", choices=WAVE_SOURCES, default=None,
+                     help="override every run's estimation.waves: truth (the true wave to the NMPC) or estimated "
+                          "(the wave estimator on simulated sensors at 20 Hz); the plant's realism (heave, hidden "
+                          "phase) stays as the scenario's estimation section says")
     add_run_parser(sub)
     add_demo_parser(sub)
     add_check_parser(sub)
@@ -68,6 +73,9 @@ def _experiment(args: argparse.Namespace) -> int:
         scenarios = [dataclasses.replace(s, controller=s.controller.replace(solver=args.solver)) for s in scenarios]
     if args.plant:
         scenarios = [dataclasses.replace(s, plant=args.plant) for s in scenarios]
+    if args.waves:
+        scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.waves))
+                     for s in scenarios]
     out = Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem
     experiment(scenarios, out, args.jobs)
     return 0

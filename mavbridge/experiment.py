@@ -28,13 +28,15 @@ from typing import Any
 import numpy as np
 import yaml
 
-from vessel import WaveField, tau_to_shaft_speeds
+from vessel import ConfigError, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
 
 from .nmpc import RollAwareNmpc
 from .runlog import RunRecorder, column, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, ScenarioTruth
+from .waves import EstimatorSettings, WaveEstimator
+from .waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
 
 
 @dataclass
@@ -45,6 +47,7 @@ class RunResult:
     out_dir: Path
     metrics: dict
     solve_ms: list[float] = field(default_factory=list)
+    estimator_ms: list[float] = field(default_factory=list)  # the wave source's work per step (realistic loop)
 
 
 def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: np.ndarray, t: float,
@@ -64,10 +67,15 @@ def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: 
     return columns
 
 
-def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: TauPlant | PropellerPlant, record: RunRecorder,
-                 progress: Callable[[str], None] | None, progress_every_s: float) -> float | None:
-    """Step plant and NMPC until the waypoint or t_max; rows go to ``record``; returns the arrival time."""
-    cfg, params, waves = scenario.controller, scenario.params(), scenario.sea.waves()
+def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: RunRecorder,
+                 progress: Callable[[str], None] | None, progress_every_s: float,
+                 feed: WaveFeed | None = None) -> float | None:
+    """Step plant and NMPC until the waypoint or t_max; rows go to ``record``; returns the arrival time.
+
+    With a ``feed`` (the realistic loop) the wave the NMPC plans with comes from it at every step.
+    """
+    cfg, params = scenario.controller, scenario.params()
+    waves = feed.truth if feed is not None else scenario.sea.waves()
     truth = ScenarioTruth(waves)
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
     n_steps_max = math.floor(scenario.t_max_s / cfg.period_s + 1e-9)
@@ -77,6 +85,8 @@ def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: TauPlant | Prop
         x = plant.rigid_state
         dist = float(np.hypot(*(wp - x[0:2])))
         sea = _sea_columns(scenario, waves, truth, x, t, plant.shaft_speeds)
+        if feed is not None:
+            sea.update(feed.step(t, plant, nmpc))
         arrival = t if dist < scenario.waypoint.acceptance_radius_m else None
         if arrival is not None or step >= n_steps_max:
             record.state(t, x, status="end", **sea)
@@ -110,22 +120,51 @@ def experiment_metrics(scenario: Scenario, record: RunRecorder, arrival: float |
     }
 
 
+def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None) -> tuple[SensedTauPlant, WaveFeed]:
+    """The sensed plant in the hidden-phase sea and the wave feed (estimator or truth) of a realistic run."""
+    est, cfg, params = scenario.estimation, scenario.controller, scenario.params()
+    if scenario.plant != "tau":
+        raise ConfigError(f"plant: {scenario.plant!r} with estimation settings; allowed: tau")
+    truth = hidden_sea(scenario.sea.waves(), est.seed) if est.hidden_phase else scenario.sea.waves()
+    if est.waves == "estimated":
+        settings = (calibrated_settings(params, est.surface_heave, est.roll_sign) if est.calibrate
+                    else EstimatorSettings(roll_sign=est.roll_sign))
+        source: Any = WaveEstimator(settings)
+    else:
+        source = ScenarioTruth(truth)
+    plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
+                           scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source)
+    say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
+    return plant, WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s)
+
+
 def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: bool = True,
                  progress: Callable[[str], None] | None = None, progress_every_s: float = 20.0) -> RunResult:
-    """Run one closed loop; with ``out_dir``, write timeseries.csv, metrics.json, scenario.yaml, PNGs."""
+    """Run one closed loop; with ``out_dir``, write timeseries.csv, metrics.json, scenario.yaml, PNGs.
+
+    ``scenario.estimation.realistic``: the sensed 20 Hz plant in the hidden sea, and the NMPC's wave from
+    the estimator (``waves: estimated``) or the truth; otherwise the paper's set-up, unchanged.
+    """
     wall_start = time.perf_counter()
     cfg = scenario.controller
     nmpc = RollAwareNmpc(cfg, scenario.params(), scenario.sea.waves(), scenario.sea.current())
-    plant_class = TauPlant if scenario.plant == "tau" else PropellerPlant
-    plant = plant_class(scenario.world, cfg.period_s, scenario.plant_dt_s)
+    feed: WaveFeed | None = None
+    if scenario.estimation.realistic:
+        plant, feed = _realistic_parts(scenario, progress)
+        nmpc.set_wave(feed.truth if scenario.estimation.waves == "truth" else None)
+    else:
+        plant_class = TauPlant if scenario.plant == "tau" else PropellerPlant
+        plant = plant_class(scenario.world, cfg.period_s, scenario.plant_dt_s)
     record = RunRecorder(cfg.period_s)
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
     # Fast solvers: the cold, full solve happens before the loop, so every step inside it is a warm one. The
     # ipopt reference runs exactly as before: its first step is the cold solve, and it is counted.
     prepared = nmpc.prepare(plant.rigid_state, 0.0, wp) if cfg.solver != "ipopt" else None
-    arrival = _closed_loop(scenario, nmpc, plant, record, progress, progress_every_s)
+    arrival = _closed_loop(scenario, nmpc, plant, record, progress, progress_every_s, feed)
     final_distance = float(np.hypot(*(wp - plant.rigid_state[0:2])))
     metrics = experiment_metrics(scenario, record, arrival, final_distance)
+    if feed is not None:
+        metrics.update(feed.metrics(float(record.rows[-1]["t_s"]), plant.rigid_state))
     metrics["wall_time_s"] = time.perf_counter() - wall_start
     metrics["prepare_ms"] = prepared.wall_time_s * 1e3 if prepared is not None else None
     out = Path(out_dir) if out_dir is not None else None
@@ -136,21 +175,24 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
         (out / "scenario.yaml").write_text(yaml.safe_dump(scenario.to_mapping(), sort_keys=False),
                                            encoding="utf-8")
         if plots:
-            _write_plots(out, scenario, record.rows)
-    return RunResult(scenario.name, out if out is not None else Path("."), metrics, list(record.solve_ms))
+            _write_plots(out, scenario, record.rows, feed)
+    return RunResult(scenario.name, out if out is not None else Path("."), metrics, list(record.solve_ms),
+                     list(feed.estimator_ms) if feed is not None else [])
 
 
-def _write_plots(out: Path, scenario: Scenario, rows: list[dict[str, Any]]) -> None:
-    from .plots import plot_path, plot_timeseries
+def _write_plots(out: Path, scenario: Scenario, rows: list[dict[str, Any]], feed: WaveFeed | None = None) -> None:
+    from .plots import plot_path, plot_timeseries, plot_wave_estimate
 
     t = column(rows, "t_s")
     title = f"{scenario.name}: Q, R, S = {scenario.controller.q:g}, {scenario.controller.r:g}, " \
             f"{scenario.controller.s:g}"
     plot_path(out / "path.png", column(rows, "north_m"), column(rows, "east_m"),
               (scenario.waypoint.north_m, scenario.waypoint.east_m), scenario.waypoint.acceptance_radius_m,
-              scenario.sea.waves(), float(t[-1]), title)
+              feed.truth if feed is not None else scenario.sea.waves(), float(t[-1]), title)
     plot_timeseries(out / "timeseries.png", t, column(rows, "wave_force_n"), np.degrees(column(rows, "roll_rad")),
                     np.degrees(column(rows, "pitch_rad")), column(rows, "tau_x_n"), column(rows, "tau_n_nm"), title)
+    if feed is not None and feed.mode == "estimated":
+        plot_wave_estimate(out / "wave_estimate.png", rows, feed.truth, title)
 
 
 def _worker(scenario: Scenario, out_dir: str) -> RunResult:

@@ -76,3 +76,52 @@ def plot_timeseries(path: Path, t: np.ndarray, wave_force: np.ndarray, roll_deg:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _estimated_slope(rows: list, north: np.ndarray, east: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Slope along the estimate's own travel direction at the boat (rad), NaN where nothing was estimated."""
+    from vessel import RegularWaves
+
+    out = np.full(len(rows), np.nan)
+    for i, row in enumerate(rows):
+        try:
+            wave = RegularWaves(float(row["wave_height_m"]), float(row["wave_length_m"]), float(row["wave_period_s"]),
+                                np.radians(float(row["wave_dir_deg"])), phase_rad=float(row["wave_phase_rad"]))
+        except (KeyError, TypeError, ValueError):
+            continue
+        out[i] = float(wave.slope_along_travel(north[i], east[i], t[i]))
+    return out
+
+
+def plot_wave_estimate(path: Path, rows: list, truth, title: str) -> None:
+    """Estimated against true slope at the boat, and the estimate's parameters and confidence over time.
+
+    Slopes are along each wave's own travel direction (rad → deg); the truth's parameters are dashed.
+    """
+    from .runlog import column
+
+    plt = _pyplot()
+    t, north, east = column(rows, "t_s"), column(rows, "north_m"), column(rows, "east_m")
+    fig, axes = plt.subplots(6, 1, sharex=True, figsize=(7.0, 10.0))
+    axes[0].plot(t, np.degrees(column(rows, "wave_slope_rad")), "k-", lw=1, label="true")
+    axes[0].plot(t, np.degrees(_estimated_slope(rows, north, east, t)), "r-", lw=1, label="estimated")
+    axes[0].set_ylabel("slope (deg)")
+    axes[0].legend(loc="upper right", fontsize=8)
+    panels = (("wave_height_m", "height (m)", "height_m", 1.0), ("wave_period_s", "period (s)", "period_s", 1.0),
+              ("wave_length_m", "wavelength (m)", "length_m", 1.0),
+              ("wave_dir_deg", "travel dir (deg)", "travel_dir_rad", 180 / np.pi))
+    for ax, (name, label, attr, scale) in zip(axes[1:5], panels, strict=True):
+        ax.plot(t, column(rows, name), "r-", lw=1)
+        if hasattr(truth, attr):
+            ax.axhline(getattr(truth, attr) * scale, color="k", ls="--", lw=0.8)
+        ax.set_ylabel(label)
+    axes[5].plot(t, column(rows, "wave_confidence"), "b-", lw=1)
+    axes[5].axhline(0.5, color="k", ls=":", lw=0.8)
+    axes[5].set_ylabel("confidence")
+    axes[5].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

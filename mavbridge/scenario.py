@@ -37,6 +37,8 @@ from .nmpc import NmpcConfig
 from .nmpc.config import choice
 
 PLANTS = ("tau", "propellers")
+WAVE_SOURCES = ("truth", "estimated")
+SENSOR_MODELS = ("default", "ideal")
 RUN_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 
@@ -59,6 +61,40 @@ class Reference:
 
 
 @dataclass(frozen=True)
+class Estimation:
+    """What the in-process loop tells the NMPC about the sea, and how realistic the plant and sensors are.
+
+    The defaults are the paper's setting (truth fed to the NMPC, no heave, phase 0, no sensors), so
+    Table III's files stay as they are. ``waves: estimated`` feeds the wave estimator from simulated
+    sensors (``vessel.sensors``, seeded) at 20 Hz; ``hidden_phase`` draws the sea's phase from ``seed``
+    (the estimator never sees it); ``surface_heave`` makes the hull heave with the sea. Minimal stand-in
+    for the sea seed of the ``simsea`` branch (the lead reconciles the two).
+    """
+
+    waves: str = choice("truth", WAVE_SOURCES, "truth: the true wave to the NMPC; estimated: the wave estimator")
+    surface_heave: bool = False
+    hidden_phase: bool = False
+    seed: int = bounded(0, 0, 2**31 - 1, "", "seed of the hidden sea phase and of the sensor noise")
+    sensors: str = choice("default", SENSOR_MODELS, "default: vessel.sensors defaults; ideal: exact readings")
+    calibrate: bool = True
+    roll_sign: float = bounded(1.0, -1.0, 1.0, "", "+1 paper plant, -1 a real hull (estimator's roll sign)")
+    hold_s: float = bounded(0.0, 0.0, 600.0, "s", "keep flying on the last confident estimate this long after "
+                            "the confidence drops (0: degrade at once)")
+
+    def __post_init__(self) -> None:
+        for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS)):
+            if getattr(self, name) not in allowed:
+                raise ConfigError(f"estimation.{name}: {getattr(self, name)!r} is not one of {', '.join(allowed)}")
+        if self.roll_sign not in (-1.0, 1.0):
+            raise ConfigError(f"estimation.roll_sign: {self.roll_sign!r} is not one of -1, 1")
+
+    @property
+    def realistic(self) -> bool:
+        """True when anything differs from the paper's setting (then the sensed 20 Hz loop runs)."""
+        return self.waves == "estimated" or self.surface_heave or self.hidden_phase
+
+
+@dataclass(frozen=True)
 class Scenario:
     """One closed-loop run: the world, then what the companion and the experiment runner need."""
 
@@ -72,6 +108,7 @@ class Scenario:
     plant_dt_s: float = bounded(0.01, 1e-4, 0.1, "s", "plant RK4 step (divides the control period)")
     deadline_s: float | None = bounded(None, 1e-4, 10.0, "s", "solve deadline (null: none, deterministic)")
     reference: Reference = dataclasses.field(default_factory=Reference)
+    estimation: Estimation = dataclasses.field(default_factory=Estimation)
 
     def __post_init__(self) -> None:
         if self.plant not in PLANTS:

@@ -31,7 +31,7 @@ WORLD_SECTIONS: tuple[str, ...] = ("vessel", "sea", "start")
 """The top-level scenario sections that describe the world (read by the simulator and mavbridge)."""
 
 SCENARIO_SECTIONS: tuple[str, ...] = ("name", "description", *WORLD_SECTIONS, "waypoint", "controller",
-                                      "t_max_s", "plant", "plant_dt_s", "deadline_s", "reference")
+                                      "t_max_s", "plant", "plant_dt_s", "deadline_s", "reference", "estimation")
 """Every top-level section of a single-run scenario file; mavbridge's ``Scenario`` has exactly these."""
 
 RUN_SET_SECTIONS: tuple[str, ...] = ("base", "description", "runs")

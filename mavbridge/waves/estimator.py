@@ -105,7 +105,8 @@ class WaveEstimator:
         self._last_z_t = -math.inf
         self._last_att_t = -math.inf
         self._psi_prev: float | None = None
-        self._turn_rate = 0.0
+        self._turn_rate = 0.0  # low-passed over turn_filter_s: slow course changes
+        self._turn_fast = 0.0  # low-passed over 1 s: sharp turns
         self._doppler_t = -math.inf
 
     # ------------------------------------------------------------------ observe
@@ -177,11 +178,17 @@ class WaveEstimator:
         return att
 
     def _update_heading(self, psi: float, dt: float) -> None:
-        """Watch the heading: a turn or a jump changes ω_e, so the settling clock restarts."""
+        """Watch the heading: a turn or a jump changes ω_e, so the settling clock restarts.
+
+        Two rates: over ``turn_filter_s`` (longer than a wave period, so the hull's wave-induced yaw
+        averages out) against ``turn_rate_rad_s``, and over 1 s against ``sharp_turn_rate_rad_s``.
+        """
         if self._psi_prev is not None:
             step = math.remainder(psi - self._psi_prev, 2 * math.pi)
-            self._turn_rate += lpf_gain(dt, 1.0) * (step / dt - self._turn_rate)
-            if abs(step) > 0.35 or abs(self._turn_rate) > self.s.turn_rate_rad_s:
+            self._turn_rate += lpf_gain(dt, self.s.turn_filter_s) * (step / dt - self._turn_rate)
+            self._turn_fast += lpf_gain(dt, 1.0) * (step / dt - self._turn_fast)
+            if (abs(step) > 0.35 or abs(self._turn_rate) > self.s.turn_rate_rad_s
+                    or abs(self._turn_fast) > self.s.sharp_turn_rate_rad_s):
                 self._quiet_since = self._t or 0.0
         self._psi_prev = psi
 

@@ -38,7 +38,11 @@ class EstimatorSettings:
     min_slope_rad: float = bounded(0.004, 0.0, 1.0, "rad", "smallest slope amplitude that counts")
     wavelength_min_m: float = bounded(3.0, 0.1, 1e4, "m", "shortest plausible wavelength")
     wavelength_max_m: float = bounded(1000.0, 1.0, 1e5, "m", "longest plausible wavelength")
-    turn_rate_rad_s: float = bounded(0.08, 0.0, 10.0, "rad/s", "heading rate that counts as a manoeuvre")
+    turn_rate_rad_s: float = bounded(0.15, 0.0, 10.0, "rad/s", "heading rate that counts as a manoeuvre")
+    sharp_turn_rate_rad_s: float = bounded(0.25, 0.0, 10.0, "rad/s", "heading rate over 1 s that counts as a "
+                                           "sharp turn (wave-induced yaw stays below it)")
+    turn_filter_s: float = bounded(6.0, 0.1, 60.0, "s", "low-pass of that heading rate: longer than a wave "
+                                   "period, so wave-induced yaw is no manoeuvre")
     doppler_memory_s: float = bounded(240.0, 5.0, 3600.0, "s", "memory of the Doppler line fit")
     doppler_spread_mps: float = bounded(0.25, 0.01, 10.0, "m/s", "speed spread the Doppler fit needs")
     max_gap_s: float = bounded(1.0, 0.05, 60.0, "s", "a longer silence restarts the settling")

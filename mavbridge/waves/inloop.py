@@ -1,0 +1,220 @@
+"""The realistic in-process plant for ``mavbridge experiment``: hidden sea, heave, sensors at 20 Hz.
+
+The paper's set-up (``vessel.closed_loop.TauPlant``) hands the NMPC the true wave and never samples a
+sensor. Here the rigid-body model driven by τ (RK4 at ``dt_s``, τ held over the control period) runs in
+the true sea — its phase drawn from a seed the estimator never sees, the hull optionally heaving with
+the sea — and every half control period (the ATTITUDE rate, 20 Hz at T = 0.1 s) the true state goes
+through ``vessel.sensors.SensorModel`` (seeded) and, as a ``MotionSample``, into a ``WaveSource``. The
+IMU's specific force comes from the plant's own ẋ (``vessel.imu.specific_force``).
+
+``estimate_metrics`` compares the estimate with the truth at the end of a run: direction (°), period,
+wavelength and height (%), and the phase of the predicted wave at the horizon's end (°).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from mavbridge.seasource import MotionSample, WaveEstimate, WaveSource
+from vessel import Plant, RegularWaves, WaveField
+from vessel.closed_loop import substeps_per_period
+from vessel.dynamics import OceanCurrent, rigid_body_ode
+from vessel.imu import specific_force
+from vessel.plant import rk4_step
+from vessel.sensors import SensorModel, SensorParams
+
+from .calibration import hull_response, record_plant, settings_for
+from .kinematic import estimate_errors, paper_sea
+from .settings import EstimatorSettings
+
+SAMPLES_PER_PERIOD = 2  # ATTITUDE at 20 Hz for the paper's T = 0.1 s
+
+
+def hidden_sea(waves: WaveField, seed: int) -> WaveField:
+    """The true sea with its phase origin drawn from ``seed`` (regular waves only; others unchanged)."""
+    if not isinstance(waves, RegularWaves):
+        return waves
+    phase = float(np.random.default_rng([7919, seed]).uniform(-math.pi, math.pi))
+    return dataclasses.replace(waves, phase_rad=phase)
+
+
+def calibrated_settings(params: Any, surface_heave: bool, roll_sign: float) -> EstimatorSettings:
+    """The hull's roll/pitch response to the slope, measured once on the vessel model in a fixed lab sea.
+
+    The lab sea is the paper's wave at another phase, the hull heading 45° at 70 rad/s shafts for 80 s:
+    a property of the hull, not of the run's (hidden) sea.
+    """
+    sea = paper_sea(2.0)
+    x0 = np.zeros(14)
+    x0[5] = math.radians(45.0)
+    plant = Plant(params, sea, dt=0.01, x0=x0, surface_heave=surface_heave)
+    base = EstimatorSettings(roll_sign=roll_sign)
+    return settings_for(*hull_response(*record_plant(plant, sea, (70.0, 70.0), 80.0, roll_sign=roll_sign)), base)
+
+
+class SensedTauPlant:
+    """τ-driven rigid body in the true sea; feeds a wave source with sensor readings at 20 Hz."""
+
+    def __init__(self, params: Any, waves: WaveField, current: OceanCurrent, x0: np.ndarray, period_s: float,
+                 dt_s: float, surface_heave: bool, sensors: SensorModel, source: WaveSource) -> None:
+        ode = rigid_body_ode(params, waves, current, surface_heave)
+        self.dt = dt_s
+        self.half_s = period_s / SAMPLES_PER_PERIOD
+        self.substeps = substeps_per_period(self.half_s, dt_s)
+        self._half = rk4_step(ode, dt_s).mapaccum(self.substeps)
+        x, tau, t = ca.SX.sym("x", 12), ca.SX.sym("tau", 2), ca.SX.sym("t")
+        xdot = ode(x, tau, t)
+        self._imu = ca.Function("imu", [x, tau, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)])
+        self.x = np.asarray(x0, float).copy()
+        self.sensors, self.source = sensors, source
+        self._tau = np.zeros(2)
+
+    @property
+    def rigid_state(self) -> np.ndarray:
+        """The 12 rigid-body states."""
+        return self.x.copy()
+
+    @property
+    def shaft_speeds(self) -> tuple[float, float] | None:
+        """Not modelled in this plant."""
+        return None
+
+    def sense(self, t: float) -> None:
+        """Sample the sensors at ``t`` (true state, last applied τ for the IMU) and feed the wave source."""
+        f = np.asarray(self._imu(self.x, self._tau, t)).ravel()
+        reading = self.sensors.sample(t, self.x[0:6], self.x[6:12], f)
+        self.source.observe(MotionSample(reading.t_s, reading.attitude, reading.rates, reading.position_ned,
+                                         reading.velocity_ned, reading.accel_body))
+
+    def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:
+        """One control period from ``t`` with τ held, sensing at each half period inside it."""
+        self._tau = np.asarray(tau, float)
+        for i in range(SAMPLES_PER_PERIOD):
+            t0 = t + i * self.half_s
+            if i > 0:
+                self.sense(t0)
+            times = ca.DM(t0 + self.dt * np.arange(self.substeps)).T
+            out = np.asarray(self._half(self.x, ca.repmat(ca.DM(self._tau), 1, self.substeps), times))
+            x_next = out[:, -1]
+            if not np.all(np.isfinite(x_next)):
+                raise FloatingPointError(f"plant state became non-finite at t = {t0:.2f} s")
+            self.x = x_next
+
+
+def sensor_model(kind: str, seed: int) -> SensorModel:
+    """The default (SITL-like) or ideal sensors, noise seeded by ``seed``."""
+    params = SensorParams.ideal() if kind == "ideal" else SensorParams()
+    return SensorModel(params, np.random.default_rng([104729, seed]))
+
+
+def estimate_metrics(est: WaveEstimate | None, truth: WaveField, t_s: float, x: np.ndarray,
+                     horizon_s: float) -> dict[str, float | None]:
+    """Errors of the final estimate against the true regular wave; the phase at the horizon's end.
+
+    The boat's position at the horizon end is extrapolated along its NED velocity (x: 12 rigid states).
+    """
+    keys = ("direction_err_deg", "period_err_pct", "length_err_pct", "height_err_pct", "phase_err_deg")
+    if est is None or not isinstance(truth, RegularWaves):
+        return dict.fromkeys(keys)
+    c, s = math.cos(x[5]), math.sin(x[5])
+    v_n, v_e = c * x[6] - s * x[7], s * x[6] + c * x[7]
+    north, east = x[0] + v_n * horizon_s, x[1] + v_e * horizon_s
+    err = estimate_errors(est, truth, t_s + horizon_s, north, east)
+    values = (err.direction_deg, err.period_pct, err.length_pct, err.height_pct, err.phase_deg)
+    return dict(zip(keys, (float(v) for v in values), strict=True))
+
+
+class WaveFeed:
+    """Per control step: sense, ask the wave source, hand the NMPC its wave; notes and metrics of the run.
+
+    ``truth`` mode hands the NMPC the true (hidden-phase) wave; ``estimated`` mode the estimate's field,
+    or None below the confidence threshold (calm prediction, R = 0: the Direct behaviour). Says once when
+    it flies without the roll term and each time the confidence drops.
+    """
+
+    def __init__(self, mode: str, source: WaveSource, truth: WaveField, horizon_s: float,
+                 say: Any = None, hold_s: float = 0.0) -> None:
+        self.mode, self.source, self.truth, self.horizon_s = mode, source, truth, horizon_s
+        self.say = say
+        self.notes: list[str] = []
+        self.first_confident_s: float | None = None
+        self.confident_steps = self.steps = 0
+        self.estimator_ms: list[float] = []
+        self.first_errors: dict[str, float | None] = {}
+        self._confident: bool | None = None
+        self.hold_s = hold_s  # keep flying on the last confident estimate this long (its phase is fixed)
+        self._held: WaveEstimate | None = None
+        self._held_t = -math.inf
+
+    def _note(self, line: str) -> None:
+        self.notes.append(line)
+        if self.say is not None:
+            self.say(line)
+
+    def step(self, t: float, plant: SensedTauPlant, nmpc: Any) -> dict[str, float]:
+        """Sense at ``t``, set the NMPC's wave, return the wave columns of the log row."""
+        import time
+
+        start = time.perf_counter()
+        plant.sense(t)
+        self.steps += 1
+        if self.mode == "truth":
+            nmpc.set_wave(self.truth)
+            est = self.source.estimate(t)
+            self.estimator_ms.append((time.perf_counter() - start) * 1e3)
+            return est.row() if est is not None else {}
+        est = self._with_hold(t, self.source.estimate(t))
+        nmpc.set_wave(est.field() if est is not None else None)
+        self.estimator_ms.append((time.perf_counter() - start) * 1e3)
+        if est is not None and self.first_confident_s is None:
+            self.first_errors = estimate_metrics(est, self.truth, t, plant.rigid_state, self.horizon_s)
+        self._track(t, est is not None, bool(getattr(nmpc, "roll_term_active", True)))
+        latest = self.source.latest(t) if hasattr(self.source, "latest") else est
+        return latest.row() if latest is not None else {}
+
+    def _with_hold(self, t: float, est: WaveEstimate | None) -> WaveEstimate | None:
+        """The estimate, or the last confident one for ``hold_s`` after the confidence dropped."""
+        if est is not None:
+            self._held, self._held_t = est, t
+            return est
+        return self._held if t - self._held_t <= self.hold_s else None
+
+    def _track(self, t: float, confident: bool, roll_term: bool) -> None:
+        """Count confident steps; say when the roll term is off at the start and when confidence changes."""
+        if confident:
+            self.confident_steps += 1
+            if self.first_confident_s is None:
+                self.first_confident_s = t
+        if confident == self._confident:
+            return
+        if self._confident is None and not confident:
+            self._note(f"t = {t:.1f} s: no confident wave estimate yet: flying without the roll term (Direct)")
+        elif confident:
+            self._note(f"t = {t:.1f} s: wave estimate confident: "
+                       + ("the roll term is on" if roll_term else "planning with it (R = 0: no roll term)"))
+        elif self._confident:
+            self._note(f"t = {t:.1f} s: wave estimate confidence dropped: flying without the roll term (Direct)")
+        self._confident = confident
+
+    def metrics(self, t_end: float, x_end: np.ndarray) -> dict[str, Any]:
+        """Time to a confident estimate, final errors against the truth, the estimator's cost per step."""
+        out: dict[str, Any] = {"wave_source": "estimated" if self.mode == "estimated" else "scenario-truth",
+                               "sea_phase_rad": getattr(self.truth, "phase_rad", None)}
+        ms = np.asarray(self.estimator_ms, float)
+        out["estimator_ms_median"] = float(np.median(ms)) if ms.size else None
+        out["estimator_ms_p99"] = float(np.percentile(ms, 99)) if ms.size else None
+        if self.mode != "estimated":
+            return out
+        latest = self.source.latest(t_end) if hasattr(self.source, "latest") else None
+        out.update(time_to_confident_s=self.first_confident_s,
+                   confident_fraction=self.confident_steps / max(self.steps, 1),
+                   final_confidence=latest.confidence if latest is not None else 0.0,
+                   notes=list(self.notes),
+                   at_first_confident={**self.first_errors},
+                   **estimate_metrics(latest, self.truth, t_end, x_end, self.horizon_s))
+        return out
