@@ -19,6 +19,7 @@ import subprocess
 import sys
 from contextlib import redirect_stdout
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -90,15 +91,20 @@ def test_the_companion_estimates_the_simulators_sea_not_the_scenarios(tmp_path: 
         assert _angle_deg(float(final["wave_dir_deg"]), SIM_SEA["travel_dir_deg"]) < 10.0
 
 
+def _streams(conn: Any, name: str) -> bool:
+    """Ask the simulator directly (SET_MESSAGE_INTERVAL, 20 Hz) for ``name``; True if it is accepted and arrives."""
+    conn.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                               getattr(mavlink, f"MAVLINK_MSG_ID_{name}"), 50_000, 0, 0, 0, 0, 0)
+    ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=10)
+    return ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED and \
+        conn.recv_match(type=name, blocking=True, timeout=5) is not None
+
+
 def test_check_reports_whether_the_imu_stream_arrives(tmp_path: Path) -> None:
     """`mavbridge check`: PASS with the rate when SCALED_IMU/RAW_IMU arrives after the request, else WARN."""
     with SimProcess(tmp_path / "sim", speedup=5, waves="paper", extra=[HOME, "--wipe"], udp_outs=1) as sim:
         probe = sim.connect()
-        probe.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, mavlink.MAVLINK_MSG_ID_SCALED_IMU,
-                                    50_000, 0, 0, 0, 0, 0)  # SCALED_IMU at 20 Hz, asked directly
-        ack = probe.recv_match(type="COMMAND_ACK", blocking=True, timeout=10)
-        streamed = ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED and \
-            probe.recv_match(type="SCALED_IMU", blocking=True, timeout=5) is not None
+        streamed = any(_streams(probe, name) for name in ("SCALED_IMU", "RAW_IMU"))
         out = io.StringIO()
         with redirect_stdout(out):
             main(["check", "--config", str(ROOT / "deploy" / "companion-sim.yaml"),
