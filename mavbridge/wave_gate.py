@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from vessel.config import ConfigError
+
 from .seasource import MotionSample, WaveEstimate, WaveSource
 
 
@@ -48,6 +50,7 @@ class WaveGate:
     last: WaveEstimate | None = None
     cost_ms: list[float] = field(default_factory=list)  # per control step: observes since the last + estimate
     _observe_s: float = 0.0
+    _rejected: int = 0  # confident estimates the wave model refused
 
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the source (every ATTITUDE), timed."""
@@ -61,12 +64,28 @@ class WaveGate:
         est = self.source.estimate(t_s)
         self.cost_ms.append((time.perf_counter() - start + self._observe_s) * 1e3)
         self._observe_s = 0.0
-        nmpc.set_wave(est.field() if est is not None else None)
+        wave = self._field(est)
+        if wave is None:
+            est = None
+        nmpc.set_wave(wave)
         self._note(est, t_s)
         shown = est if est is not None else _latest(self.source, t_s)
         if shown is not None:
             self.last = shown
         return shown.row() if shown is not None else {}
+
+    def _field(self, est: WaveEstimate | None) -> Any:
+        """The estimate as the NMPC's wave field; None (no roll term) when there is none or it is outside the
+        wave model's ranges (e.g. a breaking steepness), said once per run."""
+        if est is None:
+            return None
+        try:
+            return est.field()
+        except (ConfigError, ValueError) as exc:
+            if not self._rejected:
+                self.log(f"waves ({self.source.name}): estimate outside the wave model ({exc}); no roll term")
+            self._rejected += 1
+            return None
 
     def _note(self, est: WaveEstimate | None, t_s: float) -> None:
         """Count the step; log the first state and every change of confidence once."""
