@@ -298,8 +298,9 @@ class Companion:
         rates = self.events.rates_hz = measure_rates(link, lambda: self.state.attitude_ms)
         self.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
         imu, imu_hz = imu_rate(rates)
-        self.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
-                 "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
+        if self.waves.name != SCENARIO_TRUTH:
+            self.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
+                     "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
         if self.state.ready() and self.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
             t_s = (self.state.attitude_ms or 0) / 1000.0
             wave_step(self.waves, self.nmpc, t_s)
