@@ -11,6 +11,7 @@ from typing import Any
 from vessel.config import ConfigError
 
 OUTPUTS = ("rc_override", "attitude_target")  # mirrors mavbridge.companion (kept import-light)
+WAVE_SOURCES = ("estimated", "scenario")  # estimated from the boat's motion, or the scenario's sea (simulation)
 
 
 def parse_north_east(text: str) -> tuple[float, float]:

@@ -9,7 +9,7 @@ from typing import Any
 
 from vessel.config import ConfigError
 
-from .cli_args import OUTPUTS, parse_north_east, single_scenario
+from .cli_args import OUTPUTS, WAVE_SOURCES, parse_north_east, single_scenario
 from .nmpc.config import SOLVERS
 
 
@@ -38,6 +38,8 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
     run.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
+    run.add_argument("--waves", choices=WAVE_SOURCES, help="estimated (default: from the boat's own motion) or "
+                                                           "scenario (the scenario's sea: simulation truth only)")
     run.add_argument("--waypoint", type=parse_north_east, metavar="N,E", help="waypoint in metres from home (testing)")
     run.add_argument("--arm", action="store_true", help="arm the vehicle at start")
     run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
@@ -57,6 +59,8 @@ def add_demo_parser(sub: Any) -> None:
                       help="NMPC solver (default asrti, the real-time one; ipopt is the paper's reference)")
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
+    demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
+                      help="the companion's waves: estimated (default) or scenario (fly on the simulator's truth)")
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
 
 
@@ -65,15 +69,16 @@ def run_command(args: argparse.Namespace) -> int:
     import time
 
     from .companion import Companion, build_nmpc, load_companion_config
-    from .seasource import ScenarioTruth
+    from .wave_gate import make_wave_source
 
     if args.dry_run and (args.arm or args.set_mode):
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
-                                   component_id=args.compid, output=args.output, max_time_s=args.max_time)
+                                   component_id=args.compid, output=args.output, max_time_s=args.max_time,
+                                   waves=args.waves)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
-    waves = ScenarioTruth(scenario.sea.waves())  # the only source so far: simulation truth, logged as such
+    waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s)
     with build_nmpc(scenario, waves) as nmpc:  # seconds of building, before any link is open; closed after
         return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                          args.dry_run).run()
@@ -86,4 +91,4 @@ def demo_command(args: argparse.Namespace) -> int:
     scenario = single_scenario(args.scenario, args.solver)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(scenario, out, speedup, args.output)
+    return run_demo(scenario, out, speedup, args.output, args.waves)

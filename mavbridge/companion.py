@@ -3,11 +3,13 @@
 Link -> state -> NMPC -> command, on the autopilot's clock (ATTITUDE.time_boot_ms), at the
 controller's period. It relies only on what a stock ArduPilot Rover sends and accepts: HEARTBEAT,
 ATTITUDE, GLOBAL_POSITION_INT, LOCAL_POSITION_NED, the mission protocol, PARAM_VALUE, COMMAND_ACK;
-and it sends RC_CHANNELS_OVERRIDE (MANUAL) or SET_ATTITUDE_TARGET (GUIDED).
+SCALED_IMU / RAW_IMU (for the wave estimator, where streamed); and it sends RC_CHANNELS_OVERRIDE (MANUAL)
+or SET_ATTITUDE_TARGET (GUIDED).
 
 The loop is put together from parts: the NMPC (built outside and passed in), a ``WaveSource`` (all
-it knows about the sea), an output path (``output_paths``), a ``MissionTracker``, the ``Supervisor``
-and a ``RunRecorder`` whose CSV schema and metrics the in-process experiment shares.
+it knows about the sea; by default the estimator, gated on its confidence by a ``WaveGate``), an
+output path (``output_paths``), a ``MissionTracker``, the ``Supervisor`` and a ``RunRecorder`` whose
+CSV schema and metrics the in-process experiment shares.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import yaml
 from vessel import CalmWater
 from vessel.config import ConfigError, bounded, from_mapping, read_yaml, to_mapping
 
-from .cli_args import OUTPUTS
+from .cli_args import OUTPUTS, WAVE_SOURCES
 from .link import MAV_COMP_ID_ONBOARD_COMPUTER, Link, LinkError, mavlink
 from .mission_tracker import MissionTracker
 from .nmpc import RollAwareNmpc
@@ -36,8 +38,9 @@ from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, WaveSource
 from .state import StateEstimate
-from .streams import measure_rates, request_streams
+from .streams import imu_rate, measure_rates, request_streams
 from .supervisor import Phase, Supervisor
+from .wave_gate import WaveGate
 
 ARRIVAL_ACTIONS = ("hold", "release")
 
@@ -60,9 +63,17 @@ class CompanionConfig:
     lookahead_steps: int = bounded(5, 1, 400, "steps", "attitude_target: plan step whose heading/speed is sent")
     on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
     max_time_s: float | None = bounded(None, 0.1, 1e6, "s", "end the run after this much autopilot time engaged")
+    waves: str = choice("estimated", WAVE_SOURCES, "estimated (from the boat's motion) or scenario (simulation "
+                        "truth: the scenario's sea; never on a real boat)")
+    wave_roll_sign: float = bounded(1.0, -1.0, 1.0, "", "estimator: +1 roll = slope (the paper's plant, the "
+                                    "simulator), -1 a real hull")
+    wave_position_lag_s: float = bounded(0.0, 0.0, 2.0, "s", "estimator: lag of the GPS position it "
+                                         "compensates (0 on ArduPilot)")
 
     def __post_init__(self) -> None:
-        for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS)):
+        if self.wave_roll_sign not in (-1.0, 1.0):
+            raise ConfigError(f"wave_roll_sign: {self.wave_roll_sign!r} is not one of -1, 1")
+        for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS), ("waves", WAVE_SOURCES)):
             if getattr(self, name) not in choices:
                 raise ConfigError(f"{name}: {getattr(self, name)!r} is not one of {', '.join(choices)}")
 
@@ -133,10 +144,7 @@ def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, f
     """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
     returns the estimate's log columns."""
     estimate = waves.estimate(t_s)
-    # TODO(RollAwareNmpc.set_wave): call it directly once the NMPC branch that adds it has landed on main.
-    set_wave = getattr(nmpc, "set_wave", None)
-    if set_wave is not None:
-        set_wave(estimate.field() if estimate is not None else None)
+    nmpc.set_wave(estimate.field() if estimate is not None else None)
     return estimate.row() if estimate is not None else {}
 
 
@@ -164,6 +172,7 @@ class Companion:
         self.state = StateEstimate(max_distance_m=config.max_distance_m)
         self.mission = MissionTracker(scenario.waypoint.acceptance_radius_m, waypoint_ne, log)
         self.record = RunRecorder(self.period_s)
+        self.gate = WaveGate(waves, log)
         self.events = LoopEvents()
         self.link: Link | None = None
         self._stop_reason: str | None = None
@@ -182,7 +191,7 @@ class Companion:
     def _on_motion(self, msg: Any) -> None:
         """Every ATTITUDE sample (once a position is known) goes to the wave source, after the state took it."""
         if msg.get_type() == "ATTITUDE" and self.state.ready():
-            self.waves.observe(self.state.motion_sample())
+            self.gate.observe(self.state.motion_sample())
 
     def _release(self, link: Link) -> None:
         self.output.release(link)
@@ -221,7 +230,7 @@ class Companion:
         if target is None:
             self._finish_at_waypoint(link, now_ms)
             return
-        phase, wave = self.supervisor.phase.name, wave_step(self.waves, self.nmpc, now_ms / 1000.0)
+        phase, wave = self.supervisor.phase.name, self.gate.step(self.nmpc, now_ms / 1000.0)
         result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=self.period_s)
         try:
             columns = self.output.command(link, result, now_ms)
@@ -249,6 +258,9 @@ class Companion:
         write_run_config(self.out_dir, self.config, self.scenario, self.waves.name)
         if self.waves.name == SCENARIO_TRUTH:
             self.log("waves: the scenario's sea (simulation truth); a real boat is told nothing about the sea")
+        else:
+            self.log(f"waves: {self.waves.name} from the boat's own motion; the roll term waits for a confident "
+                     "estimate")
         try:
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
                         self.out_dir / "companion.tlog", self.config.baud)
@@ -289,6 +301,10 @@ class Companion:
         self.mission.load(link, self.state.set_home)
         rates = self.events.rates_hz = measure_rates(link, lambda: self.state.attitude_ms)
         self.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
+        imu, imu_hz = imu_rate(rates)
+        if self.waves.name != SCENARIO_TRUTH:
+            self.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
+                     "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
         if self.state.ready() and self.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
             t_s = (self.state.attitude_ms or 0) / 1000.0
             wave_step(self.waves, self.nmpc, t_s)
@@ -350,7 +366,8 @@ class Companion:
         """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""
         return {"phase": self.supervisor.phase.name, "reason": self.supervisor.reason, "output": self.config.output,
                 "solver": self.scenario.controller.solver, "wave_source": self.waves.name,
-                **loop_metrics(self.record, self.events), "link": dict(self.link.counts) if self.link else {}}
+                **loop_metrics(self.record, self.events), "waves": self.gate.summary(self.record.solve_ms),
+                "link": dict(self.link.counts) if self.link else {}}
 
     def _write_logs(self) -> None:
         write_csv(self.out_dir / "companion.csv", self.record.rows)
@@ -358,3 +375,6 @@ class Companion:
         (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
         self.log(f"avg roll {m['avg_roll_deg']} deg, max roll {m['max_roll_deg']} deg, time to waypoint "
                  f"{m['time_to_waypoint_s']} s, solve median {m['solve_ms_median']} ms; logs in {self.out_dir}")
+        w = m["waves"]
+        self.log(f"waves ({w['source']}): roll term on {w['roll_term_fraction']} of the steps, first confident "
+                 f"after {w['time_to_confident_s']} s, estimator {w['estimator_ms_median']} ms per step (median)")

@@ -3,8 +3,9 @@
 Parses the scenario once and writes it, resolved, to ``<run folder>/scenario.yaml``; both children read
 that one file with the one loader: `sim-vehicle --scenario` its world (vessel, sea, start), `mavbridge run
 --scenario` all of it. Then it uploads the waypoint with `mission upload` (MAVSDK), runs `mavbridge run`
-(which arms and sets the mode), waits for the arrival or t_max, stops every process it started by its own
-handles, prints the figures and leaves a run folder with tlogs, CSVs, metrics and plots.
+(which arms and sets the mode, and flies on the wave estimated from the boat's motion unless ``--waves
+scenario``), waits for the arrival or t_max, stops every process it started by its own handles, prints
+the figures and leaves a run folder with tlogs, CSVs, metrics and plots.
 """
 
 from __future__ import annotations
@@ -84,8 +85,9 @@ def write_resolved(scenario: Scenario, out: Path) -> Path:
     return path
 
 
-def run_demo(scenario: Scenario, out: Path, speedup: float, output: str) -> int:
-    """Run the demo; returns 0 when the boat reached the waypoint."""
+def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated") -> int:
+    """Run the demo; returns 0 when the boat reached the waypoint. ``waves``: the companion's wave source,
+    ``estimated`` (from the boat's motion) or ``scenario`` (the simulator's truth)."""
     out.mkdir(parents=True, exist_ok=True)
     resolved = str(write_resolved(scenario, out))
     gcs_port, companion_port, tcp_port = free_udp_port(), free_udp_port(), free_tcp_port()
@@ -100,9 +102,9 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str) -> int:
                "--sea-phase", "boot", "--ideal-sensors"]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
-                     "--scenario", resolved]
+                     "--scenario", resolved, "--waves", waves]
     print(f"demo: simulator TCP {tcp_port}, ground station UDP {gcs_port}, companion UDP {companion_port}, "
-          f"speedup {speedup:g}, output {output}")
+          f"speedup {speedup:g}, output {output}, waves {waves}")
     children: list[tuple[subprocess.Popen, str]] = []
     try:
         with (out / "sim.log").open("w") as sim_log:

@@ -1,10 +1,16 @@
-"""The boat's state for the NMPC from what an ArduPilot Rover streams: ATTITUDE and positions.
+"""The boat's state for the NMPC from what an ArduPilot Rover streams: ATTITUDE, positions and the IMU.
 
 η = [north, east, down, φ, θ, ψ] relative to home (from GLOBAL_POSITION_INT by flat earth, so the
 waypoint and the boat share one frame whatever the EKF origin), ν = [u, v, w, p, q, r] in the body frame
 (NED velocity from LOCAL_POSITION_NED, else GLOBAL_POSITION_INT, rotated by the attitude; body rates from
 ATTITUDE). Everything is stamped with the autopilot's time_boot_ms; ψ is unwrapped across ±π so the
 controller's warm start stays continuous.
+
+The IMU (for the wave estimator only): SCALED_IMU, RAW_IMU (on ArduPilot both carry the first IMU,
+scaled: milli-g of specific force in the body frame FRD, so a level boat at rest reads z ≈ −1000 mG) or
+SCALED_IMU2 (the second IMU); the first kind that arrives is the one used. Converted to m/s² (ArduPilot
+divides by its GRAVITY_MSS = 9.80665) and stamped on the autopilot clock (time_boot_ms, or RAW_IMU's
+time_usec since boot).
 """
 
 from __future__ import annotations
@@ -20,6 +26,22 @@ from vessel.geo import ned_from_latlon
 
 from .seasource import MotionSample
 
+GRAVITY_MSS = 9.80665  # ArduPilot's milli-g scale for SCALED_IMU / RAW_IMU
+IMU_MESSAGES = ("SCALED_IMU", "RAW_IMU", "SCALED_IMU2")
+IMU_FRESH_MS = 200  # an IMU sample older than this (against ATTITUDE) is not handed to the wave source
+
+
+def imu_specific_force(msg: Any) -> tuple[int, np.ndarray] | None:
+    """(autopilot ms, body FRD specific force m/s²) of a SCALED_IMU / RAW_IMU / SCALED_IMU2, None if unusable."""
+    stamp = getattr(msg, "time_boot_ms", None)
+    if stamp is None:
+        usec = getattr(msg, "time_usec", None)
+        stamp = None if usec is None else int(usec) // 1000
+    force = np.array([msg.xacc, msg.yacc, msg.zacc], float) * (GRAVITY_MSS / 1000.0)
+    if stamp is None or not np.all(np.isfinite(force)) or not np.any(force):
+        return None  # an all-zero reading is an IMU that is not there, never a boat at rest
+    return int(stamp), force
+
 
 @dataclass
 class StateEstimate:
@@ -33,6 +55,9 @@ class StateEstimate:
     attitude: np.ndarray = field(default_factory=lambda: np.zeros(6))  # φ θ ψ p q r
     position_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
     velocity_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    accel_body: np.ndarray | None = None  # specific force, body FRD, m/s² (IMU)
+    imu_ms: int | None = None
+    imu_kind: str | None = None  # the IMU message taken (the first that arrived)
     rejected: int = 0
     max_distance_m: float = 10_000.0  # positions farther from home are rejected (no fix reports 0, 0)
     _psi_unwrapped: float | None = None
@@ -42,11 +67,14 @@ class StateEstimate:
         self.home_lat_deg, self.home_lon_deg = lat_deg, lon_deg
 
     def on_message(self, msg: Any) -> None:
-        """Take ATTITUDE, GLOBAL_POSITION_INT and LOCAL_POSITION_NED; non-finite fields are rejected."""
+        """Take ATTITUDE, GLOBAL_POSITION_INT, LOCAL_POSITION_NED and the IMU; non-finite fields are rejected."""
         kind = msg.get_type()
+        if kind in IMU_MESSAGES:
+            self._on_imu(kind, msg)
+            return
         stamp = getattr(msg, "time_boot_ms", None)
         if stamp is not None and self.attitude_ms is not None and stamp < self.attitude_ms - 5000:
-            self.attitude_ms = self.position_ms = self.velocity_ms = None  # the autopilot rebooted
+            self.attitude_ms = self.position_ms = self.velocity_ms = self.imu_ms = None  # the autopilot rebooted
         if kind == "ATTITUDE":
             values = [msg.roll, msg.pitch, msg.yaw, msg.rollspeed, msg.pitchspeed, msg.yawspeed]
             if not all(math.isfinite(v) for v in values):
@@ -76,6 +104,22 @@ class StateEstimate:
             self.velocity_ned = velocity
             self.velocity_ms = int(msg.time_boot_ms)
 
+    def _on_imu(self, kind: str, msg: Any) -> None:
+        """One IMU message of the kind in use (the first kind that arrived)."""
+        if self.imu_kind not in (None, kind):
+            return
+        reading = imu_specific_force(msg)
+        if reading is None:
+            self.rejected += 1
+            return
+        self.imu_kind = kind
+        self.imu_ms, self.accel_body = reading
+
+    def imu_fresh(self) -> bool:
+        """True when an IMU sample within IMU_FRESH_MS of the attitude's time is there."""
+        return (self.imu_ms is not None and self.attitude_ms is not None
+                and abs(self.attitude_ms - self.imu_ms) <= IMU_FRESH_MS)
+
     def ready(self) -> bool:
         """True once attitude and position have both arrived."""
         return self.attitude_ms is not None and self.position_ms is not None
@@ -98,8 +142,9 @@ class StateEstimate:
 
     def motion_sample(self) -> MotionSample:
         """What the wave source sees at the attitude's time: attitude, body rates, NED position and velocity
-        (relative to home); no accelerations yet (SCALED_IMU is not streamed)."""
+        (relative to home), and the IMU's body specific force when a fresh one is there (else None)."""
         if not self.ready():
             raise ValueError("state: no attitude or position received yet")
+        accel = self.accel_body.copy() if self.imu_fresh() and self.accel_body is not None else None
         return MotionSample((self.attitude_ms or 0) / 1000.0, self.attitude[0:3].copy(), self.attitude[3:6].copy(),
-                            self.position_ned.copy(), self.velocity_ned.copy(), None)
+                            self.position_ned.copy(), self.velocity_ned.copy(), accel)

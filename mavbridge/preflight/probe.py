@@ -64,7 +64,9 @@ def measure_window(link: Any, names: tuple[str, ...]) -> dict[str, float] | None
     def count(msg: Any) -> bool:
         heard[0] = True
         stamp = getattr(msg, "time_boot_ms", None)
-        if stamp is None:
+        if stamp is None:  # RAW_IMU (time_usec): counted within the window the stamped messages open
+            if first_ms and msg.get_type() in counts:
+                counts[msg.get_type()] += 1
             return False
         if not first_ms or stamp < first_ms[0] - 5000:  # first stamp, or the autopilot rebooted
             first_ms[:] = [stamp]
@@ -162,10 +164,26 @@ class Probe:
         streams.restore_configured(link)
         rate_findings(self.report, "as configured", measure_window(link, tuple(needs)), needs, configure_fix)
         streams.request_streams(link, self.period_s, self.log)
-        rate_findings(self.report, "after request", measure_window(link, tuple(needs)), needs,
+        rates = measure_window(link, (*needs, *streams.IMU_MEASURED))
+        rate_findings(self.report, "after request", rates, needs,
                       lambda msg: "the autopilot did not honour SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM: "
                                   "check the link's bandwidth (baud) and " + configure_fix(msg))
+        self.imu(rates, stream_params(lambda n: self._read(link, n), self.port, "RAW_SENS")[0])
         streams.restore_configured(link)
+
+    def imu(self, rates: dict[str, float] | None, param: str) -> None:
+        """Whether an IMU stream arrives after the request: WARN if not (the wave estimator then needs the
+        GPS height, which is noisier and lags)."""
+        name, rate = streams.imu_rate(rates or {})
+        need = 1.0 / self.period_s
+        expected = f"SCALED_IMU/RAW_IMU >= {need:g} Hz"
+        fix = (f"set {param} {math.ceil(streams.IMU_HZ)} for the companion's port (or check the INS); without it "
+               "the wave estimator needs the GPS height")
+        if name is None:
+            self.report.add(WARN, "IMU stream after request", expected, "none arrives", fix)
+        else:
+            self.report.add(PASS if rate >= need else WARN, "IMU stream after request", expected,
+                            f"{name} {rate:.1f} Hz", fix)
 
     def gps_and_home(self, link: Any) -> None:
         """GPS_RAW_INT fix type and HOME_POSITION, each asked for with MAV_CMD_REQUEST_MESSAGE."""

@@ -5,7 +5,10 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -20,9 +23,12 @@ from mavbridge.outputs import RcSetup
 from mavbridge.preflight.rules import Context
 from mavbridge.runlog import LOG_COLUMNS, STATE_COLUMNS, RunRecorder, run_metrics
 from mavbridge.scenario import Scenario, scenario_from_mapping
-from mavbridge.seasource import SCENARIO_TRUTH, ScenarioTruth, WaveEstimate
+from mavbridge.seasource import SCENARIO_TRUTH, MotionSample, ScenarioTruth, WaveEstimate
 from mavbridge.state import StateEstimate
+from mavbridge.wave_gate import WaveGate, make_wave_source
+from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea
 from vessel import NX_RIGID, STATE_NAMES, CalmWater, otter_parameters
+from vessel.geo import latlon_from_ned
 
 CTX = Context(system_id=255, output="rc_override", period_s=0.1, acceptance_m=2.0)
 TINY = {"name": "tiny", "sea": {"height_m": 1.0, "length_m": 30.0, "period_s": 5.0, "travel_dir_deg": -90.0},
@@ -154,3 +160,181 @@ def test_control_steps_keep_to_the_autopilot_clock() -> None:
     assert schedule(5120, tick, 100) == (True, 5200, 0)
     assert schedule(5430, 5200, 100) == (True, 5500, 2)  # 5200 and 5300 were missed, 5400 runs late
     assert schedule(300, 5500, 100) == (True, 400, 0)  # the autopilot rebooted: its clock starts again
+
+
+# ------------------------------------------------------------------ the IMU and the estimated wave, end to end
+def test_imu_messages_become_body_specific_force_on_the_autopilot_clock() -> None:
+    """SCALED_IMU (mG, FRD): level at rest reads z ≈ −1000 mG = −g; RAW_IMU is stamped by time_usec."""
+    state = StateEstimate()
+    state.set_home(-35.0, 149.0)
+    state.on_message(mavlink.MAVLink_global_position_int_message(1000, -350000000, 1490000000, 0, 0, 0, 0, 0, 0))
+    state.on_message(mavlink.MAVLink_attitude_message(1000, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    assert state.motion_sample().accel_body is None  # nothing streamed yet
+    state.on_message(mavlink.MAVLink_scaled_imu_message(990, 12, -30, -1000, 0, 0, 0, 0, 0, 0))
+    np.testing.assert_allclose(state.motion_sample().accel_body, np.array([12, -30, -1000]) * 9.80665e-3)
+    assert state.imu_kind == "SCALED_IMU"
+    state.on_message(mavlink.MAVLink_raw_imu_message(995_000, 0, 0, -500, 0, 0, 0, 0, 0, 0))
+    assert state.imu_ms == 990  # the first kind that arrived is the one used
+    state.on_message(mavlink.MAVLink_attitude_message(1300, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    assert state.motion_sample().accel_body is None  # 310 ms old: not handed on as if current
+    other = StateEstimate()
+    other.on_message(mavlink.MAVLink_raw_imu_message(2_500_000, 0, 0, 0, 0, 0, 0, 0, 0, 0))
+    assert other.imu_ms is None and other.rejected == 1  # all zeros: no IMU behind it
+    other.on_message(mavlink.MAVLink_raw_imu_message(2_500_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
+    assert other.imu_ms == 2500 and other.imu_kind == "RAW_IMU"
+
+
+HOME_LL = (-35.0, 149.0)
+T0_MS = 123_450  # the autopilot's boot clock, unrelated to the sea's time origin
+
+
+def _messages(sample: MotionSample, with_imu: bool) -> list[Any]:
+    """What an ArduPilot Rover streams for one motion sample: ATTITUDE, positions, SCALED_IMU (mG)."""
+    ms = T0_MS + round(sample.t_s * 1000)
+    lat, lon = latlon_from_ned(*HOME_LL, float(sample.position_ned[0]), float(sample.position_ned[1]))
+    v, pos = sample.velocity_ned, sample.position_ned
+    out = [mavlink.MAVLink_attitude_message(ms, *map(float, sample.attitude), *map(float, sample.rates)),
+           mavlink.MAVLink_global_position_int_message(ms, round(lat * 1e7), round(lon * 1e7), 0,
+                                                       round(-pos[2] * 1000), *(round(c * 100) for c in v), 0),
+           mavlink.MAVLink_local_position_ned_message(ms, *map(float, pos), *map(float, v))]
+    if with_imu and sample.accel_body is not None:
+        out.append(mavlink.MAVLink_scaled_imu_message(ms, *(round(f / 9.80665e-3) for f in sample.accel_body),
+                                                      0, 0, 0, 0, 0, 0))
+    return out
+
+
+@dataclass
+class Flight:
+    """What the companion's wave path did over one synthetic stream."""
+
+    gate: WaveGate
+    state: StateEstimate
+    lines: list[str]
+    confident: list[tuple[float, bool]]  # (autopilot s, roll term on) per control step
+    samples_seen: int
+
+    def confident_between(self, t_from: float, t_to: float) -> list[bool]:
+        return [on for t, on in self.confident if t_from <= t - T0_MS / 1000 < t_to]
+
+
+@pytest.fixture(scope="module")
+def nmpc() -> Any:
+    """One real NMPC (rti, short horizon) for the wave-path tests."""
+    base = Scenario(name="balanced")
+    scenario = dataclasses.replace(base, controller=base.controller.replace(horizon=8, solver="rti"))
+    return build_nmpc(scenario, ScenarioTruth(CalmWater()))
+
+
+def _fly(nmpc: Any, seconds: float, heading: Callable[[float], float] = lambda t: math.pi / 2,
+         speed: float = 1.5, heave: bool = True, with_imu: bool = True,
+         edit: Callable[[float, MotionSample], MotionSample] | None = None) -> Flight:
+    """The companion's wave path on a kinematic boat in the paper's sea, through real MAVLink messages:
+    StateEstimate → WaveGate(WaveEstimator) every ATTITUDE (20 Hz) → set_wave + a real solve at 10 Hz.
+    Every solve's input must be finite (asserted here)."""
+    boat = KinematicBoat(paper_sea(1.234), speed, heading, heave=heave)
+    state, lines = StateEstimate(), []
+    state.set_home(*HOME_LL)
+    gate = WaveGate(make_wave_source("estimated", None), lines.append)
+    nmpc.set_wave(None)
+    confident, seen = [], 0
+    for i, sample in enumerate(motion_samples(boat, seconds, seed=4)):
+        sample = edit(sample.t_s, sample) if edit else sample
+        for msg in _messages(sample, with_imu):
+            state.on_message(msg)
+        if state.ready():
+            seen += 1
+            gate.observe(state.motion_sample())
+        if i % 2 == 1 and state.ready():
+            t = (state.attitude_ms or 0) / 1000.0
+            gate.step(nmpc, t)
+            x = state.vector()
+            assert np.all(np.isfinite(x)), f"a non-finite state at t = {t}"
+            result = nmpc.solve(x, t, (200.0, 200.0))
+            assert np.all(np.isfinite(result.tau)), f"a non-finite input at t = {t}: {result.status}"
+            assert result.roll_term_active == bool(gate.confident)
+            confident.append((t, bool(gate.confident)))
+    return Flight(gate, state, lines, confident, seen)
+
+
+def test_estimated_waves_switch_the_roll_term_on_once_confident_and_say_so(nmpc: Any) -> None:
+    flight = _fly(nmpc, 40.0)
+    assert flight.lines[0].startswith("waves (estimated): no confident estimate yet: flying without the roll term")
+    assert flight.confident_between(0.0, 3.0) == [False] * len(flight.confident_between(0.0, 3.0))
+    assert any(flight.confident_between(30.0, 40.0)), flight.gate.summary([])
+    assert any("confident: towards 270 deg" in line for line in flight.lines), flight.lines
+    summary = flight.gate.summary([1.0] * flight.gate.steps)
+    assert 0 < summary["roll_term_fraction"] < 1 and 0 < summary["time_to_confident_s"] <= 30.0
+    assert summary["final"]["wave_period_s"] == pytest.approx(6.0, rel=0.05)
+    assert summary["estimator_ms_median"] > 0 and summary["step_ms_median"] > 1.0  # the estimator is in the step
+
+
+def _nan_attitude(t: float, s: MotionSample) -> MotionSample:
+    return dataclasses.replace(s, attitude=np.full(3, math.nan)) if 32.0 <= t < 36.0 else s
+
+
+def _frozen_attitude(t: float, s: MotionSample) -> MotionSample:
+    if 32.0 <= t:
+        return dataclasses.replace(s, attitude=np.array([0.02, -0.01, math.pi / 2]), rates=np.zeros(3))
+    return s
+
+
+@pytest.mark.parametrize("edit", [_nan_attitude, _frozen_attitude], ids=["nan-attitude", "frozen-attitude"])
+def test_bad_attitude_degrades_to_no_roll_term_and_never_a_nan_input(nmpc: Any, edit: Callable) -> None:
+    flight = _fly(nmpc, 44.0, edit=edit)
+    assert any(flight.confident_between(20.0, 32.0)), "not confident before the fault"
+    assert not any(flight.confident_between(37.0, 38.5)), "still flying on the wave after the fault"
+    assert any("estimate no longer confident" in line for line in flight.lines), flight.lines
+    if edit is _nan_attitude:
+        assert flight.state.rejected >= 70  # every NaN ATTITUDE was dropped before the estimator saw it
+
+
+def test_a_heading_jump_drops_the_confidence_and_it_comes_back(nmpc: Any) -> None:
+    flight = _fly(nmpc, 60.0, heading=lambda t: math.pi / 2 if t < 30.0 else 0.0)
+    assert any(flight.confident_between(20.0, 30.0))
+    assert not any(flight.confident_between(30.5, 33.0)), "confident right after a 90° jump in heading"
+    changes = [line for line in flight.lines if " at t = " in line]
+    assert any("no longer confident" in line for line in changes)
+    assert flight.gate.changes >= 2 or not any(flight.confident_between(45.0, 60.0))
+
+
+def test_a_missing_imu_stream_uses_the_gps_height(nmpc: Any) -> None:
+    flight = _fly(nmpc, 40.0, with_imu=False)
+    assert flight.state.imu_kind is None and flight.state.motion_sample().accel_body is None
+    last = flight.gate.last
+    assert last is not None and last.extras.get("heave_source") == 2.0  # the GPS height
+    assert all(math.isfinite(v) for v in last.row().values())
+
+
+def test_a_boat_at_rest_without_heave_never_gets_a_roll_term(nmpc: Any) -> None:
+    """No heave and no speed: no Doppler, no wavenumber; the controller stays Direct, inputs finite."""
+    flight = _fly(nmpc, 40.0, speed=0.0, heave=False)
+    assert flight.confident and not any(on for _, on in flight.confident)
+    assert flight.gate.summary([])["roll_term_fraction"] == 0.0 and flight.gate.changes == 0
+    assert flight.samples_seen >= 790
+
+
+@dataclass
+class FixedEstimate:
+    """A wave source that always answers one estimate (as a confident estimator might, right or wrong)."""
+
+    answer: WaveEstimate
+    name: str = "fixed"
+
+    def observe(self, sample: MotionSample) -> None:
+        """Nothing to learn."""
+
+    def estimate(self, t_s: float) -> WaveEstimate | None:
+        return self.answer
+
+
+def test_a_confident_estimate_the_wave_model_refuses_means_no_roll_term_not_a_crash(nmpc: Any) -> None:
+    lines: list[str] = []
+    steep = WaveEstimate(6.0, 3.0, 20.0, 0.0, 0.0, 0.9)  # H/λ = 0.3: a breaking wave
+    gate = WaveGate(FixedEstimate(steep), lines.append)
+    for t in (1.0, 1.1, 1.2):
+        gate.step(nmpc, t)
+    assert not nmpc.roll_term_active and gate.roll_steps == 0
+    assert sum("outside the wave model" in line for line in lines) == 1 and "height_m" in lines[0]
+    gate.source = FixedEstimate(WaveEstimate(1.75, 6.0, 35.0, -math.pi / 2, 0.3, 0.9))
+    gate.step(nmpc, 1.3)
+    assert nmpc.roll_term_active and gate.changes == 1 and "roll term on" in lines[-1]

@@ -188,7 +188,7 @@ class Garbage(threading.Thread):
 def test_balanced_rc_override_reaches_the_waypoint_like_the_experiment(sitl: SimProcess, companion_factory) -> None:
     """Also: garbage and another system on the companion's port change nothing; the period holds at speedup."""
     port = sitl.udp_ports[0]
-    companion = companion_factory(port)
+    companion = companion_factory(port, "--waves", "scenario")  # the in-process reference also flies on truth
     assert companion.wait_line("phase: engaged", 60), "\n".join(companion.lines)
     garbage = Garbage(port)
     garbage.start()

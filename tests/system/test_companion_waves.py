@@ -1,0 +1,118 @@
+"""The companion flies on the estimated wave, never on the simulator's sea: real processes over UDP loopback.
+
+`sim-vehicle` runs a sea that differs from the companion's scenario (another direction, period and
+length); `mavbridge run` with its default ``--waves estimated`` must fly to the waypoint, and whatever it
+estimated (companion.csv) must be the simulator's sea, not the scenario's. On a simulator with ideal
+sensors and a hull that does not heave (the paper's plant) the estimator has only the slopes and the
+Doppler shift, so a confident estimate is not guaranteed: every confident row must match the simulator's
+sea. Once the simulator streams an IMU and heaves the hull (`SCALED_IMU` arrives), a confident estimate
+that matches is required.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import subprocess
+import sys
+from contextlib import redirect_stdout
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from mavbridge.cli import main
+from mavbridge.link import mavlink
+from mavbridge.preflight.report import PASS, WARN
+from mavbridge.scenario import Scenario
+from sim_vehicle.harness import SimProcess
+
+HOME = "--home=-35.363261,149.165230,584,90"
+ROOT = Path(__file__).resolve().parents[2]
+# The simulator's sea: towards north (0°), 5 s, 25 m; the scenario's (the paper's): towards -90°, 6 s, 35 m.
+SIM_SEA = {"height_m": 1.5, "length_m": 25.0, "period_s": 5.0, "travel_dir_deg": 0.0}
+pytestmark = pytest.mark.slow
+
+
+def _angle_deg(a: float, b: float) -> float:
+    """|a - b| in degrees, wrapped to [0, 180]."""
+    return abs(math.remainder(a - b, 360.0))
+
+
+def _run_companion(port: int, out: Path, *extra: str) -> tuple[int, str]:
+    """`mavbridge run` (default waves) to a waypoint 113 m away; (exit code, its output)."""
+    cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{port}", "--solver",
+           "asrti", "--arm", "--set-mode", "--out", str(out), "--waypoint", "85,75", *extra]
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=420)
+    except subprocess.TimeoutExpired as exc:
+        raise AssertionError(f"mavbridge run did not finish within 420 s:\n{exc.stdout}") from None
+    return done.returncode, done.stdout + done.stderr
+
+
+def _rows(out: Path) -> list[dict[str, str]]:
+    with (out / "companion.csv").open() as stream:
+        return list(csv.DictReader(stream))
+
+
+def test_the_companion_estimates_the_simulators_sea_not_the_scenarios(tmp_path: Path) -> None:
+    scenario_sea = Scenario(name="balanced").sea.waves()
+    assert abs(scenario_sea.period_s - SIM_SEA["period_s"]) > 0.5  # the two seas really differ
+    sea = ",".join(f"{SIM_SEA[k]:g}" for k in ("height_m", "length_m", "period_s", "travel_dir_deg"))
+    with SimProcess(tmp_path / "sim", speedup=5, waves=None, extra=[HOME, "--wipe", "--sea", sea],
+                    udp_outs=1) as sim:
+        code, text = _run_companion(sim.udp_ports[0], tmp_path / "run")
+    assert code == 0, text[-3000:]
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert metrics["phase"] == "ARRIVED" and metrics["wave_source"] == "estimated", text[-2000:]
+    assert "no confident estimate yet: flying without the roll term" in text
+    rows = _rows(tmp_path / "run")
+    for row in rows:  # never a NaN command
+        assert all(math.isfinite(float(row[c])) for c in ("tau_x_n", "tau_n_nm", "steering_pwm_us", "throttle_pwm_us"))
+    confident = [r for r in rows if r["wave_confidence"] and float(r["wave_confidence"]) >= 0.5]
+    waves = metrics["waves"]
+    assert waves["roll_term_fraction"] == pytest.approx(len(confident) / len(rows), abs=1e-3)
+    for row in rows:
+        if row["wave_period_s"]:
+            assert all(math.isfinite(float(row[c])) for c in ("wave_period_s", "wave_length_m", "wave_dir_deg",
+                                                              "wave_height_m", "wave_phase_rad"))
+    for row in confident:  # whatever it was confident about is the simulator's sea
+        assert float(row["wave_period_s"]) == pytest.approx(SIM_SEA["period_s"], rel=0.10), row
+        assert _angle_deg(float(row["wave_dir_deg"]), SIM_SEA["travel_dir_deg"]) < 20.0, row
+    imu = metrics["rates_hz"].get("SCALED_IMU", 0.0) + metrics["rates_hz"].get("RAW_IMU", 0.0)
+    print(f"\nsim sea {SIM_SEA}; IMU {imu} Hz; waves summary {waves}; confident steps {len(confident)}/{len(rows)}")
+    if imu > 0:  # a heaving hull and an IMU: the estimate must be there, and right
+        assert confident, f"no confident estimate with an IMU stream: {waves}"
+        final = confident[-1]
+        assert float(final["wave_period_s"]) == pytest.approx(SIM_SEA["period_s"], rel=0.05)
+        assert float(final["wave_length_m"]) == pytest.approx(SIM_SEA["length_m"], rel=0.15)
+        assert _angle_deg(float(final["wave_dir_deg"]), SIM_SEA["travel_dir_deg"]) < 10.0
+
+
+def _streams(conn: Any, name: str) -> bool:
+    """Ask the simulator directly (SET_MESSAGE_INTERVAL, 20 Hz) for ``name``; True if it is accepted and arrives."""
+    conn.mav.command_long_send(1, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                               getattr(mavlink, f"MAVLINK_MSG_ID_{name}"), 50_000, 0, 0, 0, 0, 0)
+    ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=10)
+    return ack is not None and ack.result == mavlink.MAV_RESULT_ACCEPTED and \
+        conn.recv_match(type=name, blocking=True, timeout=5) is not None
+
+
+def test_check_reports_whether_the_imu_stream_arrives(tmp_path: Path) -> None:
+    """`mavbridge check`: PASS with the rate when SCALED_IMU/RAW_IMU arrives after the request, else WARN."""
+    with SimProcess(tmp_path / "sim", speedup=5, waves="paper", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+        probe = sim.connect()
+        streamed = any(_streams(probe, name) for name in ("SCALED_IMU", "RAW_IMU"))
+        out = io.StringIO()
+        with redirect_stdout(out):
+            main(["check", "--config", str(ROOT / "deploy" / "companion-sim.yaml"),
+                  "--connect", f"udpin:127.0.0.1:{sim.udp_ports[0]}", "--timeout", "10", "--waypoint", "85,75",
+                  "--solves", "0"])
+    lines = [line for line in out.getvalue().splitlines() if "IMU stream after request" in line]
+    assert len(lines) == 1, out.getvalue()
+    if streamed:
+        assert lines[0].startswith(PASS) and "Hz" in lines[0], lines[0]
+    else:
+        assert lines[0].startswith(WARN) and "none arrives" in lines[0] and "GPS height" in lines[0], lines[0]
