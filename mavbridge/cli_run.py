@@ -44,6 +44,9 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
     run.add_argument("--max-time", type=float, help="stop after this many seconds engaged (autopilot time)")
     run.add_argument("--out", help="run folder for tlog, CSV and metrics (default runs/companion-<time>)")
+    run.add_argument("--lockstep", action="store_true", default=None,
+                     help="simulation only, against sim-vehicle --lockstep: wait for each solve fully, no "
+                          "wall-clock deadline (reproducible runs; never on a real boat)")
 
 
 def add_demo_parser(sub: Any) -> None:
@@ -70,11 +73,12 @@ def run_command(args: argparse.Namespace) -> int:
     if args.dry_run and (args.arm or args.set_mode):
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
-                                   component_id=args.compid, output=args.output, max_time_s=args.max_time)
+                                   component_id=args.compid, output=args.output, max_time_s=args.max_time,
+                                   lockstep=args.lockstep)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
     waves = ScenarioTruth(scenario.sea.waves())  # the only source so far: simulation truth, logged as such
-    nmpc = build_nmpc(scenario, waves)  # seconds of building, before any link is open
+    nmpc = build_nmpc(scenario, waves, config.lockstep)  # seconds of building, before any link is open
     return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode, args.dry_run).run()
 
 

@@ -60,6 +60,9 @@ class CompanionConfig:
     lookahead_steps: int = bounded(5, 1, 400, "steps", "attitude_target: plan step whose heading/speed is sent")
     on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
     max_time_s: float | None = bounded(None, 0.1, 1e6, "s", "end the run after this much autopilot time engaged")
+    lockstep: bool = bounded(False, doc="simulation only, against `sim-vehicle --lockstep`: the simulator waits "
+                             "for each command, so a step waits for asrti's background solve fully and has no "
+                             "wall-clock deadline (a real boat never waits: leave false there)")
 
     def __post_init__(self) -> None:
         for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS)):
@@ -78,12 +81,15 @@ def load_companion_config(path: str | Path | None, **overrides: Any) -> Companio
     return from_mapping(CompanionConfig, data, str(path) if path else "configuration")
 
 
-def build_nmpc(scenario: Scenario, waves: WaveSource) -> RollAwareNmpc:
+def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) -> RollAwareNmpc:
     """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
     when it has none). A step waits for asrti's background solve for a quarter period at most, never the
-    whole period. Built before connecting: it takes seconds."""
+    whole period (in ``lockstep``, simulation only, the scenario's full ``as_wait_s``: wall time does not
+    pass for the boat, and a result that depends on the machine's load would not be reproducible).
+    Built before connecting: it takes seconds."""
     controller = scenario.controller
-    controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
+    if not lockstep:
+        controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
     estimate = waves.estimate(0.0)
     field = estimate.field() if estimate is not None else CalmWater()
     return RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
@@ -222,7 +228,8 @@ class Companion:
             self._finish_at_waypoint(link, now_ms)
             return
         phase, wave = self.supervisor.phase.name, wave_step(self.waves, self.nmpc, now_ms / 1000.0)
-        result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=self.period_s)
+        deadline_s = None if self.config.lockstep else self.period_s  # lockstep: late is not a fault
+        result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=deadline_s)
         try:
             columns = self.output.command(link, result, now_ms)
         except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN

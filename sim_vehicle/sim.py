@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import select
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,8 @@ from vessel.geo import Home
 from .battery import Battery
 from .clock import Pacer
 from .gcs import Gcs
+from .link import Channel
+from .lockstep import DEFAULT_TIMEOUT_S, Lockstep
 from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
 from .modes import Mode
@@ -51,6 +54,8 @@ class Options:
     duration_s: float | None = None
     serial: tuple[str, int | None] | None = None  # (device, baud or None = from SERIAL2_BAUD), served as SERIAL2
     wait_for_client: bool = False  # hold simulated time at 0 until the first MAVLink message arrives
+    lockstep_period_s: float | None = None  # lockstep with the controller at this control period (None: paced)
+    lockstep_timeout_s: float = DEFAULT_TIMEOUT_S  # wall seconds a lockstep tick waits for its command
 
 
 class Simulator:
@@ -94,6 +99,25 @@ class Simulator:
             self._open_serial(*opts.serial)
         self.running = True
         self.n_cmd = (0.0, 0.0)
+        self.lockstep = self._make_lockstep()
+        self._controller_channel: int | None = None  # id() of the channel the controller commands on
+
+    def _make_lockstep(self) -> Lockstep | None:
+        """--lockstep: the controller is SYSID_MYGCS, as for RC overrides; its commands are watched here."""
+        if self.opts.lockstep_period_s is None:
+            return None
+        lock = Lockstep(self.opts.lockstep_period_s, self.opts.lockstep_timeout_s, int(self.params["SYSID_MYGCS"]))
+        self.gcs.lockstep_order = True
+        self.gcs.message_hooks.append(self._watch_commands)
+        return lock
+
+    def _watch_commands(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """Feed every incoming message to the lockstep; remember the channel the controller commands on."""
+        assert self.lockstep is not None
+        was = self.lockstep.command_arrived()
+        self.lockstep.on_message(msg.get_type(), msg.get_srcSystem())
+        if self.lockstep.command_arrived() and not was:
+            self._controller_channel = id(channel)
 
     def _open_serial(self, device: str, baud: int | None) -> None:
         """The companion's port, as SERIAL2 of an autopilot: MAVLink only if SERIAL2_PROTOCOL says so, SR2_* rates."""
@@ -170,12 +194,38 @@ class Simulator:
                 if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
                     break
                 self.step()
+                if self.lockstep is not None:
+                    self._hold_for_command(self.lockstep, pacer)
                 pacer.wait_until(plant.time)
                 if self.csv is not None and time.monotonic() - last_flush > CSV_FLUSH_S:
                     self.csv.flush()
                     last_flush = time.monotonic()
         finally:
             self.close()
+
+    def _hold_for_command(self, lock: Lockstep, pacer: Pacer) -> None:
+        """At a lockstep tick (this step sent ATTITUDE to the controller), read the links until its command.
+
+        Messages handled while holding are stamped with the tick's time; nothing is sent, so the order of
+        what the controller saw for this tick is fixed. Pacing restarts after the hold (no catching up).
+        """
+        now = self.physics.plant.time
+        sent = self.gcs.last_sent.get(self._controller_channel or 0, [])
+        if not lock.is_tick(now, mavlink.MAVLINK_MSG_ID_ATTITUDE in sent):
+            return
+        self.vehicle.now = now
+        start = time.monotonic()
+        while self.running and not lock.command_arrived():
+            waited = time.monotonic() - start
+            if waited > lock.timeout_s:
+                lock.timed_out(now, waited)
+                break
+            self.gcs.poll(now)
+            if not lock.command_arrived():
+                select.select(self.gcs.fileno_list(), [], [], HOLD_POLL_S)
+        if lock.command_arrived():
+            lock.released(time.monotonic() - start)
+        pacer.restart(now)
 
     def _hold_until_a_client_speaks(self) -> None:
         """Keep simulated time at 0, reading (and answering) the links, until some client sends a message.
@@ -190,7 +240,9 @@ class Simulator:
         self.boot_unix_us = self.telemetry.boot_unix_us = int(time.time() * 1e6)  # the clock starts now
 
     def close(self) -> None:
-        """Close sockets and logs."""
+        """Close sockets and logs (and say what lockstep did)."""
+        if self.lockstep is not None:
+            log.warning(self.lockstep.stats.summary())
         self.gcs.close()
         if self.csv is not None:
             self.csv.close()
