@@ -47,6 +47,8 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--lockstep", action="store_true", default=None,
                      help="simulation only, against sim-vehicle --lockstep: wait for each solve fully, no "
                           "wall-clock deadline (reproducible runs; never on a real boat)")
+    run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
+                                                                  "before: comparable runs start in the same world")
 
 
 def add_demo_parser(sub: Any) -> None:
@@ -74,7 +76,7 @@ def run_command(args: argparse.Namespace) -> int:
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
-                                   lockstep=args.lockstep)
+                                   lockstep=args.lockstep, start_at_s=args.start_at)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
     waves = ScenarioTruth(scenario.sea.waves())  # the only source so far: simulation truth, logged as such

@@ -63,6 +63,8 @@ class CompanionConfig:
     lockstep: bool = bounded(False, doc="simulation only, against `sim-vehicle --lockstep`: the simulator waits "
                              "for each command, so a step waits for asrti's background solve fully and has no "
                              "wall-clock deadline (a real boat never waits: leave false there)")
+    start_at_s: float | None = bounded(None, 0.0, 1e6, "s", "command from this autopilot time on, not before "
+                                       "(simulation comparisons: every run starts from the same world state)")
 
     def __post_init__(self) -> None:
         for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS)):
@@ -176,6 +178,7 @@ class Companion:
         self._commanding = False
         self._last_command_wall = 0.0
         self._in_loop = False
+        self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
 
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
@@ -221,9 +224,11 @@ class Companion:
                 self.output.neutral(link, self.state)  # never leave the last command running on old data
             return
         x = self.state.vector()
+        target = self.mission.target(float(x[0]), float(x[1]))
         if self.events.engaged_at_ms is None:
             self.events.engaged_at_ms = now_ms
-        target = self.mission.target(float(x[0]), float(x[1]))
+            if self.config.start_at_s is not None and target is not None:  # the cold solve here, from this state
+                self.nmpc.prepare(x, now_ms / 1000.0, target)
         if target is None:
             self._finish_at_waypoint(link, now_ms)
             return
@@ -334,7 +339,7 @@ class Companion:
             if not self._service_link(link):
                 break
             now_ms = self.state.attitude_ms
-            if now_ms is None:
+            if now_ms is None or now_ms < self._start_ms:
                 continue
             due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
             if not due:

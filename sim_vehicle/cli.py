@@ -169,7 +169,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="hold simulated time at 0 until a client sends its first MAVLink message (as SITL waits for SERIAL0)",
     )
-    lockstep.add_arguments(p)  # --lockstep, --lockstep-timeout
+    lockstep.add_arguments(p)  # --lockstep, --lockstep-timeout, --lockstep-start
     p.add_argument("-v", "--verbose", action="store_true", help="log STATUSTEXT and connections to stderr")
     p.add_argument("--json-backend", nargs="?", metavar="[HOST:]PORT",
                    help="instead: physics only, for the real ArduPilot firmware (--model JSON:HOST), default "
@@ -266,6 +266,7 @@ def main(argv: list[str] | None = None) -> int:
             wait_for_client=args.wait_for_client,
             lockstep_period_s=args.lockstep,
             lockstep_timeout_s=args.lockstep_timeout,
+            lockstep_start_s=args.lockstep_start,
         )
         sim = Simulator(opts)
     except ConfigError as exc:

@@ -190,6 +190,7 @@ class Gcs:
         self.param_server.update()
         self.missions.update(now)
         built: dict[int, mavlink.MAVLink_message | None] = {}
+        self.last_sent = {}
         for channel in self.channels:
             if channel.closed:
                 continue

@@ -8,7 +8,9 @@ from the controller arrives, or a wall-clock timeout passes (counted). The ticks
 controller's own grid (it ticks on the first ATTITUDE at or after its next tick time), whatever phase
 its first command had.
 
-Before the controller speaks, and again after ``MAX_MISSED_IN_A_ROW`` timeouts in a row (it stopped
+With a start time (``--lockstep-start S``, for runs that must repeat), the ticks are held from simulated
+time S on even before the first command, so the controller's first tick is exactly at S. Before the
+controller speaks (or S), and again after ``MAX_MISSED_IN_A_ROW`` timeouts in a row (it stopped
 commanding: arrived, released, exited), time runs at the normal pace: the companion's startup (parameters,
 mission, stream rates measured per autopilot second, arming) needs simulated time to pass while it
 sends no command.
@@ -53,6 +55,7 @@ class Lockstep:
     period_s: float = DEFAULT_PERIOD_S
     timeout_s: float = DEFAULT_TIMEOUT_S
     controller_sysid: int = 255
+    start_s: float | None = None  # engage at this simulated time even before the controller's first command
     engaged: bool = False
     stats: LockstepStats = field(default_factory=LockstepStats)
     _last_tick_s: float | None = None
@@ -65,13 +68,20 @@ class Lockstep:
             return
         self._commands += 1
         if not self.engaged:
-            self.engaged = True
-            self._missed_in_a_row = 0
-            self.stats.engagements += 1
-            log.info("lockstep engaged: system %d commands; time now waits for it at each tick", src_system)
+            self._engage(f"system {src_system} commands")
+
+    def _engage(self, why: str) -> None:
+        """From now on each tick waits for the controller's command."""
+        self.engaged = True
+        self._missed_in_a_row = 0
+        self.stats.engagements += 1
+        log.info("lockstep engaged: %s; time now waits for a command at each tick", why)
 
     def is_tick(self, sim_t: float, attitude_sent: bool) -> bool:
         """True if the step that ended at ``sim_t`` is a control tick to hold at (and starts its wait)."""
+        if self.start_s is not None and sim_t >= self.start_s - 1e-6:
+            self.start_s = None  # once: a controller that never comes is released after a few timeouts
+            self._engage(f"t = {sim_t:.2f} s (--lockstep-start)")
         if not (self.engaged and attitude_sent):
             return False
         if self._last_tick_s is not None and sim_t < self._last_tick_s + self.period_s - 1e-6:
@@ -130,4 +140,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--lockstep-timeout", type=_seconds_in(0.01, 60.0, "--lockstep-timeout"), default=DEFAULT_TIMEOUT_S,
         metavar="S", help=f"wall seconds a lockstep tick waits for its command (default {DEFAULT_TIMEOUT_S:g})",
+    )
+    p.add_argument(
+        "--lockstep-start", type=_seconds_in(0.0, 1e6, "--lockstep-start"), default=None, metavar="S",
+        help="hold from simulated time S on even before the first command (the controller's first tick, e.g. "
+             "`mavbridge run --start-at S`, then sees exactly time S, however long its startup took)",
     )

@@ -56,6 +56,7 @@ class Options:
     wait_for_client: bool = False  # hold simulated time at 0 until the first MAVLink message arrives
     lockstep_period_s: float | None = None  # lockstep with the controller at this control period (None: paced)
     lockstep_timeout_s: float = DEFAULT_TIMEOUT_S  # wall seconds a lockstep tick waits for its command
+    lockstep_start_s: float | None = None  # lockstep holds from this simulated time even before a command
 
 
 class Simulator:
@@ -105,8 +106,11 @@ class Simulator:
     def _make_lockstep(self) -> Lockstep | None:
         """--lockstep: the controller is SYSID_MYGCS, as for RC overrides; its commands are watched here."""
         if self.opts.lockstep_period_s is None:
+            if self.opts.lockstep_start_s is not None:
+                raise ConfigError("--lockstep-start needs --lockstep")
             return None
-        lock = Lockstep(self.opts.lockstep_period_s, self.opts.lockstep_timeout_s, int(self.params["SYSID_MYGCS"]))
+        lock = Lockstep(self.opts.lockstep_period_s, self.opts.lockstep_timeout_s, int(self.params["SYSID_MYGCS"]),
+                        self.opts.lockstep_start_s)
         self.gcs.lockstep_order = True
         self.gcs.message_hooks.append(self._watch_commands)
         return lock
@@ -210,7 +214,10 @@ class Simulator:
         what the controller saw for this tick is fixed. Pacing restarts after the hold (no catching up).
         """
         now = self.physics.plant.time
-        sent = self.gcs.last_sent.get(self._controller_channel or 0, [])
+        if self._controller_channel is None:  # before its first command: ATTITUDE on any channel
+            sent = [i for ids in self.gcs.last_sent.values() for i in ids]
+        else:
+            sent = self.gcs.last_sent.get(self._controller_channel, [])
         if not lock.is_tick(now, mavlink.MAVLINK_MSG_ID_ATTITUDE in sent):
             return
         self.vehicle.now = now
