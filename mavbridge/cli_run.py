@@ -63,6 +63,8 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
+    demo.add_argument("--lockstep", action="store_true", help="simulator and companion in lockstep, commanding "
+                                                              "from a fixed autopilot time: a reproducible run")
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -91,4 +93,4 @@ def demo_command(args: argparse.Namespace) -> int:
     scenario = single_scenario(args.scenario, args.solver)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(scenario, out, speedup, args.output)
+    return run_demo(scenario, out, speedup, args.output, args.lockstep)
