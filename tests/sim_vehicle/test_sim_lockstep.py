@@ -49,6 +49,20 @@ def test_a_silent_controller_is_released_after_a_few_timeouts() -> None:
     assert "3 timed out" in lock.stats.summary()
 
 
+def test_aligned_streams_fall_on_multiples_of_their_interval() -> None:
+    """Lockstep: a stream requested at any moment is sent on the same grid, so runs see the same samples."""
+    from sim_vehicle.params import ParamTable
+    from sim_vehicle.streams import Schedule
+
+    attitude = 30
+    for aligned, expected in ((True, [0.05, 0.10, 0.15]), (False, [0.063, 0.113, 0.163])):
+        schedule = Schedule(ParamTable(), 0, aligned=aligned)
+        schedule.set_interval(attitude, 50_000)
+        sent = [t for t in (0.013 + 0.001 * k for k in range(160)) if attitude in schedule.due(t)]
+        assert sent[0] == pytest.approx(0.013)  # the first one goes out at once
+        assert sent[1:4] == pytest.approx(expected, abs=1e-9)
+
+
 @pytest.mark.parametrize("flags", [["--lockstep", "0"], ["--lockstep-timeout", "-1"], ["--lockstep-start", "3"]])
 def test_bad_lockstep_flags_are_one_line_and_exit_2(tmp_path: Path, flags: list[str]) -> None:
     done = subprocess.run([*sim_vehicle_command(), "--no-tcp", "--no-out", "--params-store",
