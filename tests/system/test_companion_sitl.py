@@ -226,6 +226,7 @@ def test_balanced_rc_override_reaches_the_waypoint_like_the_experiment(sitl_lock
     on the companion's port change nothing."""
     port = sitl_lockstep.udp_ports[0]
     companion = companion_factory(port, *LOCKSTEP)
+    assert companion.wait_line("phase: engaged", 60), "\n".join(companion.lines)  # then the noise starts
     garbage = Garbage(port)
     garbage.start()
     try:
