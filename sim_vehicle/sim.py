@@ -31,6 +31,7 @@ from .vehicle import Vehicle
 log = logging.getLogger("sim_vehicle")
 CSV_FLUSH_S = 1.0
 HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is held
+RESEND_WALL_S = 0.25  # lockstep: a held tick repeats its HEARTBEAT and ATTITUDE this often (lost datagrams)
 FRAME_CLASS_BOAT = 2
 SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 
@@ -221,18 +222,33 @@ class Simulator:
         if not lock.is_tick(now, mavlink.MAVLINK_MSG_ID_ATTITUDE in sent):
             return
         self.vehicle.now = now
-        start = time.monotonic()
+        start = resent = time.monotonic()
         while self.running and not lock.command_arrived():
             waited = time.monotonic() - start
             if waited > lock.timeout_s:
                 lock.timed_out(now, waited)
                 break
+            if time.monotonic() - resent > RESEND_WALL_S:
+                self._repeat_tick()
+                resent = time.monotonic()
             self.gcs.poll(now)
             if not lock.command_arrived():
                 select.select(self.gcs.fileno_list(), [], [], HOLD_POLL_S)
         if lock.command_arrived():
             lock.released(time.monotonic() - start)
         pacer.restart(now)
+
+    def _repeat_tick(self) -> None:
+        """The held tick's HEARTBEAT and ATTITUDE again (same time, same content) to the controller's channel:
+        a lost datagram (a lossy link, or a receiver's parser thrown off by noise) must not stall the run, and
+        the controller's link watchdog keeps seeing the autopilot while it computes."""
+        attitude = self.telemetry.build(mavlink.MAVLINK_MSG_ID_ATTITUDE)
+        for channel in self.gcs.channels:  # before the first command (a start hold): every channel
+            if channel.closed or self._controller_channel not in (None, id(channel)):
+                continue
+            channel.send(self.telemetry.heartbeat())
+            if attitude is not None:
+                channel.send(attitude)
 
     def _hold_until_a_client_speaks(self) -> None:
         """Keep simulated time at 0, reading (and answering) the links, until some client sends a message.
