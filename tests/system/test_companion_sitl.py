@@ -1,10 +1,9 @@
 """The companion against the simulator: real `sim-vehicle` and `mavbridge run` processes over UDP loopback.
 
-The real-time NMPC (asrti) lets these run at speedup 5-10; every figure is in simulated time. Tests that
-compare figures run in lockstep (``sim-vehicle --lockstep``, ``mavbridge run --lockstep --start-at``): the
-simulator waits at each control tick for the companion's command and every run starts commanding at the
-same autopilot time, so a busy machine makes a run slower, never different. The paced tests check only
-what holds under load (a mode change, a kill, a link drop, a shadow run).
+Every figure is in simulated time. Tests that compare figures run in lockstep (``sim-vehicle --lockstep``,
+``mavbridge run --lockstep --start-at``): time waits at each tick for the companion's command and every run
+starts commanding at the same autopilot time, so a busy machine makes a run slower, never different. The
+paced tests check only what holds under load (a kill, a link drop, a shadow run).
 """
 
 from __future__ import annotations
@@ -33,6 +32,7 @@ from mavbridge.experiment import run_scenario
 from mavbridge.scenario import Scenario
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import HOLD as MODE_HOLD
+from tests.system.lockstep import LOCKSTEP, SIM_LOCKSTEP, assert_lockstep_run
 from tests.waits import latest_sim_seconds, set_mode
 
 HOME = "--home=-35.363261,149.165230,584,90"
@@ -153,35 +153,12 @@ def sitl(tmp_path: Path) -> Iterator[SimProcess]:
         yield sim
 
 
-START_AT_S = 250.0  # autopilot time from which lockstep runs command: after any startup (25 s wall at 10x)
-LOCKSTEP = ("--lockstep", "--start-at", str(START_AT_S))
-# a tick waits up to 20 s wall (only a hung companion times out; the first tick includes the cold solve);
-# from START_AT_S on time is held even before the first command, so the first tick is exactly START_AT_S
-SIM_LOCKSTEP = ["--lockstep", "--lockstep-timeout", "20", "--lockstep-start", str(START_AT_S)]
-
-
 @pytest.fixture
 def sitl_lockstep(tmp_path: Path) -> Iterator[SimProcess]:
     """The ``sitl`` simulator in lockstep with the companion (SYSID_MYGCS), paced at speedup 10 until it commands."""
     with SimProcess(tmp_path / "sim", speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP],
                     udp_outs=1) as sim:
         yield sim
-
-
-def lockstep_summary(sim: SimProcess) -> str:
-    """The simulator's lockstep line (ticks held, timeouts), written at exit."""
-    lines = [line for line in sim.stop().splitlines() if "lockstep:" in line and "ticks held" in line]
-    assert lines, "sim-vehicle wrote no lockstep summary"
-    return lines[-1]
-
-
-def assert_lockstep_run(metrics: dict, sim: SimProcess) -> None:
-    """A lockstep run started at START_AT_S and no tick was skipped or timed out."""
-    assert metrics["engaged_at_s"] == pytest.approx(START_AT_S, abs=1e-3), metrics
-    assert metrics["skipped_ticks"] == 0, metrics
-    summary = lockstep_summary(sim)
-    timed_out = int(summary.split(" timed out")[0].rsplit(" ", 1)[-1])
-    assert timed_out <= 1, summary  # at most the tick after the companion exited, before the sim was stopped
 
 
 @pytest.fixture
@@ -280,12 +257,10 @@ def test_balanced_attitude_target_reaches_the_waypoint(sitl_lockstep: SimProcess
 
 
 def test_operator_hold_stops_the_companion_within_one_period(tmp_path: Path, companion_factory) -> None:
-    """Lockstep (engaged at the first command): simulated time passes only at the companion's pace, so the
-    bound below is one period plus the heartbeat that reports HOLD, not what a busy machine lets through.
-    A short tick timeout: once the companion has exited, the simulator is paced again after three ticks."""
-    sitl = SimProcess(tmp_path / "sim", speedup=5, waves="paper", extra=[HOME, "--wipe", "--lockstep",
-                      "--lockstep-timeout", "1"], udp_outs=1)
-    with sitl:
+    """Lockstep (from the first command): time passes at the companion's pace, so the bound below is one period
+    plus the heartbeat reporting HOLD; a short tick timeout, so that after the companion exits time runs again."""
+    with SimProcess(tmp_path / "sim", speedup=5, waves="paper", extra=[HOME, "--wipe", "--lockstep",
+                    "--lockstep-timeout", "1"], udp_outs=1) as sitl:
         _operator_hold(sitl, companion_factory)
 
 
