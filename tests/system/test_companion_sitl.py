@@ -342,9 +342,8 @@ def test_link_drop_stops_commands_then_resumes(tmp_path: Path, companion_factory
             relay.running = False
         rows = companion.rows()
         times = np.array([float(r["t_s"]) for r in rows])
-        # a gap of at least the link timeout in autopilot time: the pause lasts >= 2 + 3 wall s (the companion's
-        # link timeout is wall time, as on a boat), i.e. >= 5 autopilot s unless the simulator ran below 0.8x
-        assert np.max(np.diff(times)) >= 2 * 2.0
+        # a gap >= the link timeout in autopilot time: the pause lasts >= 2 + 3 wall s (the link timeout is wall
+        assert np.max(np.diff(times)) >= 2 * 2.0  # time, as on a boat): >= 5 autopilot s unless below 0.8x
         assert times[-1] - times[0] > 30  # and it went on commanding after the link came back
         assert sim.proc is not None
 
