@@ -199,24 +199,16 @@ class Garbage(threading.Thread):
 
 def test_balanced_rc_override_reaches_the_waypoint_like_the_experiment(sitl_lockstep: SimProcess,
                                                                        companion_factory) -> None:
-    """Lockstep: the figures match the in-process experiment, every tick planned; garbage and another system
-    on the companion's port change nothing."""
-    port = sitl_lockstep.udp_ports[0]
-    companion = companion_factory(port, *LOCKSTEP)
-    assert companion.wait_line("phase: engaged", 60), "\n".join(companion.lines)  # then the noise starts
-    garbage = Garbage(port)
-    garbage.start()
-    try:
-        assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
-    finally:
-        garbage.running = False
+    """Lockstep: the figures match the in-process experiment, every tick planned. (No noise here: a held tick
+    has only its repeats to get through, see the killed-companion test for garbage on the port.)"""
+    companion = companion_factory(sitl_lockstep.udp_ports[0], *LOCKSTEP)
+    assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
     metrics = companion.metrics()
     assert metrics["phase"] == "ARRIVED"
     assert metrics["time_to_waypoint_s"] is not None
     assert_lockstep_run(metrics, sitl_lockstep)
     reference = run_scenario_metrics()
     assert metrics["avg_roll_deg"] == pytest.approx(reference["avg_roll_deg"], rel=0.15)
-    assert metrics["link"]["foreign"] > 0 and garbage.sent > 100  # the other system was seen and ignored
     times = np.array([float(r["t_s"]) for r in companion.rows()])
     assert np.allclose(np.diff(times), 0.1, atol=0.001)  # every period planned, in autopilot time
     print(f"\nSITL rc_override (lockstep): {metrics}\nin-process reference: {reference}")
@@ -281,10 +273,17 @@ def _operator_hold(sitl: SimProcess, companion_factory: Callable[..., Companion]
 
 
 def test_killed_companion_leaves_the_boat_stopped_by_the_failsafe(sitl: SimProcess, companion_factory) -> None:
+    """Paced, with garbage and another system's heartbeats on the companion's port: it keeps commanding."""
     companion = companion_factory(sitl.udp_ports[0])
     assert companion.wait_line("phase: engaged", 60)
+    garbage = Garbage(sitl.udp_ports[0])  # once the companion has found its autopilot
+    garbage.start()
     gcs = sitl.connect(source_system=250)
-    await_commanding(gcs)
+    try:
+        await_commanding(gcs)
+    finally:
+        garbage.running = False
+    assert garbage.sent > 10
     companion.proc.send_signal(signal.SIGKILL)
     companion.proc.wait()
     t_kill = latest_sim_seconds(gcs)
