@@ -61,8 +61,9 @@ class CompanionConfig:
     on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
     max_time_s: float | None = bounded(None, 0.1, 1e6, "s", "end the run after this much autopilot time engaged")
     lockstep: bool = bounded(False, doc="simulation only, against `sim-vehicle --lockstep`: the simulator waits "
-                             "for each command, so a step waits for asrti's background solve fully and has no "
-                             "wall-clock deadline (a real boat never waits: leave false there)")
+                             "for each command, so a step waits for asrti's background solve fully, has no "
+                             "wall-clock deadline and no wall-clock stand-down (a real boat never waits: leave "
+                             "false there)")
     start_at_s: float | None = bounded(None, 0.0, 1e6, "s", "command from this autopilot time on, not before "
                                        "(simulation comparisons: every run starts from the same world state)")
 
@@ -324,7 +325,8 @@ class Companion:
         if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
             self.supervisor.stop(f"link lost for more than {self.config.max_link_outage_s:g} s")
             return False
-        if self._commanding and time.monotonic() - self._last_command_wall > 3 * self.period_s:
+        if self._commanding and not self.config.lockstep and time.monotonic() - self._last_command_wall > \
+                3 * self.period_s:  # (in lockstep the boat's time waits for us: a late step is not stale)
             self._stand_down(link)  # no fresh step for three periods (no ATTITUDE): stop pushing
         return True
 
