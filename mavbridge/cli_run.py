@@ -46,6 +46,11 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
     run.add_argument("--max-time", type=float, help="stop after this many seconds engaged (autopilot time)")
     run.add_argument("--out", help="run folder for tlog, CSV and metrics (default runs/companion-<time>)")
+    run.add_argument("--lockstep", action="store_true", default=None,
+                     help="simulation only, against sim-vehicle --lockstep: wait for each solve fully, no "
+                          "wall-clock deadline (reproducible runs; never on a real boat)")
+    run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
+                                                                  "before: comparable runs start in the same world")
 
 
 def add_demo_parser(sub: Any) -> None:
@@ -62,6 +67,8 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
                       help="the companion's waves: estimated (default) or scenario (fly on the simulator's truth)")
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
+    demo.add_argument("--lockstep", action="store_true", help="simulator and companion in lockstep, commanding "
+                                                              "from a fixed autopilot time: a reproducible run")
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -75,11 +82,11 @@ def run_command(args: argparse.Namespace) -> int:
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
-                                   waves=args.waves)
+                                   waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s)
-    with build_nmpc(scenario, waves) as nmpc:  # seconds of building, before any link is open; closed after
+    with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
         return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                          args.dry_run).run()
 
@@ -91,4 +98,4 @@ def demo_command(args: argparse.Namespace) -> int:
     scenario = single_scenario(args.scenario, args.solver)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(scenario, out, speedup, args.output, args.waves)
+    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep)

@@ -69,6 +69,12 @@ class CompanionConfig:
                                     "simulator), -1 a real hull")
     wave_position_lag_s: float = bounded(0.0, 0.0, 2.0, "s", "estimator: lag of the GPS position it "
                                          "compensates (0 on ArduPilot)")
+    lockstep: bool = bounded(False, doc="simulation only, against `sim-vehicle --lockstep`: the simulator waits "
+                             "for each command, so a step waits for asrti's background solve fully, has no "
+                             "wall-clock deadline and no wall-clock stand-down (a real boat never waits: leave "
+                             "false there)")
+    start_at_s: float | None = bounded(None, 0.0, 1e6, "s", "command from this autopilot time on, not before "
+                                       "(simulation comparisons: every run starts from the same world state)")
 
     def __post_init__(self) -> None:
         if self.wave_roll_sign not in (-1.0, 1.0):
@@ -89,12 +95,15 @@ def load_companion_config(path: str | Path | None, **overrides: Any) -> Companio
     return from_mapping(CompanionConfig, data, str(path) if path else "configuration")
 
 
-def build_nmpc(scenario: Scenario, waves: WaveSource) -> RollAwareNmpc:
+def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) -> RollAwareNmpc:
     """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
     when it has none). A step waits for asrti's background solve for a quarter period at most, never the
-    whole period. Built before connecting: it takes seconds."""
+    whole period (in ``lockstep``, simulation only, the scenario's full ``as_wait_s``: wall time does not
+    pass for the boat, and a result that depends on the machine's load would not be reproducible).
+    Built before connecting: it takes seconds."""
     controller = scenario.controller
-    controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
+    if not lockstep:
+        controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
     estimate = waves.estimate(0.0)
     field = estimate.field() if estimate is not None else CalmWater()
     return RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
@@ -182,6 +191,7 @@ class Companion:
         self._commanding = False
         self._last_command_wall = 0.0
         self._in_loop = False
+        self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
 
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
@@ -227,14 +237,17 @@ class Companion:
                 self.output.neutral(link, self.state)  # never leave the last command running on old data
             return
         x = self.state.vector()
+        target = self.mission.target(float(x[0]), float(x[1]))
         if self.events.engaged_at_ms is None:
             self.events.engaged_at_ms = now_ms
-        target = self.mission.target(float(x[0]), float(x[1]))
+            if self.config.start_at_s is not None and target is not None:  # the cold solve here, from this state
+                self.nmpc.prepare(x, now_ms / 1000.0, target)
         if target is None:
             self._finish_at_waypoint(link, now_ms)
             return
         phase, wave = self.supervisor.phase.name, self.gate.step(self.nmpc, now_ms / 1000.0)
-        result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=self.period_s)
+        deadline_s = None if self.config.lockstep else self.period_s  # lockstep: late is not a fault
+        result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=deadline_s)
         try:
             columns = self.output.command(link, result, now_ms)
         except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
@@ -337,7 +350,8 @@ class Companion:
         if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
             self.supervisor.stop(f"link lost for more than {self.config.max_link_outage_s:g} s")
             return False
-        if self._commanding and time.monotonic() - self._last_command_wall > 3 * self.period_s:
+        if self._commanding and not self.config.lockstep and time.monotonic() - self._last_command_wall > \
+                3 * self.period_s:  # (in lockstep the boat's time waits for us: a late step is not stale)
             self._stand_down(link)  # no fresh step for three periods (no ATTITUDE): stop pushing
         return True
 
@@ -352,7 +366,7 @@ class Companion:
             if not self._service_link(link):
                 break
             now_ms = self.state.attitude_ms
-            if now_ms is None:
+            if now_ms is None or now_ms < self._start_ms:
                 continue
             due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
             if not due:

@@ -85,9 +85,22 @@ def write_resolved(scenario: Scenario, out: Path) -> Path:
     return path
 
 
-def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated") -> int:
+LOCKSTEP_STARTUP_WALL_S = 30.0  # --lockstep: wall seconds of startup (upload, connect, arm) before commanding
+
+
+def lockstep_flags(speedup: float) -> tuple[list[str], list[str]]:
+    """(simulator flags, companion flags) for a lockstep demo: both start the first control tick at the same
+    autopilot time, late enough for the startup at this speedup, so that the same scenario gives the same run."""
+    start = f"{round(LOCKSTEP_STARTUP_WALL_S * speedup):d}"
+    return (["--lockstep", "--lockstep-timeout", "20", "--lockstep-start", start],
+            ["--lockstep", "--start-at", start])
+
+
+def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated",
+             lockstep: bool = False) -> int:
     """Run the demo; returns 0 when the boat reached the waypoint. ``waves``: the companion's wave source,
-    ``estimated`` (from the boat's motion) or ``scenario`` (the simulator's truth)."""
+    ``estimated`` (from the boat's motion) or ``scenario`` (the simulator's truth); ``lockstep``: a
+    reproducible run."""
     out.mkdir(parents=True, exist_ok=True)
     resolved = str(write_resolved(scenario, out))
     gcs_port, companion_port, tcp_port = free_udp_port(), free_udp_port(), free_tcp_port()
@@ -103,6 +116,10 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
                      "--scenario", resolved, "--waves", waves]
+    if lockstep:
+        sim_flags, companion_flags = lockstep_flags(speedup)
+        sim_cmd += sim_flags
+        companion_cmd += companion_flags
     print(f"demo: simulator TCP {tcp_port}, ground station UDP {gcs_port}, companion UDP {companion_port}, "
           f"speedup {speedup:g}, output {output}, waves {waves}")
     children: list[tuple[subprocess.Popen, str]] = []
@@ -124,7 +141,7 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
                 return 1
             companion = subprocess.Popen(companion_cmd)
             children.append((companion, "mavbridge run"))
-            wall_limit = scenario.t_max_s / speedup + 120.0
+            wall_limit = scenario.t_max_s / speedup + 120.0 + (LOCKSTEP_STARTUP_WALL_S if lockstep else 0.0)
             try:
                 companion.wait(wall_limit)
             except subprocess.TimeoutExpired:

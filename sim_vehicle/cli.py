@@ -16,6 +16,7 @@ from vessel.config import ConfigError
 from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
 
+from . import lockstep
 from .params import ParamTable, is_param_name, read_parm
 from .scenario import sim_world
 from .sim import Options, Simulator
@@ -206,6 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="hold simulated time at 0 until a client sends its first MAVLink message (as SITL waits for SERIAL0)",
     )
+    lockstep.add_arguments(p)  # --lockstep, --lockstep-timeout, --lockstep-start
     p.add_argument("-v", "--verbose", action="store_true", help="log STATUSTEXT and connections to stderr")
     p.add_argument("--json-backend", nargs="?", metavar="[HOST:]PORT",
                    help="instead: physics only, for the real ArduPilot firmware (--model JSON:HOST), default "
@@ -326,6 +328,9 @@ def main(argv: list[str] | None = None) -> int:
             serial=args.serial,
             wait_for_client=args.wait_for_client,
             **sea_and_sensor_options(args, world),
+            lockstep_period_s=args.lockstep,
+            lockstep_timeout_s=args.lockstep_timeout,
+            lockstep_start_s=args.lockstep_start,
         )
         announce_compiling(opts)
         sim = Simulator(opts)

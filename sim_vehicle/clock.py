@@ -15,6 +15,10 @@ class Pacer:
         self._wall0 = time.monotonic()
         self._sim0 = 0.0
 
+    def restart(self, sim_t: float) -> None:
+        """Pace on from ``sim_t`` now (after simulated time was held): no racing to catch up."""
+        self._wall0, self._sim0 = time.monotonic(), sim_t
+
     def wait_until(self, sim_t: float) -> None:
         """Sleep until the wall clock catches up with simulated time ``sim_t``."""
         if self.speedup <= 0:

@@ -65,6 +65,9 @@ class Gcs:
         }
         self.now = 0.0
         self.messages_received = 0  # from any client, since start
+        self.message_hooks: list[Callable[[Channel, mavlink.MAVLink_message], None]] = []  # see every message
+        self.lockstep_order = False  # lockstep: streams on a fixed time grid, ATTITUDE last in each step
+        self.last_sent: dict[int, list[int]] = {}  # id(channel) -> message ids sent by the last send_due
 
     # channels
     def add_udp(self, host: str, port: int) -> None:
@@ -89,7 +92,7 @@ class Gcs:
         """The stream schedule of a channel (created on first use)."""
         key = id(channel)
         if key not in self._schedules:
-            self._schedules[key] = Schedule(self.params, channel.index)
+            self._schedules[key] = Schedule(self.params, channel.index, aligned=self.lockstep_order)
         return self._schedules[key]
 
     def close(self) -> None:
@@ -133,6 +136,8 @@ class Gcs:
         for channel in list(self.channels):
             for msg in channel.receive():
                 self.messages_received += 1
+                for hook in self.message_hooks:
+                    hook(channel, msg)
                 try:
                     self.dispatch(channel, msg)
                 except Exception:
@@ -185,6 +190,7 @@ class Gcs:
         self.param_server.update()
         self.missions.update(now)
         built: dict[int, mavlink.MAVLink_message | None] = {}
+        self.last_sent = {}
         for channel in self.channels:
             if channel.closed:
                 continue
@@ -194,6 +200,9 @@ class Gcs:
             if 0 not in schedule.custom and now >= self._next_heartbeat.get(key, 0.0):
                 self._next_heartbeat[key] = now + HEARTBEAT_INTERVAL_S
                 ids.insert(0, 0)
+            if self.lockstep_order:  # what the controller reads for a tick is in before that tick's ATTITUDE
+                ids.sort(key=lambda i: (i == mavlink.MAVLINK_MSG_ID_ATTITUDE, i))
+            self.last_sent[key] = ids
             for msg_id in ids:
                 if msg_id not in built:
                     try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import select
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +19,8 @@ from .battery import Battery
 from .clock import Pacer
 from .gcs import Gcs
 from .json_backend_log import write_sea_record
+from .link import Channel
+from .lockstep import DEFAULT_TIMEOUT_S, Lockstep
 from .logs import StateCsv, TlogWriter
 from .mission import MissionStore
 from .modes import Mode
@@ -29,6 +32,7 @@ from .vehicle import Vehicle
 log = logging.getLogger("sim_vehicle")
 CSV_FLUSH_S = 1.0
 HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is held
+RESEND_WALL_S = 0.25  # lockstep: a held tick repeats its HEARTBEAT and ATTITUDE this often (lost datagrams)
 FRAME_CLASS_BOAT = 2
 SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 
@@ -56,6 +60,9 @@ class Options:
     noise_seed: int = 0  # the sensor noise's seed
     ideal_sensors: bool = False  # report the true state exactly (no SIM_* sensor model)
     surface_heave: bool = False  # the hull heaves with the sea surface (off: the paper's model)
+    lockstep_period_s: float | None = None  # lockstep with the controller at this control period (None: paced)
+    lockstep_timeout_s: float = DEFAULT_TIMEOUT_S  # wall seconds a lockstep tick waits for its command
+    lockstep_start_s: float | None = None  # lockstep holds from this simulated time even before a command
 
 
 class Simulator:
@@ -106,6 +113,28 @@ class Simulator:
             self._open_serial(*opts.serial)
         self.running = True
         self.n_cmd = (0.0, 0.0)
+        self.lockstep = self._make_lockstep()
+        self._controller_channel: int | None = None  # id() of the channel the controller commands on
+
+    def _make_lockstep(self) -> Lockstep | None:
+        """--lockstep: the controller is SYSID_MYGCS, as for RC overrides; its commands are watched here."""
+        if self.opts.lockstep_period_s is None:
+            if self.opts.lockstep_start_s is not None:
+                raise ConfigError("--lockstep-start needs --lockstep")
+            return None
+        lock = Lockstep(self.opts.lockstep_period_s, self.opts.lockstep_timeout_s, int(self.params["SYSID_MYGCS"]),
+                        self.opts.lockstep_start_s)
+        self.gcs.lockstep_order = True
+        self.gcs.message_hooks.append(self._watch_commands)
+        return lock
+
+    def _watch_commands(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
+        """Feed every incoming message to the lockstep; remember the channel the controller commands on."""
+        assert self.lockstep is not None
+        was = self.lockstep.command_arrived()
+        self.lockstep.on_message(msg.get_type(), msg.get_srcSystem())
+        if self.lockstep.command_arrived() and not was:
+            self._controller_channel = id(channel)
 
     def _open_serial(self, device: str, baud: int | None) -> None:
         """The companion's port, as SERIAL2 of an autopilot: MAVLink only if SERIAL2_PROTOCOL says so, SR2_* rates."""
@@ -186,12 +215,56 @@ class Simulator:
                 if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
                     break
                 self.step()
+                if self.lockstep is not None:
+                    self._hold_for_command(self.lockstep, pacer)
                 pacer.wait_until(plant.time)
                 if self.csv is not None and time.monotonic() - last_flush > CSV_FLUSH_S:
                     self.csv.flush()
                     last_flush = time.monotonic()
         finally:
             self.close()
+
+    def _hold_for_command(self, lock: Lockstep, pacer: Pacer) -> None:
+        """At a lockstep tick (this step sent ATTITUDE to the controller), read the links until its command.
+
+        Messages handled while holding are stamped with the tick's time; nothing is sent, so the order of
+        what the controller saw for this tick is fixed. Pacing restarts after the hold (no catching up).
+        """
+        now = self.physics.plant.time
+        if self._controller_channel is None:  # before its first command: ATTITUDE on any channel
+            sent = [i for ids in self.gcs.last_sent.values() for i in ids]
+        else:
+            sent = self.gcs.last_sent.get(self._controller_channel, [])
+        if not lock.is_tick(now, mavlink.MAVLINK_MSG_ID_ATTITUDE in sent):
+            return
+        self.vehicle.now = now
+        start = resent = time.monotonic()
+        while self.running and not lock.command_arrived():
+            waited = time.monotonic() - start
+            if waited > lock.timeout_s:
+                lock.timed_out(now, waited)
+                break
+            if time.monotonic() - resent > RESEND_WALL_S:
+                self._repeat_tick()
+                resent = time.monotonic()
+            self.gcs.poll(now)
+            if not lock.command_arrived():
+                select.select(self.gcs.fileno_list(), [], [], HOLD_POLL_S)
+        if lock.command_arrived():
+            lock.released(time.monotonic() - start)
+        pacer.restart(now)
+
+    def _repeat_tick(self) -> None:
+        """The held tick's HEARTBEAT and ATTITUDE again (same time, same content) to the controller's channel:
+        a lost datagram (a lossy link, or a receiver's parser thrown off by noise) must not stall the run, and
+        the controller's link watchdog keeps seeing the autopilot while it computes."""
+        attitude = self.telemetry.build(mavlink.MAVLINK_MSG_ID_ATTITUDE)
+        for channel in self.gcs.channels:  # before the first command (a start hold): every channel
+            if channel.closed or self._controller_channel not in (None, id(channel)):
+                continue
+            channel.send(self.telemetry.heartbeat())
+            if attitude is not None:
+                channel.send(attitude)
 
     def _hold_until_a_client_speaks(self) -> None:
         """Keep simulated time at 0, reading (and answering) the links, until some client sends a message.
@@ -206,7 +279,9 @@ class Simulator:
         self.boot_unix_us = self.telemetry.boot_unix_us = int(time.time() * 1e6)  # the clock starts now
 
     def close(self) -> None:
-        """Close sockets and logs."""
+        """Close sockets and logs (and say what lockstep did)."""
+        if self.lockstep is not None:
+            log.warning(self.lockstep.stats.summary())
         self.gcs.close()
         if self.csv is not None:
             self.csv.close()

@@ -34,8 +34,9 @@ MIN_INTERVAL_S, MAX_INTERVAL_S = 0.001, 60.0
 class Schedule:
     """When each streamed message is next due on one channel (simulated time, s)."""
 
-    def __init__(self, params: ParamTable, channel_index: int) -> None:
+    def __init__(self, params: ParamTable, channel_index: int, aligned: bool = False) -> None:
         self.params = params
+        self.aligned = aligned  # lockstep: a new stream's sends fall on multiples of its interval
         self.channel = min(channel_index, N_STREAM_CHANNELS - 1)
         self.stream_rate = {name: params[f"SR{self.channel}_{name}"] for name in STREAM_MESSAGES}
         self.custom: dict[int, float | None] = {}  # msg id -> interval s (None = stopped)
@@ -83,7 +84,13 @@ class Schedule:
             if when is None or now + 1e-9 >= when:
                 ready.append(msg_id)
                 # keep the phase, but never queue up a burst after a pause
-                self.next_due[msg_id] = (
-                    now + interval if when is None or now - when > interval else when + interval
-                )
+                self.next_due[msg_id] = self._next(now, when, interval)
         return ready
+
+    def _next(self, now: float, when: float | None, interval: float) -> float:
+        """The next send after one at ``now`` that was due at ``when``: keep the phase, never queue a burst."""
+        if when is None or now - when > interval:
+            if self.aligned:
+                return (math.floor(now / interval + 1e-6) + 1) * interval
+            return now + interval
+        return when + interval

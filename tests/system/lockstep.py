@@ -1,0 +1,30 @@
+"""Lockstep settings and checks shared by the system tests that compare figures (see test_companion_sitl)."""
+
+from __future__ import annotations
+
+import pytest
+
+from sim_vehicle.harness import SimProcess
+
+START_AT_S = 250.0  # autopilot time from which lockstep runs command: after any startup (25 s wall at 10x)
+# the lockstep tests compare with in-process runs on the true sea: the companion flies on it too
+LOCKSTEP = ("--lockstep", "--start-at", str(START_AT_S), "--waves", "scenario")
+# a tick waits up to 20 s wall (only a hung companion times out; the first tick includes the cold solve);
+# from START_AT_S on time is held even before the first command, so the first tick is exactly START_AT_S
+SIM_LOCKSTEP = ["--lockstep", "--lockstep-timeout", "20", "--lockstep-start", str(START_AT_S)]
+
+
+def lockstep_summary(sim: SimProcess) -> str:
+    """The simulator's lockstep line (ticks held, timeouts), written at exit."""
+    lines = [line for line in sim.stop().splitlines() if "lockstep:" in line and "ticks held" in line]
+    assert lines, "sim-vehicle wrote no lockstep summary"
+    return lines[-1]
+
+
+def assert_lockstep_run(metrics: dict, sim: SimProcess) -> None:
+    """A lockstep run started at START_AT_S and no tick was skipped or timed out."""
+    assert metrics["engaged_at_s"] == pytest.approx(START_AT_S, abs=1e-3), metrics
+    assert metrics["skipped_ticks"] == 0, metrics
+    summary = lockstep_summary(sim)
+    timed_out = int(summary.split(" timed out")[0].rsplit(" ", 1)[-1])
+    assert timed_out <= 1, summary  # at most the tick after the companion exited, before the sim was stopped
