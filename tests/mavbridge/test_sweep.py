@@ -195,3 +195,19 @@ def test_tune_finds_weights_that_meet_the_target_and_reruns_them(tmp_path: Path,
     assert reduction >= 15, chosen
     assert "| 90 |" in text and "| 60 |" in text  # the robustness re-runs
     assert (out / "tune.md").read_text(encoding="utf-8") == text
+
+
+@pytest.mark.integration
+def test_cases_equal_but_for_the_sea_seed_both_run_on_dask(tmp_path: Path) -> None:
+    """Two irregular-sea cases that differ only in the seed are two runs (Dask's pure default would merge them)."""
+    spec = tmp_path / "seeds.yaml"
+    spectrum = "{kind: jonswap, hs_m: 0.3, tp_s: 4.0, n_components: 20}"
+    spec.write_text(f"base: {CALM}\naxes:\n  sea.spectrum: [{spectrum}]\n  sea.spectrum.seed: [1, 2]\n"
+                    "  controller.r: [0]\n  controller.solver: [asrti]\n", encoding="utf-8")
+    sweep = load_spec(spec)
+    assert len({c.case_id for c in sweep.cases}) == 2
+    with open_executor("dask-local:2") as pool:
+        outcome = run_sweep(sweep, pool, tmp_path / "out", say=lambda line: None)
+    assert outcome.ran == 2 and not outcome.failed, outcome.failed
+    rolls = {r["metrics"]["avg_roll_deg"] for r in outcome.results.values()}
+    assert len(rolls) == 2  # two different seas, two different runs
