@@ -17,13 +17,13 @@ from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
 
 from . import lockstep
+from .argtypes import SEED_MAX, positive_seconds, seed_number
 from .params import ParamTable, is_param_name, read_parm
 from .scenario import sim_world
 from .sim import Options, Simulator
 
 DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
 DEFAULT_OUTPUTS = ["udp:127.0.0.1:14550", "udp:127.0.0.1:14551"]
-SEED_MAX = 2**32 - 1
 NEGATIVE_VALUE_FLAGS = ("--home", "--sea", "--current", "--seed", "--sea-state")  # values may start with '-'
 
 
@@ -91,26 +91,8 @@ def _home(text: str) -> object:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def _duration(text: str) -> float:
-    """A positive simulated duration in s."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"duration must be > 0 s, got {text}")
-    return value
 
 
-def _seed(text: str) -> int:
-    """A seed: a whole number in [0, 2^32 − 1]."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {text!r}") from None
-    if not 0 <= value <= SEED_MAX:
-        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {value}")
-    return value
 
 
 def _sea_state(text: str) -> int:
@@ -172,7 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--sea-state", type=_sea_state, metavar="N",
                    help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
-    p.add_argument("--seed", type=_seed, metavar="N",
+    p.add_argument("--seed", type=seed_number, metavar="N",
                    help="seed of the sea's hidden phase origin and the sensor noise, integer in "
                         f"[0, {SEED_MAX}] (default: a fresh one each start, printed and written to sea.json)")
     p.add_argument("--sea-phase", choices=("hidden", "boot"), default="hidden",
@@ -201,7 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="no simulated RC receiver: only overrides give RC (RC failsafe applies)",
     )
-    p.add_argument("--duration", type=_duration, metavar="S", help="stop after S simulated seconds")
+    p.add_argument("--duration", type=positive_seconds, metavar="S", help="stop after S simulated seconds")
     p.add_argument(
         "--wait-for-client",
         action="store_true",

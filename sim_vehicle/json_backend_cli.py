@@ -23,6 +23,7 @@ from vessel.config import ConfigError
 from vessel.geo import Home
 from vessel.world import SEA_PRESETS
 
+from .argtypes import finite_number, positive_seconds, seed_number
 from .json_backend import JsonBackend, open_socket, serve
 from .json_backend_log import JsonStateCsv, write_sea_record
 from .json_backend_model import JsonPhysics
@@ -30,7 +31,6 @@ from .scenario import seeded_waves, sim_world
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9002
-SEED_MAX = 2**32 - 1  # as the irregular seas' seeds
 
 log = logging.getLogger("sim_vehicle")
 
@@ -57,42 +57,18 @@ def parse_endpoint(text: str) -> tuple[str, int]:
     return host or DEFAULT_HOST, port
 
 
-def _seed(text: str) -> int:
-    """A sea seed: a whole number in [0, 2^32 − 1]."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seed must be a whole number, got {text!r}") from None
-    if not 0 <= value <= SEED_MAX:
-        raise argparse.ArgumentTypeError(f"seed must be in [0, {SEED_MAX}], got {value}")
-    return value
 
 
-def _float(text: str) -> float:
-    """A finite number, or an argparse error."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
-    return value
 
 
 def _heading(text: str) -> float:
     """An initial heading in [-360, 360] deg."""
-    value = _float(text)
+    value = finite_number(text)
     if not -360.0 <= value <= 360.0:
         raise argparse.ArgumentTypeError(f"heading must be in [-360, 360] deg, got {text}")
     return value
 
 
-def _duration(text: str) -> float:
-    """A positive physics duration in s."""
-    value = _float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"duration must be > 0 s, got {text}")
-    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -113,10 +89,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scenario YAML: vessel parameter set, sea and start pose; --waves/--sea/--current override")
     p.add_argument("--heading", type=_heading, default=None, metavar="DEG",
                    help=f"initial heading, deg (default {Home().heading_deg:g}, the simulator's home heading)")
-    p.add_argument("--seed", type=_seed, default=None, metavar="N",
+    p.add_argument("--seed", type=seed_number, default=None, metavar="N",
                    help="seed of the sea's phase origin (default: a fresh one, written to the run folder)")
     p.add_argument("--log-dir", type=Path, metavar="DIR", help="write state.csv and sea.json here")
-    p.add_argument("--duration", type=_duration, metavar="S",
+    p.add_argument("--duration", type=positive_seconds, metavar="S",
                    help="stop after S s of physics time")
     p.add_argument("-v", "--verbose", action="store_true", help="log restarts and rate changes to stderr")
     return p

@@ -324,8 +324,8 @@ def test_port_in_use_is_one_line_and_exit_2(tmp_path: Path) -> None:
 @pytest.mark.parametrize("args, field", [
     (["--json-backend", "70000"], "port must be in [1, 65535]"),
     (["--json-backend", "host:"], "expected [HOST:]PORT"),
-    (["--json-backend", "9002", "--seed", "-1"], "seed must be in"),
-    (["--json-backend", "9002", "--seed", str(2**32)], "seed must be in [0, 4294967295]"),
+    (["--json-backend", "9002", "--seed", "-1"], "seed must be an integer in [0, 4294967295]"),
+    (["--json-backend", "9002", "--seed", str(2**32)], "seed must be an integer in [0, 4294967295]"),
     (["--json-backend", "9002", "--duration", "0"], "duration must be > 0"),
     (["--json-backend", "9002", "--sea", "9,10,6,0"], "--sea"),
     (["--json-backend", "9002", "--tcp", "5760"], "unrecognized arguments"),
