@@ -148,3 +148,37 @@ def taken_by(conn: Any, timeout: float = 5.0) -> float:
     conn.mav.timesync_send(0, stamp)
     reply = wait_for(conn, "TIMESYNC", timeout, lambda m: m.ts1 == stamp and m.tc1 != 0)
     return reply.tc1 / 1e9
+
+
+def _stamp_s(msg: Any) -> float | None:
+    """The simulated time a message carries (s), or None."""
+    if getattr(msg, "time_boot_ms", None) is not None:
+        return msg.time_boot_ms / 1000.0
+    if getattr(msg, "time_usec", None) is not None:
+        return msg.time_usec / 1e6
+    return None
+
+
+def await_message(conn: Any, kind: str, what: str, sim_s: float, cond: Callable[[Any], bool] | None = None,
+                  wall_s: float = 180.0) -> Any:
+    """The next ``kind`` message satisfying ``cond`` within ``sim_s`` of *simulated* time (its own stamps).
+
+    The wall-clock bound only catches a simulator that stopped; under load simulated time just runs slower.
+    Raises ``WaitTimeoutError`` naming ``what`` instead of returning None.
+    """
+    start: float | None = None
+    now: float | None = None
+    deadline = time.monotonic() + wall_s
+    while time.monotonic() < deadline:
+        msg = conn.recv_match(type=kind, blocking=True, timeout=0.5)
+        if msg is None:
+            continue
+        now = _stamp_s(msg)
+        start = now if start is None else start
+        if cond is None or cond(msg):
+            return msg
+        if now is not None and start is not None and now - start > sim_s:
+            break
+    waited = f"{now - start:.1f} s simulated" if now is not None and start is not None else "no stamped message"
+    raise WaitTimeoutError(f"timed out waiting for {what} ({kind}): {waited}, limit {sim_s:g} s simulated / "
+                      f"{wall_s:g} s wall")

@@ -33,48 +33,10 @@ from mavbridge.scenario import Scenario
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import HOLD as MODE_HOLD
 from tests.system.lockstep import LOCKSTEP, SIM_LOCKSTEP, assert_lockstep_run
-from tests.waits import latest_sim_seconds, set_mode
+from tests.waits import WaitTimeoutError, await_message, drain, latest_sim_seconds, set_mode
 
 HOME = "--home=-35.363261,149.165230,584,90"
 pytestmark = pytest.mark.slow
-
-
-class WaitTimeoutError(AssertionError):
-    """A wait ran out: names what was awaited and how much simulated and wall time passed."""
-
-
-def _stamp_s(msg: Any) -> float | None:
-    """The simulated time a message carries (s), or None."""
-    if getattr(msg, "time_boot_ms", None) is not None:
-        return msg.time_boot_ms / 1000.0
-    if getattr(msg, "time_usec", None) is not None:
-        return msg.time_usec / 1e6
-    return None
-
-
-def await_message(conn: Any, kind: str, what: str, sim_s: float, cond: Callable[[Any], bool] | None = None,
-                  wall_s: float = 180.0) -> Any:
-    """The next ``kind`` message satisfying ``cond`` within ``sim_s`` of *simulated* time (its own stamps).
-
-    The wall-clock bound only catches a simulator that stopped; under load simulated time just runs slower.
-    Raises ``WaitTimeoutError`` naming ``what`` instead of returning None.
-    """
-    start: float | None = None
-    now: float | None = None
-    deadline = time.monotonic() + wall_s
-    while time.monotonic() < deadline:
-        msg = conn.recv_match(type=kind, blocking=True, timeout=0.5)
-        if msg is None:
-            continue
-        now = _stamp_s(msg)
-        start = now if start is None else start
-        if cond is None or cond(msg):
-            return msg
-        if now is not None and start is not None and now - start > sim_s:
-            break
-    waited = f"{now - start:.1f} s simulated" if now is not None and start is not None else "no stamped message"
-    raise WaitTimeoutError(f"timed out waiting for {what} ({kind}): {waited}, limit {sim_s:g} s simulated / "
-                      f"{wall_s:g} s wall")
 
 
 def await_commanding(conn: Any) -> float:
@@ -181,6 +143,14 @@ class Garbage(threading.Thread):
     def __init__(self, port: int) -> None:
         super().__init__(daemon=True)
         self.port, self.running, self.sent = port, True, 0
+        self.flooded = threading.Event()  # set once FLOOD packets have gone out
+
+    FLOOD = 30
+
+    def await_flood(self, timeout: float = 60.0) -> None:
+        """Block until FLOOD packets have been sent; WaitTimeoutError naming the count otherwise."""
+        if not self.flooded.wait(timeout):
+            raise WaitTimeoutError(f"the garbage sender sent only {self.sent} of {self.FLOOD} packets in {timeout:g} s")
 
     def run(self) -> None:
         from pymavlink.dialects.v20 import ardupilotmega as mavlink2
@@ -194,6 +164,8 @@ class Garbage(threading.Thread):
                 for packet in (junk, b"\xfd" + junk, heartbeat):
                     s.sendto(packet, ("127.0.0.1", self.port))
                     self.sent += 1
+                if self.sent >= self.FLOOD:
+                    self.flooded.set()
                 time.sleep(0.05)
 
 
@@ -280,10 +252,12 @@ def test_killed_companion_leaves_the_boat_stopped_by_the_failsafe(sitl: SimProce
     garbage.start()
     gcs = sitl.connect(source_system=250)
     try:
+        garbage.await_flood()
+        drain(gcs)  # what follows was sent during the flood: the companion commands through it
         await_commanding(gcs)
     finally:
         garbage.running = False
-    assert garbage.sent > 10
+    assert garbage.sent >= Garbage.FLOOD
     companion.proc.send_signal(signal.SIGKILL)
     companion.proc.wait()
     t_kill = latest_sim_seconds(gcs)
