@@ -85,7 +85,8 @@ def run_command(args: argparse.Namespace) -> int:
                                    waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
-    waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s)
+    waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
+                             scenario.params())
     with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
         return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                          args.dry_run).run()

@@ -32,6 +32,7 @@ from .link import MAV_COMP_ID_ONBOARD_COMPUTER, Link, LinkError, mavlink
 from .mission_tracker import MissionTracker
 from .nmpc import RollAwareNmpc
 from .nmpc.config import choice
+from .nmpc.model_state import resolve_heave_feedback
 from .output_paths import MODE_HOLD, make_output
 from .preflight.rules import Context
 from .runlog import RunRecorder, run_metrics, write_csv
@@ -102,6 +103,8 @@ def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) ->
     pass for the boat, and a result that depends on the machine's load would not be reproducible).
     Built before connecting: it takes seconds."""
     controller = scenario.controller
+    # a real hull rides the sea and the simulator's may: the model gets it on its calm waterline (model_state)
+    controller = controller.replace(heave_feedback=resolve_heave_feedback(controller.heave_feedback, True))
     if not lockstep:
         controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
     estimate = waves.estimate(0.0)
@@ -184,7 +187,7 @@ class Companion:
         self.state = StateEstimate(max_distance_m=config.max_distance_m)
         self.mission = MissionTracker(scenario.waypoint.acceptance_radius_m, waypoint_ne, log)
         self.record = RunRecorder(self.period_s)
-        self.gate = WaveGate(waves, log)
+        self.gate = WaveGate(waves, log, hold_s=scenario.estimation.hold_s)
         self.events = LoopEvents()
         self.link: Link | None = None
         self._stop_reason: str | None = None

@@ -96,6 +96,14 @@ def lockstep_flags(speedup: float) -> tuple[list[str], list[str]]:
             ["--lockstep", "--start-at", start])
 
 
+def sim_realism(waves: str) -> list[str]:
+    """The simulator's sea and sensors for the demo: realistic (its defaults: the hull heaving with the sea,
+    a phase the companion is never told, sensor noise) when the companion estimates the waves; with
+    ``--waves scenario`` (simulation-only truth) the phase from boot and exact sensors, so that the truth
+    the companion reads is the simulator's."""
+    return [] if waves == "estimated" else ["--sea-phase", "boot", "--ideal-sensors"]
+
+
 def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated",
              lockstep: bool = False) -> int:
     """Run the demo; returns 0 when the boat reached the waypoint. ``waves``: the companion's wave source,
@@ -109,10 +117,7 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
     sim_cmd = [python, "-m", "sim_vehicle.cli", "--tcp", str(tcp_port), "--out", f"udp:127.0.0.1:{gcs_port}",
                "--out", f"udp:127.0.0.1:{companion_port}", "--scenario", resolved, f"--home={home.text()}",
                "--params-store", str(out / "sim_state" / "params.json"), "--wipe", "--log-dir", str(out / "sim"),
-               "--speedup", f"{speedup:g}",
-               # the companion flies on the scenario's true sea (same phase origin) and, until it filters
-               # noisy, lagged sensors, on exact ones: the simulator's realistic defaults are opt-in here
-               "--sea-phase", "boot", "--ideal-sensors"]
+               "--speedup", f"{speedup:g}", *sim_realism(waves)]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
                      "--scenario", resolved, "--waves", waves]
@@ -141,7 +146,9 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
                 return 1
             companion = subprocess.Popen(companion_cmd)
             children.append((companion, "mavbridge run"))
-            wall_limit = scenario.t_max_s / speedup + 120.0 + (LOCKSTEP_STARTUP_WALL_S if lockstep else 0.0)
+            # lockstep: simulated time waits for every plan, so on a loaded machine it runs slower than speedup
+            wall_limit = scenario.t_max_s / speedup * (4.0 if lockstep else 1.0) + 120.0 + (
+                LOCKSTEP_STARTUP_WALL_S if lockstep else 0.0)
             try:
                 companion.wait(wall_limit)
             except subprocess.TimeoutExpired:

@@ -32,6 +32,7 @@ from vessel import ConfigError, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
 
 from .nmpc import RollAwareNmpc
+from .nmpc.model_state import resolve_heave_feedback
 from .runlog import RunRecorder, column, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, ScenarioTruth
@@ -147,6 +148,8 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     """
     wall_start = time.perf_counter()
     cfg = scenario.controller
+    hull_heaves = scenario.estimation.realistic and scenario.estimation.surface_heave
+    cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves))
     nmpc = RollAwareNmpc(cfg, scenario.params(), scenario.sea.waves(), scenario.sea.current())
     feed: WaveFeed | None = None
     if scenario.estimation.realistic:

@@ -78,8 +78,8 @@ class Estimation:
     sensors: str = choice("default", SENSOR_MODELS, "default: vessel.sensors defaults; ideal: exact readings")
     calibrate: bool = True
     roll_sign: float = bounded(1.0, -1.0, 1.0, "", "+1 paper plant, -1 a real hull (estimator's roll sign)")
-    hold_s: float = bounded(0.0, 0.0, 600.0, "s", "keep flying on the last confident estimate this long after "
-                            "the confidence drops (0: degrade at once)")
+    hold_s: float = bounded(20.0, 0.0, 600.0, "s", "keep flying on the last confident estimate this long after "
+                            "the confidence drops (0: degrade at once); in-process and in the companion")
 
     def __post_init__(self) -> None:
         for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS)):

@@ -41,6 +41,7 @@ class WaveGate:
 
     source: WaveSource
     log: Callable[[str], None] = print
+    hold_s: float = 0.0  # keep planning on the last confident estimate this long after the confidence drops
     confident: bool | None = None  # None until the first step
     steps: int = 0
     roll_steps: int = 0
@@ -51,6 +52,8 @@ class WaveGate:
     cost_ms: list[float] = field(default_factory=list)  # per control step: observes since the last + estimate
     _observe_s: float = 0.0
     _rejected: int = 0  # confident estimates the wave model refused
+    _held: WaveEstimate | None = None
+    _held_t: float = -math.inf
 
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the source (every ATTITUDE), timed."""
@@ -61,7 +64,7 @@ class WaveGate:
     def step(self, nmpc: Any, t_s: float) -> dict[str, float]:
         """The wave at ``t_s`` to the NMPC (None: no roll term); returns the log columns of the latest fit."""
         start = time.perf_counter()
-        est = self.source.estimate(t_s)
+        est = self._with_hold(self.source.estimate(t_s), t_s)
         self.cost_ms.append((time.perf_counter() - start + self._observe_s) * 1e3)
         self._observe_s = 0.0
         wave = self._field(est)
@@ -73,6 +76,15 @@ class WaveGate:
         if shown is not None:
             self.last = shown
         return shown.row() if shown is not None else {}
+
+    def _with_hold(self, est: WaveEstimate | None, t_s: float) -> WaveEstimate | None:
+        """The estimate, or for ``hold_s`` after the confidence dropped the last confident one: its phase is
+        referred to the autopilot clock and the NED frame, so it stays valid while the boat turns (where the
+        estimator loses and regains its lock) as long as the period was right."""
+        if est is not None:
+            self._held, self._held_t = est, t_s
+            return est
+        return self._held if t_s - self._held_t <= self.hold_s else None
 
     def _field(self, est: WaveEstimate | None) -> Any:
         """The estimate as the NMPC's wave field; None (no roll term) when there is none or it is outside the
@@ -128,10 +140,15 @@ class WaveGate:
         return out
 
 
-def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position_lag_s: float = 0.0) -> WaveSource:
+def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position_lag_s: float = 0.0,
+                     vessel_params: Any = None) -> WaveSource:
     """``estimated``: a WaveEstimator fed by the autopilot's streams (``roll_sign`` +1 for the paper's
-    plant, −1 for a real hull; ``position_lag_s`` the GPS lag it compensates); ``scenario``: the scenario's
-    sea (``sea_waves``), simulation truth."""
+    plant, −1 for a real hull; ``position_lag_s`` the GPS lag it compensates), with the hull's roll/pitch
+    response to the slope measured on the vessel model (``vessel_params``, riding the sea as a real hull
+    does; about a second) as the in-process experiment does; ``scenario``: the scenario's sea
+    (``sea_waves``), simulation truth."""
+    from dataclasses import replace
+
     from .seasource import ScenarioTruth
     from .waves import EstimatorSettings, WaveEstimator
 
@@ -139,4 +156,9 @@ def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position
         return ScenarioTruth(sea_waves)
     if kind != "estimated":
         raise ValueError(f"waves: {kind!r} is not one of estimated, scenario")
-    return WaveEstimator(EstimatorSettings(roll_sign=roll_sign, position_lag_s=position_lag_s))
+    settings = EstimatorSettings(roll_sign=roll_sign, position_lag_s=position_lag_s)
+    if vessel_params is not None:
+        from .waves.inloop import calibrated_settings
+
+        settings = replace(calibrated_settings(vessel_params, True, roll_sign), position_lag_s=position_lag_s)
+    return WaveEstimator(settings)

@@ -64,6 +64,9 @@ class NmpcConfig:
     as_worker: str = choice("thread", ("thread", "process"), "asrti: run the background solve in a thread (CasADi "
                             "releases the GIL while it computes) or in a worker process (no GIL sharing)")
     rti_codegen: str = choice("auto", ("auto", "off"), "rti: compile the linearisation to C (cached) or not")
+    heave_feedback: str = choice("auto", ("auto", "measured", "none"), "the heave the model is given: measured, "
+                                 "none (down = 0, no vertical velocity: the hull on its calm waterline, for a hull "
+                                 "that rides the sea) or auto (none where the hull heaves with the sea)")
     safe_surge_n: float = bounded(30.0, 0.0, 1000.0, "N", "fallback surge force when there is no plan")
 
     def __post_init__(self) -> None:

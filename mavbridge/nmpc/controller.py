@@ -24,6 +24,7 @@ from .backend import NmpcBackend, SolveOutcome
 from .config import NmpcConfig
 from .functions import ProblemFunctions, problem_functions
 from .layout import NU, NX, PARAMS, Layout
+from .model_state import on_mean_surface
 from .problem import input_bounds, pack_parameters
 from .wave_model import CALM_PARAMETERS, wave_parameters
 
@@ -208,6 +209,13 @@ class RollAwareNmpc:
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
         return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._wave)
 
+    def _model_inputs(self, x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
+        """Checked inputs; the heave taken out of x0 when ``heave_feedback`` is ``none`` (see model_state)."""
+        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
+        if self.config.heave_feedback == "none":
+            x0 = on_mean_surface(x0)
+        return x0, t, waypoint
+
     def prepare(self, x0: Any, t: float, waypoint_ne: Any) -> NmpcResult:
         """The cold, full solve for (x0, t, waypoint), done before the control loop starts.
 
@@ -215,7 +223,7 @@ class RollAwareNmpc:
         ``solve`` at the same time ``t`` starts warm from it rather than with a full solve.
         """
         self._check_open()
-        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
+        x0, t, waypoint = self._model_inputs(x0, t, waypoint_ne)
         self.reset()
         start = time.perf_counter()
         guess = self._rollout(x0, t)
@@ -255,7 +263,7 @@ class RollAwareNmpc:
         step's time (in real time that solve runs during the rest of the period); it is in ``stats``.
         """
         self._check_open()
-        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
+        x0, t, waypoint = self._model_inputs(x0, t, waypoint_ne)
         start = time.perf_counter()
         have_plan = self._w is not None and self._plan_age < self.layout.horizon
         guess, lam_w, lam_g = self._warm_guess(x0, t)

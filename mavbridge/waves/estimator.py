@@ -15,11 +15,12 @@ the travel direction from the quadrature of slope against heave, ω = ω_e + k·
 paper's hull), k, ω and the sign of the direction come from the Doppler line (``doppler``) once the
 boat's speed along the wave has varied and settled (legs of ≈ 30 s at each speed).
 
-Confidence (0..1) is the product of: the lock (ω_e steady, the phasors barely rotating, coarse and fine
-trackers agreeing), the time since the last start, gap, turn or heading jump (``settle_s``), the slope's
-signal-to-noise and size, the one-wave consistency (slope in quadrature with heave), and in the Doppler
-case the line's standard error. ``estimate`` answers None below ``min_confidence``; ``latest`` always
-answers (for logs) and ``diagnostics`` gives ω_e and the wave's axis even without a solution.
+Confidence (0..1) is the product of: the lock (with heave, the earth-frame solution's steadiness,
+``steadiness``; without, ω_e steady, the phasors barely rotating, the trackers agreeing), the time since
+the last start, gap, turn or heading jump (``settle_s``), the slope's signal-to-noise and size, the
+one-wave consistency (slope in quadrature with heave), and in the Doppler case the line's standard error.
+``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for logs) and
+``diagnostics`` gives ω_e and the wave's axis even without a solution.
 
 What it cannot see: a boat at rest without heave (no Doppler, no k); following seas at speeds near the
 wave's phase speed (ω_e → 0); waves shorter than a few hull lengths (the hull does not follow them);
@@ -43,28 +44,14 @@ from .filters import (
     lag_correction,
     lpf_gain,
 )
+from .filters import finite as _finite
+from .filters import smooth_step as _smooth_step
 from .settings import EstimatorSettings
 from .solve import WaveSolution, phase_offset, principal_axis, solve_slope_only, solve_with_heave
+from .steadiness import SolutionSteadiness
 
 GRAVITY = 9.81
 HEAVE_NONE, HEAVE_IMU, HEAVE_GPS = 0.0, 1.0, 2.0  # extras['heave_source']
-
-
-def _finite(values: object, n: int) -> tuple[float, ...] | None:
-    """The first ``n`` entries as floats if all finite, else None (also for None or short input)."""
-    if values is None:
-        return None
-    try:
-        out = tuple(float(values[i]) for i in range(n))  # type: ignore[index]
-    except (TypeError, IndexError, ValueError):
-        return None
-    return out if all(math.isfinite(v) for v in out) else None
-
-
-def _smooth_step(x: float) -> float:
-    """0 for x ≤ 0, 1 for x ≥ 1, smooth in between."""
-    x = min(1.0, max(0.0, x))
-    return x * x * (3 - 2 * x)
 
 
 class WaveEstimator:
@@ -85,6 +72,7 @@ class WaveEstimator:
         self._fit = {key: SinusoidFit(s.fit_tau_s) for key in ("sn", "se", "roll", "pitch", "acc", "z")}
         self._heading = (1.0, 0.0)  # low-passed (cos ψ, sin ψ)
         self._doppler = DopplerLine(s.doppler_memory_s, s.doppler_spread_mps)
+        self._steady = SolutionSteadiness()
         self._t: float | None = None
         self._dt = 0.05
         self._theta = 0.0
@@ -141,6 +129,7 @@ class WaveEstimator:
         """First sample, or after a long silence: keep the fits, restart the settling clock."""
         self._t = t
         self._quiet_since = t
+        self._steady.reset()
         self._last_att = None
         self._psi_prev = None
 
@@ -324,7 +313,8 @@ class WaveEstimator:
         extras = {"mode": 0.0, "heave_source": HEAVE_NONE}
         elev = self._elevation(omega_e, comp)
         if elev is not None and 2 * abs(elev[0]) >= self.s.min_height_m:
-            sol = solve_with_heave(sn, se, elev[0], omega_e, self._vel[0], self._vel[1], self._theta)
+            v = self._vel_two[1]  # averaged like ω_e (two 2 s stages): ω = ω_e + k·(V·d) pairs them
+            sol = solve_with_heave(sn, se, elev[0], omega_e, v[0], v[1], self._theta)
             if sol is not None and self._plausible(sol):
                 extras.update(mode=1.0, heave_source=elev[1])
                 return sol, extras
@@ -345,7 +335,7 @@ class WaveEstimator:
         return ok and sol.omega > 0 and s.wavelength_min_m <= 2 * math.pi / sol.wavenumber <= s.wavelength_max_m
 
     def _confidence(self, sol: WaveSolution, extras: dict[str, float]) -> float:
-        """Product of lock quality, settling, slope signal-to-noise and one-wave consistency."""
+        """Product of lock (with heave: the solution's steadiness), settling, slope SNR and one-wave consistency."""
         t = self._t or 0.0
         if t - self._last_att_t > 0.5:
             return 0.0
@@ -355,11 +345,13 @@ class WaveEstimator:
             fit_n.noise_variance(self._dt) + fit_e.noise_variance(self._dt), 1e-30)
         slope_amp = math.hypot(abs(fit_n.X), abs(fit_e.X))
         strong = _smooth_step(slope_amp / max(self.s.min_slope_rad, 1e-9) - 1.0)
-        conf = self._lock_quality() * settle * (snr / (snr + 100.0)) * strong
+        heave = extras.get("mode") == 1.0
+        lock = self._steady.update(t, sol.omega, sol.travel_dir_rad) if heave else self._lock_quality()
+        conf = lock * settle * (snr / (snr + 100.0)) * strong
         conf *= math.exp(-((sol.consistency / 0.3) ** 2))
         if extras.get("mode") == 2.0:
             conf *= math.exp(-((extras.get("doppler_rel_err", 1.0) / 0.15) ** 2))
-        extras.update(lock=self._lock_quality(), settle=settle, snr=snr, consistency=sol.consistency)
+        extras.update(lock=lock, settle=settle, snr=snr, consistency=sol.consistency)
         return max(0.0, min(1.0, conf))
 
     def latest(self, t_s: float) -> WaveEstimate | None:

@@ -15,6 +15,23 @@ import cmath
 import math
 
 
+def finite(values: object, n: int) -> tuple[float, ...] | None:
+    """The first ``n`` entries as floats if all finite, else None (also for None or short input)."""
+    if values is None:
+        return None
+    try:
+        out = tuple(float(values[i]) for i in range(n))  # type: ignore[index]
+    except (TypeError, IndexError, ValueError):
+        return None
+    return out if all(math.isfinite(v) for v in out) else None
+
+
+def smooth_step(x: float) -> float:
+    """0 for x ≤ 0, 1 for x ≥ 1, smooth in between."""
+    x = min(1.0, max(0.0, x))
+    return x * x * (3 - 2 * x)
+
+
 def lpf_gain(dt: float, tau: float) -> float:
     """The exact first-order low-pass blend factor for a step ``dt`` and a time constant ``tau``."""
     return 1.0 - math.exp(-dt / tau) if tau > 0 else 1.0
