@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from vessel import ConfigError, WaveField, tau_to_shaft_speeds
+from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
 
 from .nmpc import RollAwareNmpc
@@ -139,6 +139,16 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
     return plant, WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s)
 
 
+def _model_waves(scenario: Scenario) -> WaveField:
+    """The wave the NMPC is built with: the scenario's, except that a run on the estimate plans with one
+    regular component set at run time (an irregular field is fixed at build: on the truth it is the full
+    field, known to the NMPC)."""
+    waves = scenario.sea.waves()
+    if scenario.estimation.waves == "estimated" and not isinstance(waves, RegularWaves | CalmWater):
+        return CalmWater()
+    return waves
+
+
 def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: bool = True,
                  progress: Callable[[str], None] | None = None, progress_every_s: float = 20.0) -> RunResult:
     """Run one closed loop; with ``out_dir``, write timeseries.csv, metrics.json, scenario.yaml, PNGs.
@@ -150,11 +160,12 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     cfg = scenario.controller
     hull_heaves = scenario.estimation.realistic and scenario.estimation.surface_heave
     cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves))
-    nmpc = RollAwareNmpc(cfg, scenario.params(), scenario.sea.waves(), scenario.sea.current())
+    nmpc = RollAwareNmpc(cfg, scenario.params(), _model_waves(scenario), scenario.sea.current())
     feed: WaveFeed | None = None
     if scenario.estimation.realistic:
         plant, feed = _realistic_parts(scenario, progress)
-        nmpc.set_wave(feed.truth if scenario.estimation.waves == "truth" else None)
+        if nmpc.takes_waves:
+            nmpc.set_wave(feed.truth if scenario.estimation.waves == "truth" else None)
     else:
         plant_class = TauPlant if scenario.plant == "tau" else PropellerPlant
         plant = plant_class(scenario.world, cfg.period_s, scenario.plant_dt_s)

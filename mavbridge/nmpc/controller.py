@@ -188,6 +188,11 @@ class RollAwareNmpc:
         self.waves = waves or CalmWater()
 
     @property
+    def takes_waves(self) -> bool:
+        """True when ``set_wave`` works: built with a regular wave or calm water, not a fixed field."""
+        return self._functions.fixed_waves is None
+
+    @property
     def roll_term_active(self) -> bool:
         """True when solves weight roll: R > 0 and a wave (or calm water) is known."""
         return self._wave_known and self.config.r > 0

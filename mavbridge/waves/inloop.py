@@ -164,7 +164,8 @@ class WaveFeed:
         plant.sense(t)
         self.steps += 1
         if self.mode == "truth":
-            nmpc.set_wave(self.truth)
+            if nmpc.takes_waves:  # else it was built with the (irregular) truth itself
+                nmpc.set_wave(self.truth)
             est = self.source.estimate(t)
             self.estimator_ms.append((time.perf_counter() - start) * 1e3)
             return est.row() if est is not None else {}
@@ -203,8 +204,9 @@ class WaveFeed:
 
     def metrics(self, t_end: float, x_end: np.ndarray) -> dict[str, Any]:
         """Time to a confident estimate, final errors against the truth, the estimator's cost per step."""
+        regular = isinstance(self.truth, RegularWaves)  # an irregular sea has one phase per component
         out: dict[str, Any] = {"wave_source": "estimated" if self.mode == "estimated" else "scenario-truth",
-                               "sea_phase_rad": getattr(self.truth, "phase_rad", None)}
+                               "sea_phase_rad": float(self.truth.phase_rad) if regular else None}
         ms = np.asarray(self.estimator_ms, float)
         out["estimator_ms_median"] = float(np.median(ms)) if ms.size else None
         out["estimator_ms_p99"] = float(np.percentile(ms, 99)) if ms.size else None
