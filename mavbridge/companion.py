@@ -87,9 +87,8 @@ class CompanionConfig:
 
 def load_companion_config(path: str | Path | None, **overrides: Any) -> CompanionConfig:
     """The YAML configuration (or the defaults), with command-line overrides applied on top."""
-    data = read_yaml(path) if path else {}
-    if data is None:
-        data = {}
+    data = read_yaml(path) if path else None
+    data = {} if data is None else data  # an empty file is the defaults; a list or a number is an error
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping of settings")
     data.update({k: v for k, v in overrides.items() if v is not None})
@@ -100,11 +99,11 @@ def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) ->
     """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
     when it has none). A step waits for asrti's background solve for a quarter period at most, never the
     whole period (in ``lockstep``, simulation only, the scenario's full ``as_wait_s``: wall time does not
-    pass for the boat, and a result that depends on the machine's load would not be reproducible).
-    Built before connecting: it takes seconds."""
-    controller = scenario.controller
-    # a real hull rides the sea and the simulator's may: the model gets it on its calm waterline (model_state)
-    controller = controller.replace(heave_feedback=resolve_heave_feedback(controller.heave_feedback, True))
+    pass for the boat, and a result that depends on the machine's load would not be reproducible). A real
+    hull rides the sea (heave_feedback, model_state): only simulation truth keeps the paper's setting."""
+    heaves = waves.name != SCENARIO_TRUTH
+    controller = scenario.controller.replace(heave_feedback=resolve_heave_feedback(scenario.controller.heave_feedback,
+                                                                                   heaves))
     if not lockstep:
         controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
     estimate = waves.estimate(0.0)
@@ -386,6 +385,7 @@ class Companion:
         """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""
         return {"phase": self.supervisor.phase.name, "reason": self.supervisor.reason, "output": self.config.output,
                 "solver": self.scenario.controller.solver, "wave_source": self.waves.name,
+                "heave_feedback": self.nmpc.config.heave_feedback,
                 **loop_metrics(self.record, self.events), "waves": self.gate.summary(self.record.solve_ms),
                 "link": dict(self.link.counts) if self.link else {}}
 

@@ -84,6 +84,8 @@ class WaveGate:
         if est is not None:
             self._held, self._held_t = est, t_s
             return est
+        if t_s < self._held_t:  # the autopilot's clock went back (a reboot): that phase belongs to the old one
+            self._held = None
         return self._held if t_s - self._held_t <= self.hold_s else None
 
     def _field(self, est: WaveEstimate | None) -> Any:

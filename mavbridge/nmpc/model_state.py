@@ -18,8 +18,6 @@ import numpy as np
 
 from vessel.dynamics import rotation_body_to_ned
 
-HEAVE_FEEDBACK = ("auto", "measured", "none")  # auto: "none" where the hull heaves with the sea, else measured
-
 
 def on_mean_surface(x: np.ndarray) -> np.ndarray:
     """x = [η, ν] (12) with the heave removed: down = 0 m and no vertical NED velocity."""

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..nmpc import RollAwareNmpc
+from ..nmpc.model_state import resolve_heave_feedback
 from .report import FAIL, PASS, WARN, Report
 
 
@@ -19,7 +20,9 @@ def solve_time(scenario: Any, solves: int, report: Report, log: Callable[[str], 
     log(f"timing {solves} NMPC solves ({scenario.controller.solver})...")
     x, t, walls = scenario.start.state(), 0.0, []
     target = (scenario.waypoint.north_m, scenario.waypoint.east_m)
-    with RollAwareNmpc(scenario.controller, scenario.params(), scenario.sea.waves(), scenario.sea.current()) as nmpc:
+    controller = scenario.controller.replace(heave_feedback=resolve_heave_feedback(scenario.controller.heave_feedback,
+                                                                                   True))  # as the companion flies
+    with RollAwareNmpc(controller, scenario.params(), scenario.sea.waves(), scenario.sea.current()) as nmpc:
         for _ in range(solves):
             result = nmpc.solve(x, t, target)
             walls.append(result.wall_time_s)

@@ -345,14 +345,17 @@ class WaveEstimator:
             fit_n.noise_variance(self._dt) + fit_e.noise_variance(self._dt), 1e-30)
         slope_amp = math.hypot(abs(fit_n.X), abs(fit_e.X))
         strong = _smooth_step(slope_amp / max(self.s.min_slope_rad, 1e-9) - 1.0)
-        heave = extras.get("mode") == 1.0
-        lock = self._steady.update(t, sol.omega, sol.travel_dir_rad) if heave else self._lock_quality()
+        if extras.get("mode") == 1.0:
+            lock = self._steady.update(t, sol.omega, sol.travel_dir_rad)
+        else:
+            self._steady.reset()  # steadiness is the heave solve's: earned again when it comes back
+            lock = self._lock_quality()
         conf = lock * settle * (snr / (snr + 100.0)) * strong
         conf *= math.exp(-((sol.consistency / 0.3) ** 2))
         if extras.get("mode") == 2.0:
             conf *= math.exp(-((extras.get("doppler_rel_err", 1.0) / 0.15) ** 2))
         extras.update(lock=lock, settle=settle, snr=snr, consistency=sol.consistency)
-        return max(0.0, min(1.0, conf))
+        return max(0.0, min(1.0, conf)) if math.isfinite(conf) else 0.0
 
     def latest(self, t_s: float) -> WaveEstimate | None:
         """The current fit whatever its confidence (for logs); None when nothing can be solved yet."""

@@ -183,6 +183,8 @@ class WaveFeed:
         if est is not None:
             self._held, self._held_t = est, t
             return est
+        if t < self._held_t:  # time went back: that phase belongs to another clock
+            self._held = None
         return self._held if t - self._held_t <= self.hold_s else None
 
     def _track(self, t: float, confident: bool, roll_term: bool) -> None:

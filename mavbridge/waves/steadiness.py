@@ -44,6 +44,11 @@ class SolutionSteadiness:
         """Take the solution at ``t_s`` (a repeated or older stamp changes nothing); the steadiness."""
         if self._t is not None and t_s <= self._t:
             return self.value
+        if not all(math.isfinite(v) for v in (t_s, omega, travel_dir_rad)):
+            self.reset()  # nothing to trust: start earning again
+            return self.value
+        if self._t is not None and t_s - self._t > self.tau_s:
+            self.reset()  # a gap (the heave solve dropped out): one answer after it is a first answer
         if self._t is None:
             self._omega, self._omega_var = omega, (2.0 * OMEGA_REL_STD * omega) ** 2
             self._chi = cmath.rect(0.5, travel_dir_rad)

@@ -56,14 +56,14 @@ def scenario() -> Scenario:
 def test_the_companion_plans_a_heaving_boat_as_if_on_its_waterline(scenario: Scenario) -> None:
     """The companion's NMPC: the same input for the heaving state as for that state on the mean surface."""
     x = _heaving_state()
-    with build_nmpc(scenario, ScenarioTruth(CalmWater())) as nmpc:
+    with build_nmpc(scenario, ToldSource(None, "estimated")) as nmpc:
         assert nmpc.config.heave_feedback == "none"
         heaving = nmpc.solve(x, 0.0, (80.0, 80.0)).tau
         nmpc.reset()
         flat = nmpc.solve(on_mean_surface(x), 0.0, (80.0, 80.0)).tau
     assert heaving == pytest.approx(flat, abs=1e-9)
-    with build_nmpc(dataclasses.replace(scenario, controller=scenario.controller.replace(heave_feedback="measured")),
-                    ScenarioTruth(CalmWater())) as measured:
+    with build_nmpc(scenario, ScenarioTruth(CalmWater())) as measured:  # simulation truth: the paper's setting
+        assert measured.config.heave_feedback == "measured"
         assert measured.solve(x, 0.0, (80.0, 80.0)).tau != pytest.approx(flat, abs=1e-3)
 
 
@@ -123,3 +123,28 @@ def test_steadiness_takes_each_stamp_once() -> None:
     before = steady.value
     for _ in range(50):  # a log asking again at the same time, with another answer, changes nothing
         assert steady.update(9.9, 2.0, 1.0) == before
+
+
+def test_a_held_wave_is_dropped_when_the_autopilot_clock_goes_back(scenario: Scenario) -> None:
+    """After a reboot the old estimate's phase belongs to the old boot clock: never held across it."""
+    source = ToldSource(WaveEstimate(1.75, 6.0, 35.0, -math.pi / 2, 0.3, 0.9))
+    with build_nmpc(scenario, ScenarioTruth(CalmWater())) as nmpc:
+        gate = WaveGate(source, lambda line: None, hold_s=20.0)
+        gate.step(nmpc, 3600.0)
+        source.answer = None
+        gate.step(nmpc, 5.0)  # the autopilot rebooted
+        assert not nmpc.roll_term_active
+        gate.step(nmpc, 6.0)
+        assert not nmpc.roll_term_active
+
+
+def test_steadiness_after_a_gap_or_a_nan_is_earned_again() -> None:
+    steady = SolutionSteadiness()
+    for i in range(300):
+        steady.update(i * 0.1, 1.05, 0.0)
+    assert steady.value > 0.9
+    assert steady.update(29.9 + 15.0, 1.05, 0.0) < 0.5  # one answer after a 15 s gap is a first answer
+    for i in range(300):
+        steady.update(50.0 + i * 0.1, 1.05, 0.0)
+    assert steady.update(90.0, math.nan, 0.0) == 0.0
+    assert math.isfinite(steady.update(90.1, 1.05, 0.0)) and steady.value < 0.5
