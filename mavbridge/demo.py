@@ -115,7 +115,7 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
                "--sea-phase", "boot", "--ideal-sensors"]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
-                     "--scenario", resolved, "--waves", waves]
+                     "--scenario", resolved, "--waves", waves, "--solver", scenario.controller.solver]
     if lockstep:
         sim_flags, companion_flags = lockstep_flags(speedup)
         sim_cmd += sim_flags
