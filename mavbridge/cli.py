@@ -76,7 +76,9 @@ def _experiment(args: argparse.Namespace) -> int:
     if args.waves:
         scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.waves))
                      for s in scenarios]
-    out = Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem
+    from .runlog import fresh_run_folder
+
+    out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem)
     experiment(scenarios, out, args.jobs)
     return 0
 

@@ -88,6 +88,7 @@ def run_command(args: argparse.Namespace) -> int:
 
     from .companion import Companion, build_nmpc, load_companion_config
     from .port_guard import refuse_if_taken
+    from .runlog import fresh_run_folder
     from .wave_gate import make_wave_source
 
     if args.dry_run and (args.arm or args.set_mode):
@@ -101,7 +102,7 @@ def run_command(args: argparse.Namespace) -> int:
                           f"from home, farther than --max-range {config.max_range_m:g} m")
     refuse_if_taken(config.connect)  # before seconds of building: a second companion on a port stops at once
     scenario = single_scenario(args.scenario, args.solver)
-    out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
+    out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S"))
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s)
     with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
         return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
