@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -78,9 +79,15 @@ def _experiment(args: argparse.Namespace) -> int:
                      for s in scenarios]
     from .runlog import fresh_run_folder
 
+    for stop in (signal.SIGTERM, signal.SIGHUP):  # stopped like Ctrl-C: the finished runs are written, the rest listed
+        signal.signal(stop, _interrupt)
     out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem)
     experiment(scenarios, out, args.jobs)
     return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _first_line(exc: BaseException) -> str:
