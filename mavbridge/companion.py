@@ -15,6 +15,7 @@ CSV schema and metrics the in-process experiment shares.
 from __future__ import annotations
 
 import json
+import math
 import signal
 import time
 from collections.abc import Callable
@@ -153,7 +154,9 @@ class Companion:
             before = self.supervisor.phase
             after = self.supervisor.on_heartbeat(time.monotonic(), armed, int(msg.custom_mode))
             if after != before:
-                self.log(f"phase: {after.value}" + (f" ({self.supervisor.reason})" if after.final else ""))
+                shadow = after == Phase.ENGAGED and not self.output.sends  # a dry run: planning, nothing sent
+                self.log(f"phase: {'shadow (dry run: planning, sending nothing)' if shadow else after.value}"
+                         + (f" ({self.supervisor.reason})" if after.final else ""))
 
     def _on_motion(self, msg: Any) -> None:
         """Every ATTITUDE sample (once a position is known) goes to the wave source, after the state took it."""
@@ -173,7 +176,7 @@ class Companion:
         """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
         self.events.arrived_at_ms = now_ms
         self.supervisor.arrived()
-        self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s")
+        self.log(f"waypoint reached at autopilot time t = {now_ms / 1000:.1f} s")
         self.output.neutral(link, self.state)
         if self.config.on_arrival == "hold" and self.output.sends:
             self.supervisor.expected_mode = MODE_HOLD
@@ -221,6 +224,8 @@ class Companion:
         self._commanding = self.output.sends
         self._last_command_wall = time.monotonic()
         self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
+        self.notices.progress(now_ms / 1000.0, math.hypot(target[0] - x[0], target[1] - x[1]), float(x[3]),
+                              result.wall_time_s * 1e3)
 
     def _fail(self, link: Link, reason: str) -> None:
         """End the run as a failure (exit 1), standing down first."""
@@ -363,8 +368,10 @@ class Companion:
         write_csv(self.out_dir / "companion.csv", self.record.rows)
         m = self.metrics()
         (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
-        self.log(f"avg roll {m['avg_roll_deg']} deg, max roll {m['max_roll_deg']} deg, time to waypoint "
-                 f"{m['time_to_waypoint_s']} s, solve median {m['solve_ms_median']} ms; logs in {self.out_dir}")
+        figures = (("avg roll", "avg_roll_deg", "deg"), ("max roll", "max_roll_deg", "deg"), ("solve median",
+                   "solve_ms_median", "ms"), ("time to waypoint (since engaging)", "time_to_waypoint_s", "s"))
+        said = ", ".join(f"{name} {m[key]} {unit}" for name, key, unit in figures if m[key] is not None)
+        self.log(f"{said or 'no control step'}; logs in {self.out_dir}")
         w = m["waves"]
         if (behind := keep_up_summary(m["skipped_ticks"], len(self.record.rows))) is not None:
             self.log(behind)

@@ -7,6 +7,7 @@ its period (control ticks skipped: the boat is flown on older plans than the sce
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -31,8 +32,11 @@ class LoopNotices:
     required_mode: int
     interval_s: float = INTERVAL_S
     clock: Callable[[], float] = time.monotonic
+    progress_every_s: float = 10.0  # autopilot seconds between two progress lines while engaged
     _last: dict[str, float] = field(default_factory=dict)
     _skipped_since: int = 0
+    _max_roll_rad: float = 0.0
+    _next_progress_s: float | None = None
 
     def _due(self, kind: str) -> bool:
         now = self.clock()
@@ -55,6 +59,18 @@ class LoopNotices:
                      f"{period_s:g} s skipped since the last warning (a step takes longer than the period; "
                      "try the asrti solver or a lower --speedup)")
             self._skipped_since = 0
+
+    def progress(self, t_s: float, to_go_m: float, roll_rad: float, step_ms: float) -> None:
+        """A control step at autopilot time ``t_s``: every ``progress_every_s`` of it, one line with the distance
+        to go, the largest roll so far and this step's wall time."""
+        self._max_roll_rad = max(self._max_roll_rad, abs(roll_rad))
+        if self._next_progress_s is None:
+            self._next_progress_s = t_s + self.progress_every_s
+        if t_s < self._next_progress_s:
+            return
+        self._next_progress_s = t_s + self.progress_every_s
+        self.log(f"t = {t_s:.1f} s (autopilot): {to_go_m:.0f} m to go, max roll so far "
+                 f"{math.degrees(self._max_roll_rad):.1f} deg, step {step_ms:.1f} ms")
 
 
 def keep_up_summary(skipped: int, steps: int) -> str | None:

@@ -274,6 +274,11 @@ def announce(opts: Options, startup_s: float) -> None:
     print(f"sim-vehicle: {sea.describe()}; {phase}; sensors {'ideal' if opts.ideal_sensors else 'realistic'}; "
           f"heave {'surface' if opts.surface_heave else 'paper'}; ready in {startup_s:.1f} s",
           file=sys.stderr, flush=True)
+    links = [f"TCP {opts.tcp_port}" if opts.tcp_port is not None else "no TCP"]
+    links += [f"UDP to {host}:{port}" for host, port in opts.outputs]
+    links += [f"serial {opts.serial[0]}"] if opts.serial else []
+    logs = f"logs in {opts.log_dir}" if opts.log_dir is not None else "no logs (--log-dir)"
+    print(f"sim-vehicle: MAVLink on {', '.join(links)}; {logs}", file=sys.stderr, flush=True)
 
 
 def _log_dir(path: Path) -> Path:

@@ -66,3 +66,14 @@ def test_keep_up_summary() -> None:
     assert keep_up_summary(0, 900) is None
     summary = keep_up_summary(100, 900)
     assert summary is not None and "100 control tick(s) skipped, 10% of the ticks" in summary
+
+
+def test_progress_every_10_s_of_autopilot_time_with_the_largest_roll_so_far() -> None:
+    lines: list[str] = []
+    notices = LoopNotices(lines.append, 0)
+    for step in range(251):  # 25 s of 0.1 s steps; the roll peaks at 0.2 rad at t = 5 s
+        t_s = 100.0 + step * 0.1
+        notices.progress(t_s, 300.0 - step, 0.2 if step == 50 else 0.01, 2.5)
+    assert len(lines) == 2, lines
+    assert lines[0] == "t = 110.0 s (autopilot): 200 m to go, max roll so far 11.5 deg, step 2.5 ms"
+    assert lines[1].startswith("t = 120.0 s (autopilot): 100 m to go")

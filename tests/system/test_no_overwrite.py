@@ -54,8 +54,11 @@ def test_companion_run_folder_is_never_overwritten(tmp_path: Path) -> None:
     with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=1) as sim:
         first = subprocess.run([sys.executable, "-m", "mavbridge.cli", "run", "--connect",
                                 f"udpin:127.0.0.1:{sim.udp_ports[0]}", "--dry-run", "--waypoint", "85,75",
-                                "--max-time", "3", "--out", str(out)], capture_output=True, text=True, timeout=180)
+                                "--max-time", "12", "--out", str(out)], capture_output=True, text=True, timeout=180)
     assert first.returncode == 0, first.stdout[-2000:] + first.stderr
+    assert "phase: shadow (dry run: planning, sending nothing)" in first.stdout  # not "engaged": nothing is sent
+    assert "phase: engaged" not in first.stdout
+    assert [line for line in first.stdout.splitlines() if " m to go, max roll so far " in line], first.stdout
     before = _snapshot(out)
     assert {"companion.csv", "companion.tlog", "metrics.json", "config.yaml"} <= set(before)
     assert len(before["companion.csv"]) > 1000
