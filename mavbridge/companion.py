@@ -375,5 +375,8 @@ class Companion:
         w = m["waves"]
         if (behind := keep_up_summary(m["skipped_ticks"], len(self.record.rows))) is not None:
             self.log(behind)
-        self.log(f"waves ({w['source']}): roll term on {w['roll_term_fraction']} of the steps, first confident "
-                 f"after {w['time_to_confident_s']} s, estimator {w['estimator_ms_median']} ms per step (median)")
+        confident = "never confident" if w["time_to_confident_s"] is None else \
+            f"first confident after {w['time_to_confident_s']} s"
+        self.log(f"waves ({w['source']}): roll term on {w['roll_term_fraction']} of the steps, {confident}"
+                 + (f", estimator {w['estimator_ms_median']} ms per step (median)"
+                    if w["estimator_ms_median"] is not None else ""))

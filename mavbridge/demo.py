@@ -177,7 +177,7 @@ def _report(scenario: Scenario, out: Path, interrupted: DemoInterruptedError | N
         _plot(scenario, out, metrics)
     arrived = metrics.get("time_to_waypoint_s")
     print(f"demo: average roll {metrics['avg_roll_deg']} deg, max roll {metrics['max_roll_deg']} deg, "
-          f"time to waypoint {arrived if arrived is not None else 'not reached'} s; run folder {out}")
+          f"time to waypoint {f'{arrived} s' if arrived is not None else 'not reached'}; run folder {out}")
     if (behind := keep_up_summary(metrics.get("skipped_ticks", 0), metrics.get("steps", 0))) is not None:
         print(f"demo: {behind}")
     if interrupted:
