@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -76,9 +77,17 @@ def _experiment(args: argparse.Namespace) -> int:
     if args.waves:
         scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.waves))
                      for s in scenarios]
-    out = Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem
+    from .runlog import fresh_run_folder
+
+    for stop in (signal.SIGTERM, signal.SIGHUP):  # stopped like Ctrl-C: the finished runs are written, the rest listed
+        signal.signal(stop, _interrupt)
+    out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem)
     experiment(scenarios, out, args.jobs)
     return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _first_line(exc: BaseException) -> str:

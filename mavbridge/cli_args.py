@@ -11,6 +11,9 @@ from typing import Any
 from vessel.config import ConfigError
 
 OUTPUTS = ("rc_override", "attitude_target")  # mirrors mavbridge.companion (kept import-light)
+REAL_TIME_SOLVER = "asrti"  # the default of run, check, demo and the service; ipopt (the paper's) only by name
+SOLVER_HELP = (f"NMPC solver (default {REAL_TIME_SOLVER}, the real-time one, whatever the scenario file says; "
+               "ipopt is the paper's reference: too slow for real time here)")
 WAVE_SOURCES = ("estimated", "scenario")  # estimated from the boat's motion, or the scenario's sea (simulation)
 
 
@@ -23,6 +26,17 @@ def parse_north_east(text: str) -> tuple[float, float]:
     if not (math.isfinite(north) and math.isfinite(east)):
         raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
     return north, east
+
+
+def positive_metres(text: str) -> float:
+    """A distance in metres, finite and > 0 (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a distance in metres > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range: finite and > 0 m")
+    return value
 
 
 def whole_number(minimum: int) -> Callable[[str], int]:

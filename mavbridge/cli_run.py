@@ -8,8 +8,17 @@ from pathlib import Path
 from typing import Any
 
 from vessel.config import ConfigError
+from vessel.geo import DEFAULT_MAX_RANGE_M
 
-from .cli_args import OUTPUTS, WAVE_SOURCES, parse_north_east, single_scenario
+from .cli_args import (
+    OUTPUTS,
+    REAL_TIME_SOLVER,
+    SOLVER_HELP,
+    WAVE_SOURCES,
+    parse_north_east,
+    positive_metres,
+    single_scenario,
+)
 from .nmpc.config import SOLVERS
 
 
@@ -37,10 +46,13 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--output", choices=OUTPUTS, help="rc_override (MANUAL) or attitude_target (GUIDED)")
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
-    run.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
+    run.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     run.add_argument("--waves", choices=WAVE_SOURCES, help="estimated (default: from the boat's own motion) or "
                                                            "scenario (the scenario's sea: simulation truth only)")
     run.add_argument("--waypoint", type=parse_north_east, metavar="N,E", help="waypoint in metres from home (testing)")
+    run.add_argument("--max-range", type=positive_metres, metavar="M",
+                     help=f"never engage on a waypoint farther than this from home or the boat (m, default "
+                          f"{DEFAULT_MAX_RANGE_M:g}, the limit of `mavbridge check` and `mission upload`)")
     run.add_argument("--arm", action="store_true", help="arm the vehicle at start")
     run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
     run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
@@ -60,8 +72,7 @@ def add_demo_parser(sub: Any) -> None:
                                       "over UDP, upload the waypoint with MAVSDK, fly there, print the figures.")
     demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10, or 1 with "
                                                                          "the ipopt solver)")
-    demo.add_argument("--solver", choices=SOLVERS, default="asrti",
-                      help="NMPC solver (default asrti, the real-time one; ipopt is the paper's reference)")
+    demo.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
@@ -76,15 +87,22 @@ def run_command(args: argparse.Namespace) -> int:
     import time
 
     from .companion import Companion, build_nmpc, load_companion_config
+    from .port_guard import refuse_if_taken
+    from .runlog import fresh_run_folder
     from .wave_gate import make_wave_source
 
     if args.dry_run and (args.arm or args.set_mode):
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
-                                   waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at)
+                                   waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at,
+                                   max_range_m=args.max_range)
+    if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
+        raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
+                          f"from home, farther than --max-range {config.max_range_m:g} m")
+    refuse_if_taken(config.connect)  # before seconds of building: a second companion on a port stops at once
     scenario = single_scenario(args.scenario, args.solver)
-    out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
+    out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S"))
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
                              scenario.params())
     with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open

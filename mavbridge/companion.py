@@ -15,6 +15,7 @@ CSV schema and metrics the in-process experiment shares.
 from __future__ import annotations
 
 import json
+import math
 import signal
 import time
 from collections.abc import Callable
@@ -25,15 +26,17 @@ from typing import Any
 import yaml
 
 from vessel import CalmWater
-from vessel.config import ConfigError, bounded, from_mapping, read_yaml, to_mapping
+from vessel.config import ConfigError, to_mapping
 
-from .cli_args import OUTPUTS, WAVE_SOURCES
-from .link import MAV_COMP_ID_ONBOARD_COMPUTER, Link, LinkError, mavlink
+from .companion_config import CompanionConfig, load_companion_config
+from .engage_gate import check_waypoints, far_waypoint
+from .link import Link, LinkError, mavlink
+from .loop_notices import LoopNotices, keep_up_summary
 from .mission_tracker import MissionTracker
 from .nmpc import RollAwareNmpc
-from .nmpc.config import choice
 from .nmpc.model_state import resolve_heave_feedback
 from .output_paths import MODE_HOLD, make_output
+from .port_guard import hold_exclusively, refuse_if_taken
 from .preflight.rules import Context
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
@@ -43,56 +46,7 @@ from .streams import imu_rate, measure_rates, request_streams
 from .supervisor import Phase, Supervisor
 from .wave_gate import WaveGate
 
-ARRIVAL_ACTIONS = ("hold", "release")
-
-
-@dataclass(frozen=True)
-class CompanionConfig:
-    """How the companion reaches the autopilot and what it commands. Defaults suit the simulator."""
-
-    connect: str = "udpin:0.0.0.0:14551"
-    baud: int = bounded(921600, 1200, 4_000_000, "baud", "serial speed (serial connections only)")
-    system_id: int = bounded(255, 1, 255, "", "our MAVLink system id; must equal SYSID_MYGCS for RC override")
-    component_id: int = bounded(MAV_COMP_ID_ONBOARD_COMPUTER, 1, 255, "", "our component id (191: onboard)")
-    output: str = choice("rc_override", OUTPUTS, "rc_override (MANUAL) or attitude_target (GUIDED)")
-    link_timeout_s: float = bounded(2.0, 0.2, 60.0, "s", "no heartbeat this long = link lost")
-    max_link_outage_s: float = bounded(10.0, 0.5, 600.0, "s", "a link lost longer than this ends the run "
-                                       "(the pilot has had the sticks back for a while; no silent resume)")
-    max_distance_m: float = bounded(10_000.0, 10.0, 1e6, "m", "a position farther than this from home is rejected")
-    connect_timeout_s: float = bounded(30.0, 0.5, 600.0, "s", "wait this long for the autopilot at start")
-    stale_state_s: float = bounded(0.5, 0.05, 10.0, "s", "state older than this (autopilot time) is not used")
-    lookahead_steps: int = bounded(5, 1, 400, "steps", "attitude_target: plan step whose heading/speed is sent")
-    on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
-    max_time_s: float | None = bounded(None, 0.1, 1e6, "s", "end the run after this much autopilot time engaged")
-    waves: str = choice("estimated", WAVE_SOURCES, "estimated (from the boat's motion) or scenario (simulation "
-                        "truth: the scenario's sea; never on a real boat)")
-    wave_roll_sign: float = bounded(1.0, -1.0, 1.0, "", "estimator: +1 roll = slope (the paper's plant, the "
-                                    "simulator), -1 a real hull")
-    wave_position_lag_s: float = bounded(0.0, 0.0, 2.0, "s", "estimator: lag of the GPS position it "
-                                         "compensates (0 on ArduPilot)")
-    lockstep: bool = bounded(False, doc="simulation only, against `sim-vehicle --lockstep`: the simulator waits "
-                             "for each command, so a step waits for asrti's background solve fully, has no "
-                             "wall-clock deadline and no wall-clock stand-down (a real boat never waits: leave "
-                             "false there)")
-    start_at_s: float | None = bounded(None, 0.0, 1e6, "s", "command from this autopilot time on, not before "
-                                       "(simulation comparisons: every run starts from the same world state)")
-
-    def __post_init__(self) -> None:
-        if self.wave_roll_sign not in (-1.0, 1.0):
-            raise ConfigError(f"wave_roll_sign: {self.wave_roll_sign!r} is not one of -1, 1")
-        for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS), ("waves", WAVE_SOURCES)):
-            if getattr(self, name) not in choices:
-                raise ConfigError(f"{name}: {getattr(self, name)!r} is not one of {', '.join(choices)}")
-
-
-def load_companion_config(path: str | Path | None, **overrides: Any) -> CompanionConfig:
-    """The YAML configuration (or the defaults), with command-line overrides applied on top."""
-    data = read_yaml(path) if path else None
-    data = {} if data is None else data  # an empty file is the defaults; a list or a number is an error
-    if not isinstance(data, dict):
-        raise ConfigError(f"{path}: expected a mapping of settings")
-    data.update({k: v for k, v in overrides.items() if v is not None})
-    return from_mapping(CompanionConfig, data, str(path) if path else "configuration")
+__all__ = ["Companion", "CompanionConfig", "build_nmpc", "load_companion_config", "schedule", "wave_step"]
 
 
 def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) -> RollAwareNmpc:
@@ -188,6 +142,8 @@ class Companion:
         self.record = RunRecorder(self.period_s)
         self.gate = WaveGate(waves, log, hold_s=scenario.estimation.hold_s)
         self.events = LoopEvents()
+        self.notices = LoopNotices(log, self.output.required_mode)
+        self._failure: str | None = None  # set when the run ends in a failure (exit 1): systemd restarts it
         self.link: Link | None = None
         self._stop_reason: str | None = None
         self._commanding = False
@@ -201,7 +157,9 @@ class Companion:
             before = self.supervisor.phase
             after = self.supervisor.on_heartbeat(time.monotonic(), armed, int(msg.custom_mode))
             if after != before:
-                self.log(f"phase: {after.value}" + (f" ({self.supervisor.reason})" if after.final else ""))
+                shadow = after == Phase.ENGAGED and not self.output.sends  # a dry run: planning, nothing sent
+                self.log(f"phase: {'shadow (dry run: planning, sending nothing)' if shadow else after.value}"
+                         + (f" ({self.supervisor.reason})" if after.final else ""))
 
     def _on_motion(self, msg: Any) -> None:
         """Every ATTITUDE sample (once a position is known) goes to the wave source, after the state took it."""
@@ -221,7 +179,7 @@ class Companion:
         """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
         self.events.arrived_at_ms = now_ms
         self.supervisor.arrived()
-        self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s")
+        self.log(f"waypoint reached at autopilot time t = {now_ms / 1000:.1f} s")
         self.output.neutral(link, self.state)
         if self.config.on_arrival == "hold" and self.output.sends:
             self.supervisor.expected_mode = MODE_HOLD
@@ -239,6 +197,10 @@ class Companion:
                 self.output.neutral(link, self.state)  # never leave the last command running on old data
             return
         x = self.state.vector()
+        far = far_waypoint(self.mission.waypoints, self.config.max_range_m, (float(x[0]), float(x[1])))
+        if far is not None:  # the engage gate: never a command towards a waypoint out of range (new missions too)
+            self._fail(link, far)
+            return
         target = self.mission.target(float(x[0]), float(x[1]))
         if self.events.engaged_at_ms is None:
             self.events.engaged_at_ms = now_ms
@@ -265,6 +227,16 @@ class Companion:
         self._commanding = self.output.sends
         self._last_command_wall = time.monotonic()
         self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
+        self.notices.progress(now_ms / 1000.0, math.hypot(target[0] - x[0], target[1] - x[1]), float(x[3]),
+                              result.wall_time_s * 1e3)
+
+    def _fail(self, link: Link, reason: str) -> None:
+        """End the run as a failure (exit 1), standing down first."""
+        self.log(f"mavbridge run: error: {reason}")
+        self._failure = reason
+        self.supervisor.stop(reason)
+        if self._commanding:
+            self._stand_down(link)
 
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
@@ -280,12 +252,14 @@ class Companion:
             self.log(f"waves: {self.waves.name} from the boat's own motion; the roll term waits for a confident "
                      "estimate")
         try:
+            refuse_if_taken(self.config.connect)  # one companion per UDP port
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
                         self.out_dir / "companion.tlog", self.config.baud)
         except LinkError as exc:
             self.log(f"mavbridge run: error: {exc}")
             return 1
         self.link = link
+        hold_exclusively(link.conn)
         link.handlers += [self.state.on_message, self._on_motion, self._on_heartbeat, self.mission.on_message]
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
@@ -306,7 +280,7 @@ class Companion:
                 signal.signal(s, handler)
             self._write_logs()
             link.close()
-        return code
+        return 1 if self._failure else code
 
     def _prepare(self, link: Link) -> None:
         """Autopilot, output path, streams, mission, rates, the cold solve; then mode and arming if asked."""
@@ -319,6 +293,8 @@ class Companion:
         self.mission.load(link, self.state.set_home)
         rates = self.events.rates_hz = measure_rates(link, lambda: self.state.attitude_ms)
         self.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
+        boat = (float(self.state.vector()[0]), float(self.state.vector()[1])) if self.state.ready() else None
+        check_waypoints(self.mission.waypoints, self.config.max_range_m, boat)  # before arming or any mode change
         imu, imu_hz = imu_rate(rates)
         if self.waves.name != SCENARIO_TRUTH:
             self.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
@@ -350,7 +326,7 @@ class Companion:
         if self.supervisor.phase == Phase.TAKEN_OVER and self._commanding:
             self._release(link)  # the sticks are the pilot's
         if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
-            self.supervisor.stop(f"link lost for more than {self.config.max_link_outage_s:g} s")
+            self._fail(link, f"link lost for more than {self.config.max_link_outage_s:g} s")
             return False
         if self._commanding and not self.config.lockstep and time.monotonic() - self._last_command_wall > \
                 3 * self.period_s:  # (in lockstep the boat's time waits for us: a late step is not stale)
@@ -367,6 +343,8 @@ class Companion:
                 break
             if not self._service_link(link):
                 break
+            if self.supervisor.phase == Phase.WAITING and not self.supervisor.self_commanded:
+                self.notices.waiting(self.supervisor.reason)
             now_ms = self.state.attitude_ms
             if now_ms is None or now_ms < self._start_ms:
                 continue
@@ -374,6 +352,7 @@ class Companion:
             if not due:
                 continue
             self.events.skipped_ticks += missed
+            self.notices.skipped(missed, self.period_s)
             self._control_step(link, now_ms)
             engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:
@@ -393,8 +372,15 @@ class Companion:
         write_csv(self.out_dir / "companion.csv", self.record.rows)
         m = self.metrics()
         (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
-        self.log(f"avg roll {m['avg_roll_deg']} deg, max roll {m['max_roll_deg']} deg, time to waypoint "
-                 f"{m['time_to_waypoint_s']} s, solve median {m['solve_ms_median']} ms; logs in {self.out_dir}")
+        figures = (("avg roll", "avg_roll_deg", "deg"), ("max roll", "max_roll_deg", "deg"), ("solve median",
+                   "solve_ms_median", "ms"), ("time to waypoint (since engaging)", "time_to_waypoint_s", "s"))
+        said = ", ".join(f"{name} {m[key]} {unit}" for name, key, unit in figures if m[key] is not None)
+        self.log(f"{said or 'no control step'}; logs in {self.out_dir}")
         w = m["waves"]
-        self.log(f"waves ({w['source']}): roll term on {w['roll_term_fraction']} of the steps, first confident "
-                 f"after {w['time_to_confident_s']} s, estimator {w['estimator_ms_median']} ms per step (median)")
+        if (behind := keep_up_summary(m["skipped_ticks"], len(self.record.rows))) is not None:
+            self.log(behind)
+        confident = "never confident" if w["time_to_confident_s"] is None else \
+            f"first confident after {w['time_to_confident_s']} s"
+        self.log(f"waves ({w['source']}): roll term on {w['roll_term_fraction']} of the steps, {confident}"
+                 + (f", estimator {w['estimator_ms_median']} ms per step (median)"
+                    if w["estimator_ms_median"] is not None else ""))

@@ -14,6 +14,7 @@ import contextlib
 import csv
 import json
 import math
+import signal
 import socket
 import subprocess
 import sys
@@ -25,7 +26,9 @@ import yaml
 
 from vessel.geo import Home
 
+from .loop_notices import keep_up_summary
 from .plots import plot_path, plot_timeseries
+from .runlog import fresh_run_folder
 from .scenario import Scenario
 
 
@@ -96,6 +99,21 @@ def lockstep_flags(speedup: float) -> tuple[list[str], list[str]]:
             ["--lockstep", "--start-at", start])
 
 
+class DemoInterruptedError(Exception):
+    """A signal (SIGINT, SIGTERM, SIGHUP) asked the demo to stop; it still stops its children and reports."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise DemoInterruptedError(signum)
+
+
 def sim_realism(waves: str) -> list[str]:
     """The simulator's sea and sensors for the demo: realistic (its defaults: the hull heaving with the sea,
     a phase the companion is never told, sensor noise) when the companion estimates the waves; with
@@ -104,14 +122,10 @@ def sim_realism(waves: str) -> list[str]:
     return [] if waves == "estimated" else ["--sea-phase", "boot", "--ideal-sensors"]
 
 
-def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated",
-             lockstep: bool = False) -> int:
-    """Run the demo; returns 0 when the boat reached the waypoint. ``waves``: the companion's wave source,
-    ``estimated`` (from the boat's motion) or ``scenario`` (the simulator's truth); ``lockstep``: a
-    reproducible run."""
-    out.mkdir(parents=True, exist_ok=True)
-    resolved = str(write_resolved(scenario, out))
-    gcs_port, companion_port, tcp_port = free_udp_port(), free_udp_port(), free_tcp_port()
+def _commands(scenario: Scenario, out: Path, resolved: str, ports: tuple[int, int, int], speedup: float,
+              output: str, waves: str, lockstep: bool) -> tuple[list[str], list[str]]:
+    """(simulator command, companion command) on the ports (ground station, companion, TCP)."""
+    gcs_port, companion_port, tcp_port = ports
     python = sys.executable
     home = Home(heading_deg=scenario.start.heading_deg)  # CMAC; the boat's pose itself comes from the file
     sim_cmd = [python, "-m", "sim_vehicle.cli", "--tcp", str(tcp_port), "--out", f"udp:127.0.0.1:{gcs_port}",
@@ -120,53 +134,97 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
                "--speedup", f"{speedup:g}", *sim_realism(waves)]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
-                     "--scenario", resolved, "--waves", waves]
+                     "--scenario", resolved, "--waves", waves, "--solver", scenario.controller.solver]
     if lockstep:
         sim_flags, companion_flags = lockstep_flags(speedup)
         sim_cmd += sim_flags
         companion_cmd += companion_flags
-    print(f"demo: simulator TCP {tcp_port}, ground station UDP {gcs_port}, companion UDP {companion_port}, "
-          f"speedup {speedup:g}, output {output}, waves {waves}")
-    children: list[tuple[subprocess.Popen, str]] = []
+    return sim_cmd, companion_cmd
+
+
+def _fly(scenario: Scenario, out: Path, cmds: tuple[list[str], list[str]], gcs_port: int, wall_limit_s: float,
+         children: list[tuple[subprocess.Popen, str]]) -> int | None:
+    """Start the simulator, upload the waypoint, run the companion to its end; 1 on a failure before flying,
+    None once the companion has ended (or was stopped at ``wall_limit_s``). Children go into ``children``."""
+    with (out / "sim.log").open("w") as sim_log:
+        children.append((subprocess.Popen(cmds[0], stdout=sim_log, stderr=subprocess.STDOUT), "sim-vehicle"))
+    north, east = scenario.waypoint.north_m, scenario.waypoint.east_m
     try:
-        with (out / "sim.log").open("w") as sim_log:
-            sim = subprocess.Popen(sim_cmd, stdout=sim_log, stderr=subprocess.STDOUT)
-            children.append((sim, "sim-vehicle"))
-            north, east = scenario.waypoint.north_m, scenario.waypoint.east_m
-            try:
-                upload = subprocess.run([python, "-m", "mission.cli", "upload", "--waypoint", f"{north:g},{east:g}",
-                                         "--connect", f"udpin://127.0.0.1:{gcs_port}", "--timeout", "20"],
-                                        capture_output=True, text=True, timeout=120)
-            except subprocess.TimeoutExpired:
-                print("demo: mission upload did not finish within 120 s", file=sys.stderr)
-                return 1
-            print(upload.stdout.rstrip())
-            if upload.returncode != 0:
-                print(f"demo: mission upload failed: {upload.stderr.strip()}", file=sys.stderr)
-                return 1
-            companion = subprocess.Popen(companion_cmd)
-            children.append((companion, "mavbridge run"))
-            # lockstep: simulated time waits for every plan, so on a loaded machine it runs slower than speedup
-            wall_limit = scenario.t_max_s / speedup * (4.0 if lockstep else 1.0) + 120.0 + (
-                LOCKSTEP_STARTUP_WALL_S if lockstep else 0.0)
-            try:
-                companion.wait(wall_limit)
-            except subprocess.TimeoutExpired:
-                print(f"demo: companion still running after {wall_limit:.0f} s, stopping it", file=sys.stderr)
-    finally:
-        for process, name in reversed(children):
-            _stop(process, name)
+        upload = subprocess.run([sys.executable, "-m", "mission.cli", "upload", "--waypoint", f"{north:g},{east:g}",
+                                 "--connect", f"udpin://127.0.0.1:{gcs_port}", "--timeout", "20"],
+                                capture_output=True, text=True, timeout=120)
+    except subprocess.TimeoutExpired:
+        print("demo: mission upload did not finish within 120 s", file=sys.stderr)
+        return 1
+    print(upload.stdout.rstrip())
+    if upload.returncode != 0:
+        print(f"demo: mission upload failed: {upload.stderr.strip()}", file=sys.stderr)
+        return 1
+    companion = subprocess.Popen(cmds[1])
+    children.append((companion, "mavbridge run"))
+    try:
+        companion.wait(wall_limit_s)
+    except subprocess.TimeoutExpired:
+        print(f"demo: companion still running after {wall_limit_s:.0f} s, stopping it", file=sys.stderr)
+    return None
+
+
+def _report(scenario: Scenario, out: Path, interrupted: DemoInterruptedError | None) -> int:
+    """Plots and the summary from what the children left; the exit code (128 + signal when interrupted)."""
+    stopped = f"demo: stopped by {interrupted}; every process it started is stopped" if interrupted else None
     metrics_path = out / "companion" / "metrics.json"
     if not metrics_path.exists():
-        print("demo: the companion wrote no metrics", file=sys.stderr)
-        return 1
+        print(stopped or "demo: the companion wrote no metrics", file=sys.stderr)
+        print(f"demo: exit status {128 + interrupted.signum if interrupted else 1}; run folder {out}")
+        return 128 + interrupted.signum if interrupted else 1
     metrics = json.loads(metrics_path.read_text())
     with contextlib.suppress(Exception):  # the figures are a bonus; the metrics are the result
         _plot(scenario, out, metrics)
     arrived = metrics.get("time_to_waypoint_s")
     print(f"demo: average roll {metrics['avg_roll_deg']} deg, max roll {metrics['max_roll_deg']} deg, "
-          f"time to waypoint {arrived if arrived is not None else 'not reached'} s; run folder {out}")
-    return 0 if arrived is not None and math.isfinite(arrived) else 1
+          f"time to waypoint {f'{arrived} s' if arrived is not None else 'not reached'}; run folder {out}")
+    if (behind := keep_up_summary(metrics.get("skipped_ticks", 0), metrics.get("steps", 0))) is not None:
+        print(f"demo: {behind}")
+    if interrupted:
+        print(stopped, file=sys.stderr)
+        code = 128 + interrupted.signum
+    else:
+        code = 0 if arrived is not None and math.isfinite(arrived) else 1
+    print(f"demo: exit status {code}")
+    return code
+
+
+def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated",
+             lockstep: bool = False) -> int:
+    """Run the demo; returns 0 when the boat reached the waypoint. ``waves``: the companion's wave source,
+    ``estimated`` (from the boat's motion) or ``scenario`` (the simulator's truth); ``lockstep``: a
+    reproducible run. SIGINT, SIGTERM and SIGHUP stop it the same way: every child stopped by its handle,
+    logs and plots written, the exit status (128 + the signal) stated."""
+    out = fresh_run_folder(out)
+    resolved = str(write_resolved(scenario, out))
+    ports = (free_udp_port(), free_udp_port(), free_tcp_port())
+    print(f"demo: simulator TCP {ports[2]}, ground station UDP {ports[0]}, companion UDP {ports[1]}, "
+          f"speedup {speedup:g}, output {output}, waves {waves}")
+    cmds = _commands(scenario, out, resolved, ports, speedup, output, waves, lockstep)
+    # lockstep: simulated time waits for every plan, so on a loaded machine it runs slower than the speedup
+    wall_limit = scenario.t_max_s / speedup * (4.0 if lockstep else 1.0) + 120.0 + (
+        LOCKSTEP_STARTUP_WALL_S if lockstep else 0.0)
+    children: list[tuple[subprocess.Popen, str]] = []
+    interrupted: DemoInterruptedError | None = None
+    previous = {s: signal.signal(s, _interrupt) for s in STOP_SIGNALS}
+    try:
+        if _fly(scenario, out, cmds, ports[0], wall_limit, children) is not None:
+            return 1
+    except DemoInterruptedError as exc:
+        interrupted = exc
+    finally:
+        for s in STOP_SIGNALS:  # a second signal must not cut the clean-up short
+            signal.signal(s, signal.SIG_IGN)
+        for process, name in reversed(children):
+            _stop(process, name)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    return _report(scenario, out, interrupted)
 
 
 def timestamped_folder(root: Path = Path("runs")) -> Path:

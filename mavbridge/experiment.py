@@ -13,9 +13,11 @@ reported, not simulated), and no MAVLink is involved. Two plants:
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -217,11 +219,13 @@ def _worker(scenario: Scenario, out_dir: str) -> RunResult:
 
 
 def run_many(scenarios: Sequence[Scenario], out_root: str | Path, jobs: int | None = None,
-             say: Callable[[str], None] = print) -> list[RunResult]:
-    """Run scenarios in parallel processes (one per job), in the given order of results."""
+             say: Callable[[str], None] = print, results: dict[str, RunResult] | None = None) -> list[RunResult]:
+    """Run scenarios in parallel processes (one per job), in the given order of results. ``results`` (name ->
+    result) fills as runs finish, so that an interrupted call leaves what was finished. On an interrupt the
+    queued runs are cancelled and the running ones stopped: nothing runs on unreported."""
     out_root = Path(out_root)
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(scenarios)))
-    results: dict[str, RunResult] = {}
+    results = {} if results is None else results
     if jobs == 1:
         for sc in scenarios:
             say(f"[{sc.name}] started")
@@ -229,7 +233,8 @@ def run_many(scenarios: Sequence[Scenario], out_root: str | Path, jobs: int | No
             say(_done_line(results[sc.name]))
     else:
         os.environ.setdefault("OMP_NUM_THREADS", "1")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn"))
+        try:
             futures = {}
             for sc in scenarios:
                 futures[pool.submit(_worker, sc, str(out_root / sc.name))] = sc.name
@@ -238,6 +243,14 @@ def run_many(scenarios: Sequence[Scenario], out_root: str | Path, jobs: int | No
                 res = fut.result()
                 results[res.name] = res
                 say(_done_line(res))
+        except BaseException:
+            workers = list(getattr(pool, "_processes", None) or {})  # pids; the pool has no public handle
+            pool.shutdown(wait=False, cancel_futures=True)
+            for pid in workers:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGTERM)
+            raise
+        pool.shutdown()
     ordered = [results[sc.name] for sc in scenarios]
     return ordered
 
@@ -287,8 +300,21 @@ def comparison_table(results: Sequence[RunResult]) -> str:
 
 def experiment(scenarios: Sequence[Scenario], out_root: str | Path, jobs: int | None = None,
                say: Callable[[str], None] = print) -> list[RunResult]:
-    """Run all scenarios, then print and write the comparison table (table3.md) for a set of runs."""
-    results = run_many(scenarios, out_root, jobs, say)
+    """Run all scenarios, then print and write the comparison table (table3.md) for a set of runs. Interrupted
+    (Ctrl-C, SIGTERM), it writes the table of the runs that finished, lists those that did not, and re-raises."""
+    finished: dict[str, RunResult] = {}
+    try:
+        results = run_many(scenarios, out_root, jobs, say, finished)
+    except KeyboardInterrupt:
+        done = [finished[sc.name] for sc in scenarios if sc.name in finished]
+        missing = [sc.name for sc in scenarios if sc.name not in finished]
+        if done:
+            (Path(out_root) / "table3.md").write_text(comparison_table(done), encoding="utf-8")
+            sys.stdout.write(comparison_table(done))
+        say(f"experiment: interrupted; finished: {', '.join(r.name for r in done) or 'none'}"
+            + (f" (table in {Path(out_root) / 'table3.md'})" if done else "")
+            + f"; not finished: {', '.join(missing)}")
+        raise
     table = comparison_table(results)
     if len(results) > 1:
         (Path(out_root) / "table3.md").write_text(table, encoding="utf-8")

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from vessel import NX_RIGID, STATE_NAMES
+from vessel.config import ConfigError
 
 # Column name stem and SI unit of each rigid-body state, keyed by vessel's state name.
 _STATE_LOG = {"north": "north_m", "east": "east_m", "down": "down_m", "phi": "roll_rad", "theta": "pitch_rad",
@@ -135,3 +136,27 @@ def column(rows: Iterable[Mapping[str, Any]], name: str) -> np.ndarray:
     if name not in LOG_COLUMNS:
         raise KeyError(f"run log: no column {name!r}")
     return np.array([math.nan if row.get(name) in (None, "") else float(row[name]) for row in rows], float)
+
+
+def fresh_run_folder(path: Path, flag: str = "--out", say: Callable[[str], None] = print) -> Path:
+    """A run folder that holds no earlier run: ``path`` when it is new or empty, else the first free
+    ``path-2``, ``path-3``, … (said in one line). Created here, so that two runs never pick the same one.
+    A run's logs are never overwritten or appended to; ConfigError (one line naming ``flag``) when the
+    folder cannot be made."""
+    candidate, number = path, 1
+    while True:
+        try:
+            candidate.mkdir(parents=True)
+            break
+        except FileExistsError:
+            if candidate.is_dir() and not any(candidate.iterdir()):
+                break  # an empty folder: nothing to lose
+            if candidate == path and not path.is_dir():
+                raise ConfigError(f"{flag}: {path} is a file, not a folder") from None
+        except OSError as exc:
+            raise ConfigError(f"{flag}: {path}: cannot create the folder ({exc.strerror or exc})") from None
+        number += 1
+        candidate = path.with_name(f"{path.name}-{number}")
+    if candidate != path:
+        say(f"{flag}: {path} already holds a run; writing this one to {candidate} instead")
+    return candidate

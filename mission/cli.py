@@ -9,13 +9,14 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+from vessel.geo import DEFAULT_MAX_RANGE_M
+
 from . import transfer
-from .files import read_mission_file, write_mission_file
-from .plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, validate
+from .files import check_output_file, read_mission_file, write_mission_file
+from .plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, check_range, validate
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
-MAX_OFFSET_M = 50_000.0
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -38,6 +39,17 @@ def _pair(text: str) -> tuple[float, float]:
     return a, b
 
 
+def _range(text: str) -> float:
+    """A distance in metres, finite and > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a distance in metres > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range: finite and > 0 m")
+    return value
+
+
 def build_parser() -> OneLineParser:
     """`mission upload|download|clear`."""
     parser = OneLineParser(prog="mission", description=__doc__)
@@ -51,6 +63,9 @@ def build_parser() -> OneLineParser:
     source.add_argument("--waypoint", type=_pair, metavar="N,E", help="one waypoint, metres north,east of home")
     source.add_argument("--latlon", type=_pair, metavar="LAT,LON", help="one waypoint in degrees")
     source.add_argument("file", nargs="?", help="a QGroundControl .plan or QGC WPL 110 .waypoints file")
+    up.add_argument("--max-range", type=_range, default=DEFAULT_MAX_RANGE_M, metavar="M",
+                    help=f"refuse a waypoint farther than this from home (m, default {DEFAULT_MAX_RANGE_M:g}: the "
+                         "companion's engage limit)")
     down = sub.add_parser("download", parents=[common], help="download the stored mission")
     down.add_argument("--out", metavar="FILE", help="write it as .plan or .waypoints (by extension)")
     sub.add_parser("clear", parents=[common], help="clear the stored mission")
@@ -69,20 +84,23 @@ async def _run(args: argparse.Namespace) -> int:
     if args.command == "upload":
         if args.waypoint is not None:
             north, east = args.waypoint
-            if max(abs(north), abs(east)) > MAX_OFFSET_M:
-                raise MissionError(f"--waypoint: {north:g},{east:g} is outside the allowed range "
-                                   f"[-{MAX_OFFSET_M:g}, {MAX_OFFSET_M:g}] m per axis")
+            if not math.hypot(north, east) <= args.max_range:
+                raise MissionError(f"--waypoint: {north:g},{east:g} is {math.hypot(north, east):g} m from home, "
+                                   f"farther than --max-range {args.max_range:g} m")
             await transfer.upload_relative(north, east, args.connect, args.timeout)
             return 0
         if args.latlon is not None:
             lat, lon = args.latlon
             check_latlon(lat, lon, "--latlon")
-            mission = await _with_vehicle_home(args, MissionItem(lat, lon, 0.0))
+            mission = check_range(await _with_vehicle_home(args, MissionItem(lat, lon, 0.0)), args.max_range,
+                                  "--latlon")
         else:
-            mission = read_mission_file(args.file)
+            mission = check_range(read_mission_file(args.file), args.max_range, args.file)
         await transfer.upload(mission, args.connect, args.timeout)
         return 0
     if args.command == "download":
+        if args.out:
+            check_output_file(args.out)  # before connecting: never download, then fail on the name
         mission = await transfer.download(args.connect, args.timeout)
         _print_mission(mission)
         if args.out:

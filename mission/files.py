@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -201,3 +202,19 @@ def write_mission_file(mission: Mission, path: str | Path) -> None:
         write_waypoints(mission, path)
     else:
         raise MissionError(f"{path}: unknown mission file type '{suffix}' (allowed: .plan, .waypoints)")
+
+
+def check_output_file(path: str | Path, flag: str = "--out") -> None:
+    """Raise MissionError unless ``path`` can take a mission file: a known extension, an existing folder, not a
+    folder itself. Checked before connecting, so that a download is never lost to a bad name afterwards."""
+    target = Path(path)
+    suffix = target.suffix.lower()
+    if suffix != ".plan" and suffix not in WAYPOINT_SUFFIXES:
+        raise MissionError(f"{flag}: {path}: unknown mission file type '{suffix}' (allowed: .plan, .waypoints)")
+    if target.is_dir():
+        raise MissionError(f"{flag}: {path} is a folder; give a file name ending .plan or .waypoints")
+    folder = target.parent
+    if not folder.is_dir():
+        raise MissionError(f"{flag}: {path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise MissionError(f"{flag}: {path}: the folder {folder} is not writable")

@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from vessel.geo import ned_from_latlon
+
 MAV_CMD_NAV_WAYPOINT = 16
 SUPPORTED_COMMANDS = {MAV_CMD_NAV_WAYPOINT: "NAV_WAYPOINT"}
 # MAV_FRAME: GLOBAL, GLOBAL_RELATIVE_ALT, GLOBAL_INT, GLOBAL_RELATIVE_ALT_INT
@@ -72,4 +74,17 @@ def validate(mission: Mission, source: str = "mission") -> Mission:
         hold = item.params[0]
         if math.isfinite(hold) and not 0.0 <= hold <= 3600.0:
             raise MissionError(f"{where}: hold time {hold!r} is outside the allowed range [0, 3600] s")
+    return mission
+
+
+def check_range(mission: Mission, max_range_m: float, source: str = "mission") -> Mission:
+    """Raise MissionError unless every item is within ``max_range_m`` metres of the mission's home (flat earth,
+    as the autopilot and the companion measure it); return the mission. The companion refuses to engage on a
+    waypoint farther than its own --max-range (the same default), so such a mission could never be flown."""
+    home = mission.home
+    for index, item in enumerate(mission.items, start=1):
+        distance = math.hypot(*ned_from_latlon(home.lat_deg, home.lon_deg, item.lat_deg, item.lon_deg))
+        if not distance <= max_range_m:
+            raise MissionError(f"{source}: item {index} is {distance / 1000:,.1f} km from home, farther than "
+                               f"--max-range {max_range_m:g} m")
     return mission

@@ -18,6 +18,7 @@ from vessel.world import SEA_PRESETS, World
 
 from . import lockstep
 from .argtypes import SEED_MAX, positive_seconds, seed_number
+from .logs import fresh_log_dir
 from .params import ParamTable, is_param_name, read_parm
 from .scenario import sim_world
 from .sim import Options, Simulator
@@ -273,6 +274,21 @@ def announce(opts: Options, startup_s: float) -> None:
     print(f"sim-vehicle: {sea.describe()}; {phase}; sensors {'ideal' if opts.ideal_sensors else 'realistic'}; "
           f"heave {'surface' if opts.surface_heave else 'paper'}; ready in {startup_s:.1f} s",
           file=sys.stderr, flush=True)
+    links = [f"TCP {opts.tcp_port}" if opts.tcp_port is not None else "no TCP"]
+    links += [f"UDP to {host}:{port}" for host, port in opts.outputs]
+    links += [f"serial {opts.serial[0]}"] if opts.serial else []
+    logs = f"logs in {opts.log_dir}" if opts.log_dir is not None else "no logs (--log-dir)"
+    print(f"sim-vehicle: MAVLink on {', '.join(links)}; {logs}", file=sys.stderr, flush=True)
+
+
+def _log_dir(path: Path) -> Path:
+    """A fresh log folder (never an earlier run's); ConfigError naming --log-dir when it cannot be made."""
+    try:
+        return fresh_log_dir(path, lambda line: print(f"sim-vehicle: {line}", file=sys.stderr))
+    except FileExistsError:
+        raise ConfigError(f"--log-dir: {path} is a file, not a folder") from None
+    except OSError as exc:
+        raise ConfigError(f"--log-dir: {path}: cannot create the folder ({exc.strerror or exc})") from None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -293,7 +309,7 @@ def main(argv: list[str] | None = None) -> int:
         world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state)  # before writing
         params = _load_params(args)
         if args.log_dir is not None:
-            args.log_dir.mkdir(parents=True, exist_ok=True)
+            args.log_dir = _log_dir(args.log_dir)
             if shutil.disk_usage(args.log_dir).free < 1 << 20:
                 raise ConfigError(f"{args.log_dir}: less than 1 MB free for logs")
         opts = Options(

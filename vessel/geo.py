@@ -23,6 +23,9 @@ EARTH_RADIUS_M = 6_378_100.0  # ArduPilot's RADIUS_OF_EARTH
 METRES_PER_DEGREE = EARTH_RADIUS_M * math.pi / 180.0  # 1e7 · LATLON_TO_M (LOCATION_SCALING_FACTOR)
 DEG_E7 = 1e7  # MAVLink's integer latitude/longitude unit: degrees · 1e7
 MIN_LONGITUDE_SCALE = 0.01  # ArduPilot's floor on cos(latitude)
+# The farthest a waypoint may be from home or from the boat (m) unless the operator says otherwise: one default
+# for `mavbridge run` (the engage gate), `mavbridge check` and `mission upload`, which share nothing else.
+DEFAULT_MAX_RANGE_M = 5000.0
 
 
 def wrap_pi(angle: float, half_turn: float = math.pi) -> float:

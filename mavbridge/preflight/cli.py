@@ -7,13 +7,13 @@ import time
 from typing import Any
 
 from vessel.config import ConfigError
+from vessel.geo import DEFAULT_MAX_RANGE_M
 
-from ..cli_args import OUTPUTS, count, parse_north_east, single_scenario
+from ..cli_args import OUTPUTS, REAL_TIME_SOLVER, SOLVER_HELP, count, parse_north_east, positive_metres, single_scenario
 from ..nmpc.config import SOLVERS
 from .report import Report
 
 DEFAULT_SOLVES = 300  # mirrors solve_time.DEFAULT_SOLVES (kept import-light: no CasADi for --help)
-DEFAULT_MAX_RANGE_M = 5000.0
 
 
 def add_check_parser(sub: Any) -> None:
@@ -30,7 +30,7 @@ def add_check_parser(sub: Any) -> None:
     check.add_argument("--compid", type=int, help="our component id (default 191)")
     check.add_argument("--output", choices=OUTPUTS, help="the output to check for")
     check.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
-    check.add_argument("--solver", choices=SOLVERS, help="override the scenario's controller.solver")
+    check.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     check.add_argument("--solves", type=count, default=DEFAULT_SOLVES,
                        help=f"NMPC solves to time (default {DEFAULT_SOLVES}; 0 skips the solve-time check)")
     check.add_argument("--port", type=int, default=2, metavar="N",
@@ -38,14 +38,16 @@ def add_check_parser(sub: Any) -> None:
                             "a typical Rover; the simulator's 127.0.0.1:14551 output is 2 as well)")
     check.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
                        help="check this waypoint instead of the mission")
-    check.add_argument("--max-range", type=float, default=DEFAULT_MAX_RANGE_M, metavar="M",
-                       help=f"largest distance home-waypoint in m (default {DEFAULT_MAX_RANGE_M:g})")
+    check.add_argument("--max-range", type=positive_metres, default=DEFAULT_MAX_RANGE_M, metavar="M",
+                       help=f"largest distance of a waypoint from home in m (default {DEFAULT_MAX_RANGE_M:g}, the "
+                            "companion's engage limit)")
     check.add_argument("--timeout", type=float, help="wait this long for the autopilot (s; default from config)")
 
 
 def check_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge check`; 1 if anything FAILed, else 0."""
     from ..companion import load_companion_config
+    from ..port_guard import refuse_if_taken
     from .probe import Probe
     from .solve_time import solve_time
 
@@ -53,6 +55,7 @@ def check_command(args: argparse.Namespace) -> int:
         raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, connect_timeout_s=args.timeout)
+    refuse_if_taken(config.connect)
     scenario = single_scenario(args.scenario, args.solver)
     report = Report()
     print(f"mavbridge check: {config.connect} as {config.system_id}/{config.component_id}, output {config.output}, "

@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from vessel.geo import ned_from_latlon
+from vessel.geo import DEFAULT_MAX_RANGE_M, ned_from_latlon
 
 from .. import streams
 from ..link import Link, LinkError, mavlink
@@ -24,7 +24,6 @@ from .rules import fmt_value, parameter_findings
 
 POSITION_NEED_HZ = 5.0
 RATE_WINDOW_S = 3.0  # rates are counted over this much autopilot time (time_boot_ms)
-DEFAULT_MAX_RANGE_M = 5000.0
 STREAM_OF = {"ATTITUDE": "EXTRA1", "GLOBAL_POSITION_INT": "POSITION", "LOCAL_POSITION_NED": "POSITION"}
 
 
