@@ -56,6 +56,8 @@ CONFIGS: dict[str, dict] = {
     "asrti-process": {"solver": "asrti", "as_worker": "process"},  # the background solve in a worker process
     "asrti-tight": {"solver": "asrti", "as_step_tol": 0.01},  # background solved to 0.01 N instead of 0.3 N
     "asrti-cap15": {"solver": "asrti", "as_max_iterations": 15},  # background capped at 15 SQP iterations
+    # asrti's closed loop with a native preparation/feedback split: the step is one C call on a condensed QP.
+    "nrti": {"solver": "nrti"},
     "asrti-setwave": {"solver": "asrti"},  # set_wave every step with the true wave
     "asrti-setwave-noisy": {"solver": "asrti"},  # set_wave every step, truth + noise
     "asrti-estimated": {"solver": "asrti"},  # the wave estimator in the loop (see ESTIMATED)
