@@ -15,6 +15,7 @@ solved here too, as the feedback's starting guess. All of this runs before the m
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import casadi as ca
@@ -24,7 +25,7 @@ from .codegen import compiled_library, load
 from .config import NmpcConfig
 from .gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
 from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, WEIGHT_NAMES
-from .native_lib import BoxQp, ptr
+from .native_lib import BoxQp, CompiledFunction, ptr
 
 NZU = NZ + NU
 QP_MAX_ITER = 40  # block-principal-pivoting iterations per QP (one or two when the guess is right)
@@ -74,11 +75,18 @@ def block_linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
                        ["w", "p"], ["AB", "H", "g", "gap"])
 
 
-def load_block_linearisation(step: ca.Function, cfg: NmpcConfig) -> tuple[ca.Function, str]:
-    """The block linearisation compiled (disk-cached) when a compiler exists, else in the SX VM."""
+BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
+
+
+def load_block_linearisation(step: ca.Function, cfg: NmpcConfig) -> tuple[BlockLinearisation, str]:
+    """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached) called through
+    its C API when a compiler exists, else the Function in CasADi's SX VM (outputs converted)."""
     fn = block_linearisation(step, cfg)
     library, how = compiled_library(fn)
-    return load(fn, library), how
+    if library is not None:
+        return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
+    vm = load(fn, None)
+    return (lambda w, p: [np.asarray(m).ravel(order="F") for m in vm(w, p)]), how
 
 
 @dataclass
@@ -113,7 +121,7 @@ class CondensedQp:
 class Condenser:
     """Linearise, condense and pre-solve at a plan (one instance per thread; holds work buffers)."""
 
-    def __init__(self, lib: ctypes.CDLL, lin: ca.Function, cfg: NmpcConfig, buffers: FeedbackBuffers) -> None:
+    def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers) -> None:
         P = cfg.horizon
         self.lib, self.lin, self.cfg, self.buffers = lib, lin, cfg, buffers
         n = P * NU
@@ -130,7 +138,8 @@ class Condenser:
     def condense(self, w_aug: np.ndarray, p: np.ndarray) -> CondensedQp:
         """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``."""
         P, n = self.cfg.horizon, self.n
-        AB, Hs, gs, gap = (np.asarray(m).ravel(order="F") for m in self.lin(w_aug, p))
+        w_aug = np.ascontiguousarray(w_aug, float)
+        AB, Hs, gs, gap = (a.copy() for a in self.lin(w_aug, np.ascontiguousarray(p, float)))
         Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * NZ)
         self.lib.nrti_condense(P, NZ, NU, ptr(AB), ptr(Hs), ptr(gs), ptr(gap), ptr(self.Gam), ptr(self.Phi),
                                ptr(self.c), ptr(Hc), ptr(gc), ptr(Gc), ptr(self.tmp))
@@ -140,7 +149,6 @@ class Condenser:
         state0 = np.zeros(n, np.intc)
         _, status = self.box.solve(Hc, gc, lo, hi, state0)
         b = self.buffers
-        w_aug = np.ascontiguousarray(w_aug, float)
         arrays = (Hc, gc, Gc, lo, hi, state0, AB, gap, w_aug)
         args = (P, NX, NZ, NU, *(ptr(a) for a in arrays), ptr(b.dz0), QP_MAX_ITER, QP_TOL, ptr(b.w_out),
                 ptr(b.du), ptr(b.work), ptr(b.iwork))

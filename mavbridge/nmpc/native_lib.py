@@ -100,3 +100,37 @@ class BoxQp:
         status = self.lib.nrti_box_qp(self.n, ptr(H), ptr(g), ptr(lo), ptr(hi), ptr(state), ptr(x), ptr(self.work),
                                       ptr(self.iwork), self.max_iter, self.tol)
         return x, int(status)
+
+
+class CompiledFunction:
+    """A CasADi-generated library called through its C API into caller-owned numpy buffers.
+
+    The generated ``name(arg, res, iw, w, mem)`` writes each output's nonzeros (for dense outputs: the
+    matrix, column-major) straight into ``outputs``; no DM is created and, as with every ctypes call, the
+    GIL is released while it runs. One instance per thread (it owns its work vectors).
+    """
+
+    def __init__(self, library: Path, fn_name: str, n_out: list[int]) -> None:
+        self.lib = ctypes.CDLL(str(library))
+        self.fn = getattr(self.lib, fn_name)
+        self.fn.argtypes = (_P, _P, _P, _P, _I)
+        self.fn.restype = _I
+        work = getattr(self.lib, f"{fn_name}_work")
+        sizes = [ctypes.c_longlong() for _ in range(4)]
+        work(*(ctypes.byref(s) for s in sizes))
+        sz_arg, sz_res, sz_iw, sz_w = (int(s.value) for s in sizes)
+        self.arg = (ctypes.c_void_p * max(sz_arg, 1))()
+        self.res = (ctypes.c_void_p * max(sz_res, 1))()
+        self.iw = np.zeros(max(sz_iw, 1), np.int64)
+        self.w = np.zeros(max(sz_w, 1))
+        self.outputs = [np.zeros(n) for n in n_out]
+        for i, out in enumerate(self.outputs):
+            self.res[i] = out.ctypes.data
+
+    def __call__(self, *inputs: np.ndarray) -> list[np.ndarray]:
+        """Evaluate at the (C-contiguous float) ``inputs``; answers this instance's output buffers."""
+        for i, x in enumerate(inputs):
+            self.arg[i] = ptr(x)
+        if self.fn(self.arg, self.res, ptr(self.iw), ptr(self.w), 0) != 0:
+            raise RuntimeError("compiled function failed")
+        return self.outputs
