@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import time
+from concurrent.futures import Future
 
 import numpy as np
 
@@ -73,9 +74,14 @@ class PreparedStep(AdvancedStep):
         self.preparation = Preparation(self._solve, condenser)
         self._solve = self.preparation
 
-    def start_at(self, w: np.ndarray, p: np.ndarray) -> None:
-        """Prepare the QP at ``w`` for ``p`` itself (the first step after ``prepare``)."""
-        self._pending = self._worker().submit(self.preparation.at_plan, np.array(w, float), np.array(p, float))
+    def prepare_now(self, w: np.ndarray, p: np.ndarray) -> CondensedQp | None:
+        """Prepare the QP at ``w`` for ``p`` itself, here and now (before the loop: no job is in flight),
+        and hold it for the first step."""
+        result = self.preparation.at_plan(np.array(w, float), np.array(p, float))
+        done: Future = Future()
+        done.set_result(result)
+        self._pending = done
+        return result[0]
 
 
 class NrtiBackend(AsrtiBackend):
@@ -100,10 +106,13 @@ class NrtiBackend(AsrtiBackend):
         self.advanced = PreparedStep(functions, cfg, Condenser(lib, lin, cfg, self.buffers))
 
     def prepare(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray) -> SolveOutcome:
-        """The cold solve (IPOPT), then the QP at its plan is prepared for the first step."""
+        """The cold solve (IPOPT), then the QP at its plan is prepared for the first step (and the feedback
+        run once on it, so that the first step finds its code and buffers warm)."""
         outcome = super().prepare(w0, p, lbw, ubw)
         if outcome.usable and isinstance(self.advanced, PreparedStep):
-            self.advanced.start_at(outcome.w, p)
+            qp = self.advanced.prepare_now(outcome.w, p)
+            if qp is not None:
+                self.feedback(qp, p, outcome.lam_w, outcome.lam_g)
         return outcome
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
