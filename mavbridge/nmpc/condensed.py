@@ -135,8 +135,9 @@ class Condenser:
         self.u_high = np.tile([cfg.tau_x_max_n, cfg.tau_n_max_nm], P)
         self.box = BoxQp(lib, n, QP_MAX_ITER, QP_TOL)
 
-    def condense(self, w_aug: np.ndarray, p: np.ndarray) -> CondensedQp:
-        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``."""
+    def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None) -> CondensedQp:
+        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``; its feedback
+        call writes into ``buffers`` (default: the backend's)."""
         P, n = self.cfg.horizon, self.n
         w_aug = np.ascontiguousarray(w_aug, float)
         AB, Hs, gs, gap = (a.copy() for a in self.lin(w_aug, np.ascontiguousarray(p, float)))
@@ -148,7 +149,7 @@ class Condenser:
         hi = np.maximum(self.u_high - U, 0.0)
         state0 = np.zeros(n, np.intc)
         _, status = self.box.solve(Hc, gc, lo, hi, state0)
-        b = self.buffers
+        b = buffers or self.buffers
         arrays = (Hc, gc, Gc, lo, hi, state0, AB, gap, w_aug)
         args = (P, NX, NZ, NU, *(ptr(a) for a in arrays), ptr(b.dz0), QP_MAX_ITER, QP_TOL, ptr(b.w_out),
                 ptr(b.du), ptr(b.work), ptr(b.iwork))

@@ -43,18 +43,48 @@ def say_once(message: str) -> None:
 
 
 class Preparation:
-    """The background job: asrti's converged solve for the next period, then the condensed QP at its plan."""
+    """The background job: a converged Gauss–Newton SQP for the predicted next state, every iteration a
+    condensed QP solved natively (as asrti's, whose HPIPM iterations it replaces), then the QP at its plan."""
 
     def __init__(self, solve: BackgroundSolve, condenser: Condenser) -> None:
-        self.solve = solve
+        self.solve = solve  # asrti's: its model step, layout and augmented-layout conversions
         self.condenser = condenser
+        self.buffers = FeedbackBuffers.allocate(condenser.cfg.horizon)  # this thread's own
 
     def __call__(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> BackgroundResult:
         """(CondensedQp or None, p_next, seconds, SQP iterations) for the period after ``p``'s."""
         start = time.perf_counter()
-        w, p_next, _, iterations = self.solve(w_plan, p, tau)
-        qp = None if w is None else self._condense(w, p_next)
+        cfg, layout = self.condenser.cfg, self.solve.layout
+        par = PARAMS.unpack(p)
+        x_next = np.asarray(self.solve.step(par.x0, tau, par.t, par.wave)).ravel()
+        p_next = p.copy()
+        p_next[PARAMS.slice("x0")] = x_next
+        p_next[PARAMS.index("t")] = par.t + cfg.period_s
+        p_next[PARAMS.slice("u_prev")] = tau
+        w = layout.shift(w_plan)
+        w[layout.x_index(0)] = x_next
+        qp, iterations = None, 0
+        if np.all(np.isfinite(x_next)):
+            w, iterations = self.converge(w, p_next)
+            qp = None if w is None else self._condense(w, p_next)
         return qp, p_next, time.perf_counter() - start, iterations
+
+    def converge(self, w: np.ndarray, p: np.ndarray) -> tuple[np.ndarray | None, int]:
+        """Full-step SQP from ``w`` (controller layout, x0 in place) until every input step is at most
+        ``as_step_tol`` (at most ``as_max_iterations``): (the plan or None on a failed QP, iterations)."""
+        cfg, b, sqp = self.condenser.cfg, self.buffers, self.solve.sqp
+        u_prev = PARAMS.get(p, "u_prev")
+        b.dz0[:] = 0.0
+        for it in range(cfg.as_max_iterations):
+            qp = self.condenser.condense(sqp.to_aug(w, u_prev), p, b)
+            if qp.guess_status <= 0 or self.condenser.lib.nrti_feedback(*qp.args) < 0:
+                return None, it + 1
+            if not np.all(np.isfinite(b.w_out)):
+                return None, it + 1
+            w = b.w_out.copy()
+            if np.max(np.abs(b.du)) <= cfg.as_step_tol:
+                return w, it + 1
+        return w, cfg.as_max_iterations
 
     def at_plan(self, w: np.ndarray, p: np.ndarray) -> BackgroundResult:
         """The condensed QP at a plan already solved for ``p`` itself (after the cold solve)."""
