@@ -106,19 +106,21 @@ int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, con
                 double s = Gk[(size_t)r * n + a];
                 if (s == 0.0) continue;
                 const double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
-                for (int b = 0; b < m; ++b) ha[b] += s * mr[b];
+                for (int b = a; b < m; ++b) ha[b] += s * mr[b];  /* upper triangle; mirrored below */
                 for (int b = 0; b < nz; ++b) ga[b] += s * mh[b];
                 gc[a] += s * hs[r];
             }
             if (uk >= 0 && a >= uk && a < uk + nu) {
                 int r = nz + a - uk;
                 const double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
-                for (int b = 0; b < m; ++b) ha[b] += mr[b];
+                for (int b = a; b < m; ++b) ha[b] += mr[b];
                 for (int b = 0; b < nz; ++b) ga[b] += mh[b];
                 gc[a] += hs[r];
             }
         }
     }
+    for (int a = 0; a < n; ++a)
+        for (int b = 0; b < a; ++b) Hc[(size_t)a * n + b] = Hc[(size_t)b * n + a];
     return 0;
 }
 
