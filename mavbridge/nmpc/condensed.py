@@ -80,9 +80,10 @@ BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
 
 def load_block_linearisation(step: ca.Function, cfg: NmpcConfig) -> tuple[BlockLinearisation, str]:
     """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached) called through
-    its C API when a compiler exists, else the Function in CasADi's SX VM (outputs converted)."""
+    its C API when a compiler exists and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX
+    VM (outputs converted)."""
     fn = block_linearisation(step, cfg)
-    library, how = compiled_library(fn)
+    library, how = compiled_library(fn) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
     if library is not None:
         return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
     vm = load(fn, None)
