@@ -13,7 +13,7 @@ Run it alone on the machine (one process, OMP_NUM_THREADS=1) for clean timings.
 ``nrti`` is asrti's closed loop with the step split in a preparation (background: converged SQP, QP
 condensed in C) and a feedback (the measured state into the prepared QP: one native call); its step time
 is the feedback plus the controller's Python glue. acados is not a backend here: the PyPI build
-(``comma-deps-acados``) vendors a CasADi 3.6.7 that replaces the project's CasADi in the environment
+(``comma-deps-acados``) installs its own casadi package (no IPOPT or HPIPM plugin) over the project's CasADi
 (see the final note printed); its published figures on this problem are quoted there for comparison.
 
 The ``*-setwave`` rows call ``RollAwareNmpc.set_wave`` before every step with a freshly built wave, as the
@@ -178,7 +178,8 @@ def acados_note() -> str:
     try:
         import acados_template  # noqa: F401  (optional; never a dependency)
     except ImportError:
-        return ("acados: not installed (its PyPI build vendors CasADi 3.6.7 in place of the project's CasADi); "
+        return ("acados: not installed (its PyPI wheel puts its own casadi package, without the IPOPT and HPIPM "
+                "plugins, in place of the project's CasADi); "
                 "measured on this problem elsewhere: SQP_RTI + HPIPM SPEED_ABS 0.24 ms median solve, "
                 "≈ 0.41 ms with setting x0 and parameters from Python")
     return "acados: importable, but no acados backend is wired into this benchmark"
