@@ -8,7 +8,7 @@ from typing import Any
 
 from vessel.config import ConfigError, bounded, validate
 
-SOLVERS = ("ipopt", "rti", "asrti")
+SOLVERS = ("ipopt", "rti", "asrti", "nrti")
 INTEGRATORS = ("euler", "rk4")
 STRUCTURAL = "structural"  # field metadata key: the field changes the built problem
 
@@ -46,7 +46,8 @@ class NmpcConfig:
     min_speed_mps: float = structural(bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed"))
     min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))
     solver: str = choice("ipopt", SOLVERS, "ipopt (reference), rti (Gauss–Newton SQP with HPIPM) or asrti "
-                         "(rti corrected from a converged SQP solve for the predicted state, run in the background)")
+                         "(rti corrected from a converged SQP solve for the predicted state, run in the background) "
+                         "or nrti (asrti with a native preparation/feedback split: condensed QP in C)")
     max_iter: int = bounded(50, 0, 10000, "", "IPOPT iteration limit")
     rti_iterations: int = bounded(2, 1, 20, "", "SQP iterations per step, at least (rti)")
     rti_max_iterations: int = bounded(2, 1, 50, "", "SQP iterations per step, at most (rti)")

@@ -48,6 +48,10 @@ class NmpcResult:
 
 def make_backend(functions: ProblemFunctions, cfg: NmpcConfig) -> NmpcBackend:
     """A new backend (its own solver instances) for the configured solver."""
+    if cfg.solver == "nrti":
+        from .nrti import NrtiBackend  # asrti with the native preparation/feedback split
+
+        return NrtiBackend(functions, cfg)
     if cfg.solver == "asrti":
         from .asrti import AsrtiBackend  # optional, heavier to build
 

@@ -1,0 +1,238 @@
+"""The C source of the native real-time iteration: condensing, a dense box-QP solver and the feedback step.
+
+Kept as text so that the package needs no data files; ``native_lib`` compiles it once (gcc, cached by a
+hash of this text) and calls it through ctypes. Everything is plain C99 with no allocation: the caller
+hands in every buffer.
+
+Conventions. The augmented OCP (``gauss_newton``) has N stages of z = [x (12), u_prev (2)] (nz = 14) and
+u (nu = 2); nzu = nz + nu. Its Gauss–Newton QP at a plan, in the step (Δz, Δu):
+    min Σ_k ½ v_kᵀ H_k v_k + g_kᵀ v_k,  v_k = [Δz_k; Δu_k] (v_N = [Δz_N; 0])
+    Δz_{k+1} = A_k Δz_k + B_k Δu_k + gap_k,  Δz_0 = dz0 (the measurement's offset from the plan),
+    lo ≤ ΔU ≤ hi (input bounds only; the states are free).
+Blocks arrive column-major as CasADi writes dense matrices: AB_k (nz × nzu) at AB + k·nz·nzu, H_k
+(nzu × nzu) at Hs + k·nzu², g_k at gs + k·nzu, gap_k at gap + k·nz. Eliminating the states
+(Δz_k = Γ_k ΔU + Φ_k dz0 + c_k) leaves a dense QP in the n = N·nu input steps:
+    min ½ ΔUᵀ Hc ΔU + (gc + Gc dz0)ᵀ ΔU,  lo ≤ ΔU ≤ hi     (Hc n × n, Gc n × nz, row-major).
+"""
+
+C_SOURCE = r"""
+#include <math.h>
+#include <string.h>
+
+#define AB_(k, r, j) AB[(size_t)(k) * nz * nzu + (size_t)(j) * nz + (r)]
+#define H_(k, r, j) Hs[(size_t)(k) * nzu * nzu + (size_t)(j) * nzu + (r)]
+
+/* Lower Cholesky factor of the m x m SPD matrix a (row-major, lower triangle read), in place. */
+static int cholesky(double *a, int m) {
+    for (int j = 0; j < m; ++j) {
+        double *aj = a + (size_t)j * m;
+        double d = aj[j];
+        for (int k = 0; k < j; ++k) d -= aj[k] * aj[k];
+        if (!(d > 0.0)) return -1;
+        d = sqrt(d);
+        aj[j] = d;
+        for (int i = j + 1; i < m; ++i) {
+            double *ai = a + (size_t)i * m;
+            double s = ai[j];
+            for (int k = 0; k < j; ++k) s -= ai[k] * aj[k];
+            ai[j] = s / d;
+        }
+    }
+    return 0;
+}
+
+/* State sensitivities: Gam (N+1) x nz x n, Phi (N+1) x nz x nz, c (N+1) x nz, all row-major. */
+static void sensitivities(int N, int nz, int nu, const double *AB, const double *gap,
+                          double *Gam, double *Phi, double *c) {
+    int nzu = nz + nu, n = N * nu;
+    memset(Gam, 0, sizeof(double) * (size_t)(N + 1) * nz * n);
+    memset(Phi, 0, sizeof(double) * (size_t)(N + 1) * nz * nz);
+    memset(c, 0, sizeof(double) * (size_t)(N + 1) * nz);
+    for (int r = 0; r < nz; ++r) Phi[r * nz + r] = 1.0;
+    for (int k = 0; k < N; ++k) {
+        const double *G0 = Gam + (size_t)k * nz * n, *P0 = Phi + (size_t)k * nz * nz, *c0 = c + (size_t)k * nz;
+        double *G1 = Gam + (size_t)(k + 1) * nz * n, *P1 = Phi + (size_t)(k + 1) * nz * nz;
+        double *c1 = c + (size_t)(k + 1) * nz;
+        for (int r = 0; r < nz; ++r) {
+            double *g1 = G1 + (size_t)r * n, *p1 = P1 + (size_t)r * nz;
+            double cr = gap[(size_t)k * nz + r];
+            for (int s = 0; s < nz; ++s) {
+                double a = AB_(k, r, s);
+                if (a == 0.0) continue;
+                const double *g0 = G0 + (size_t)s * n, *p0 = P0 + (size_t)s * nz;
+                for (int col = 0; col < k * nu; ++col) g1[col] += a * g0[col];
+                for (int col = 0; col < nz; ++col) p1[col] += a * p0[col];
+                cr += a * c0[s];
+            }
+            for (int i = 0; i < nu; ++i) g1[k * nu + i] = AB_(k, r, nz + i);
+            c1[r] = cr;
+        }
+    }
+}
+
+/* Condense the QP (see the Python docstring). tmp: nzu * (n + nz + 1) doubles. */
+int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, const double *gs,
+                  const double *gap, double *Gam, double *Phi, double *c,
+                  double *Hc, double *gc, double *Gc, double *tmp) {
+    int nzu = nz + nu, n = N * nu;
+    sensitivities(N, nz, nu, AB, gap, Gam, Phi, c);
+    memset(Hc, 0, sizeof(double) * (size_t)n * n);
+    memset(Gc, 0, sizeof(double) * (size_t)n * nz);
+    memset(gc, 0, sizeof(double) * (size_t)n);
+    double *M = tmp, *Mh = tmp + (size_t)nzu * n, *hs = Mh + (size_t)nzu * nz;
+    for (int k = 0; k <= N; ++k) {
+        const double *Gk = Gam + (size_t)k * nz * n, *Pk = Phi + (size_t)k * nz * nz, *ck = c + (size_t)k * nz;
+        int m = k < N ? (k + 1) * nu : n;  /* columns of S_k that can be nonzero */
+        int uk = k < N ? k * nu : -1;      /* first column of u_k, none at the terminal stage */
+        for (int r = 0; r < nzu; ++r) {    /* M = H_k S_k, Mh = H_k [Phi_k; 0], hs = H_k [c_k; 0] + g_k */
+            double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
+            double h = gs[(size_t)k * nzu + r];
+            memset(mr, 0, sizeof(double) * (size_t)m);
+            memset(mh, 0, sizeof(double) * (size_t)nz);
+            for (int s = 0; s < nz; ++s) {
+                double a = H_(k, r, s);
+                if (a == 0.0) continue;
+                const double *gs_row = Gk + (size_t)s * n, *ps = Pk + (size_t)s * nz;
+                for (int col = 0; col < m; ++col) mr[col] += a * gs_row[col];
+                for (int col = 0; col < nz; ++col) mh[col] += a * ps[col];
+                h += a * ck[s];
+            }
+            if (uk >= 0) for (int i = 0; i < nu; ++i) mr[uk + i] += H_(k, r, nz + i);
+            hs[r] = h;
+        }
+        for (int a = 0; a < m; ++a) {      /* Hc += S_k^T M, Gc += S_k^T Mh, gc += S_k^T hs (S_k's rows) */
+            double *ha = Hc + (size_t)a * n, *ga = Gc + (size_t)a * nz;
+            for (int r = 0; r < nz; ++r) {
+                double s = Gk[(size_t)r * n + a];
+                if (s == 0.0) continue;
+                const double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
+                for (int b = a; b < m; ++b) ha[b] += s * mr[b];  /* upper triangle; mirrored below */
+                for (int b = 0; b < nz; ++b) ga[b] += s * mh[b];
+                gc[a] += s * hs[r];
+            }
+            if (uk >= 0 && a >= uk && a < uk + nu) {
+                int r = nz + a - uk;
+                const double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
+                for (int b = a; b < m; ++b) ha[b] += mr[b];
+                for (int b = 0; b < nz; ++b) ga[b] += mh[b];
+                gc[a] += hs[r];
+            }
+        }
+    }
+    for (int a = 0; a < n; ++a)
+        for (int b = 0; b < a; ++b) Hc[(size_t)a * n + b] = Hc[(size_t)b * n + a];
+    return 0;
+}
+
+/* Fix the bounded variables, solve the free ones by Cholesky. Returns the number free, or -1. */
+static int solve_free(int n, const double *H, const double *g, const double *lo, const double *hi,
+                      const int *state, double *x, double *L, double *rhs, int *free_idx) {
+    int m = 0;
+    for (int i = 0; i < n; ++i) {
+        if (state[i] < 0) x[i] = lo[i];
+        else if (state[i] > 0) x[i] = hi[i];
+        else free_idx[m++] = i;
+    }
+    for (int a = 0; a < m; ++a) {
+        const double *Hi = H + (size_t)free_idx[a] * n;
+        double s = -g[free_idx[a]];
+        for (int j = 0; j < n; ++j) if (state[j] != 0) s -= Hi[j] * x[j];
+        rhs[a] = s;
+        for (int b = 0; b <= a; ++b) L[(size_t)a * m + b] = Hi[free_idx[b]];
+    }
+    if (cholesky(L, m) != 0) return -1;
+    for (int a = 0; a < m; ++a) {
+        double s = rhs[a];
+        for (int b = 0; b < a; ++b) s -= L[(size_t)a * m + b] * rhs[b];
+        rhs[a] = s / L[(size_t)a * m + a];
+    }
+    for (int a = m - 1; a >= 0; --a) {
+        double s = rhs[a];
+        for (int b = a + 1; b < m; ++b) s -= L[(size_t)b * m + a] * rhs[b];
+        rhs[a] = s / L[(size_t)a * m + a];
+    }
+    for (int a = 0; a < m; ++a) x[free_idx[a]] = rhs[a];
+    return m;
+}
+
+/* Mark the variables whose bound status is wrong (bad[i] = 1); returns how many, *last = the largest. */
+static int wrong_status(int n, const double *H, const double *g, const double *lo, const double *hi,
+                        const int *state, const double *x, double tol, int *bad, int *last) {
+    int count = 0;
+    for (int i = 0; i < n; ++i) {
+        int b;
+        if (state[i] == 0) {
+            b = x[i] < lo[i] - tol || x[i] > hi[i] + tol;
+        } else {
+            const double *Hi = H + (size_t)i * n;
+            double grad = g[i];
+            for (int j = 0; j < n; ++j) grad += Hi[j] * x[j];
+            b = state[i] < 0 ? grad < -tol : grad > tol;
+        }
+        bad[i] = b;
+        if (b) { ++count; *last = i; }
+    }
+    return count;
+}
+
+/* min 1/2 x'Hx + g'x, lo <= x <= hi, H SPD (row-major n x n): block principal pivoting (Judice-Pires)
+   with Murty's single swap when the count of wrong statuses stops falling. state[i] in {-1, 0, +1}
+   (at lo, free, at hi) is the starting guess and the answer. work: n*n + n doubles, iwork: 2n ints.
+   Returns the pivoting iterations (> 0), 0 when max_iter ran out (x clipped), -1 if H is not SPD. */
+int nrti_box_qp(int n, const double *H, const double *g, const double *lo, const double *hi, int *state,
+                double *x, double *work, int *iwork, int max_iter, double tol) {
+    double *L = work, *rhs = work + (size_t)n * n;
+    int *free_idx = iwork, *bad = iwork + n;
+    int best = n + 1, stalls = 0;
+    for (int it = 1; it <= max_iter; ++it) {
+        if (solve_free(n, H, g, lo, hi, state, x, L, rhs, free_idx) < 0) return -1;
+        int last = -1;
+        int count = wrong_status(n, H, g, lo, hi, state, x, tol, bad, &last);
+        if (count == 0) return it;
+        if (count < best) { best = count; stalls = 0; } else ++stalls;
+        for (int i = 0; i < n; ++i) {
+            if (!bad[i] || (stalls >= 3 && i != last)) continue;
+            if (state[i] != 0) state[i] = 0;
+            else state[i] = x[i] < lo[i] ? -1 : 1;
+        }
+    }
+    for (int i = 0; i < n; ++i) x[i] = x[i] < lo[i] ? lo[i] : (x[i] > hi[i] ? hi[i] : x[i]);
+    return 0;
+}
+
+/* The feedback step: g = gc + Gc dz0, the box QP from the guess state0, then the states by the linear
+   dynamics; w_out (the controller's layout, x of nx per stage) = the plan w_aug (augmented layout) + step.
+   Returns nrti_box_qp's answer. work: n*n + 2n + 2nz doubles; iwork: 3n ints. */
+int nrti_feedback(int N, int nx, int nz, int nu, const double *Hc, const double *gc, const double *Gc,
+                  const double *lo, const double *hi, const int *state0, const double *AB, const double *gap,
+                  const double *w_aug, const double *dz0, int max_iter, double tol, double *w_out,
+                  double *du, double *work, int *iwork) {
+    int nzu = nz + nu, n = N * nu;
+    double *g = work + (size_t)n * n + n, *dz = g + n, *dz1 = dz + nz;
+    int *state = iwork + 2 * n;
+    for (int a = 0; a < n; ++a) {
+        double s = gc[a];
+        for (int b = 0; b < nz; ++b) s += Gc[(size_t)a * nz + b] * dz0[b];
+        g[a] = s;
+    }
+    memcpy(state, state0, sizeof(int) * (size_t)n);
+    int status = nrti_box_qp(n, Hc, g, lo, hi, state, du, work, iwork, max_iter, tol);
+    if (status < 0) return status;
+    memcpy(dz, dz0, sizeof(double) * (size_t)nz);
+    for (int k = 0; k <= N; ++k) {
+        const double *zk = w_aug + (size_t)k * nzu;
+        double *out = w_out + (size_t)k * (nx + nu);
+        for (int i = 0; i < nx; ++i) out[i] = zk[i] + dz[i];
+        if (k == N) break;
+        for (int i = 0; i < nu; ++i) out[nx + i] = zk[nz + i] + du[k * nu + i];
+        for (int r = 0; r < nz; ++r) {
+            double s = gap[(size_t)k * nz + r];
+            for (int j = 0; j < nz; ++j) s += AB_(k, r, j) * dz[j];
+            for (int i = 0; i < nu; ++i) s += AB_(k, r, nz + i) * du[k * nu + i];
+            dz1[r] = s;
+        }
+        memcpy(dz, dz1, sizeof(double) * (size_t)nz);
+    }
+    return status;
+}
+"""

@@ -1,0 +1,164 @@
+"""The native RTI (solver ``nrti``): its kernels against CasADi's QP solvers, its whole Balanced run
+against converged IPOPT (within 1 % on average roll and arrival, inputs never NaN), and its fallback
+where no C compiler exists.
+
+The IPOPT reference run of Balanced takes one to two minutes here; its metrics are cached on disk
+(``codegen.cache_dir()``), keyed by the scenario, the CasADi version and the source of ``vessel`` and
+``mavbridge`` (but the native modules), so they are recomputed only when something that could change them
+changed.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import json
+import logging
+import math
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+import yaml
+
+from mavbridge.experiment import run_scenario
+from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
+from mavbridge.nmpc.codegen import cache_dir, compiler
+from mavbridge.nmpc.gauss_newton import NZ
+from mavbridge.nmpc.layout import NU, NX
+from mavbridge.nmpc.native_lib import BoxQp, native_library
+from mavbridge.scenario import Scenario, load_scenarios
+from vessel import RegularWaves, otter_parameters
+
+ROOT = Path(__file__).resolve().parents[2]
+WAVES = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2)
+needs_compiler = pytest.mark.skipif(compiler() is None, reason="the native kernels need a C compiler")
+
+
+def _qrqp(H: ca.DM, g: np.ndarray, A: ca.DM | None, lba: np.ndarray | None, lbx: np.ndarray,
+          ubx: np.ndarray) -> np.ndarray:
+    """The QP solved by CasADi's own active-set solver (the reference)."""
+    sp = {"h": ca.DM(H).sparsity()} | ({"a": ca.DM(A).sparsity()} if A is not None else {})
+    qp = ca.conic("reference", "qrqp", sp, {"print_iter": False, "print_header": False, "print_info": False})
+    args = {"h": H, "g": g, "lbx": lbx, "ubx": ubx} | ({"a": A, "lba": lba, "uba": lba} if A is not None else {})
+    return np.asarray(qp(**args)["x"]).ravel()
+
+
+@needs_compiler
+def test_box_qp_solves_random_problems_from_a_wrong_guess() -> None:
+    lib, how = native_library()
+    assert lib is not None, how
+    rng = np.random.default_rng(5)
+    n = 30
+    box = BoxQp(lib, n, 60, 1e-10)
+    for _ in range(5):
+        M = rng.normal(size=(n, n))
+        H = M @ M.T + 0.5 * np.eye(n)
+        g = rng.normal(size=n) * 10
+        lo, hi = -rng.uniform(0.1, 1, n), rng.uniform(0.1, 1, n)
+        state = np.ones(n, np.intc)  # everything at its upper bound: most of the guess is wrong
+        x, status = box.solve(H, g, lo, hi, state)
+        assert status > 0
+        reference = _qrqp(ca.DM(H), g, None, None, lo, hi)
+        np.testing.assert_allclose(x, reference, atol=1e-6)
+        assert np.sum(state != 0) > 0  # some bounds are active, so the pivoting had work to do
+
+
+@needs_compiler
+def test_feedback_equals_the_sparse_qp_for_a_measured_state() -> None:
+    cfg = NmpcConfig(horizon=8, solver="nrti", rti_codegen="off")
+    x0 = np.zeros(12)
+    x0[5], x0[6] = 0.5, 1.0
+    waypoint = np.array([40.0, 10.0])
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        nmpc.prepare(x0, 0.0, waypoint)
+        backend = nmpc._backend
+        qp = backend.advanced.take(nmpc._parameters(x0, 0.0, waypoint))[0]
+        assert qp is not None, "the preparation after the cold solve gave no QP"
+        measured = x0 + np.array([0.05, -0.03, 0.01, 0.02, -0.01, 0.03, 0.1, 0.02, 0.0, 0.02, 0.0, -0.02])
+        p = nmpc._parameters(measured, 0.0, waypoint)
+        outcome = backend.feedback(qp, p, np.zeros(1), np.zeros(1))
+        assert outcome is not None and outcome.usable
+        # The reference: the same Gauss–Newton QP (the sparse linearisation at the prepared plan) with the
+        # initial state fixed at the measurement, solved by qrqp.
+        H, g, A, gap = nmpc._functions.linearisation(qp.w_aug, qp.p)
+        dz0 = np.concatenate([measured - qp.w_aug[:NX], np.zeros(NU)])
+        lbw, ubw = np.full(qp.w_aug.size, -np.inf), np.full(qp.w_aug.size, np.inf)
+        for k in range(cfg.horizon):
+            u = slice(k * (NZ + NU) + NZ, (k + 1) * (NZ + NU))
+            lbw[u], ubw[u] = (cfg.tau_x_min_n, -cfg.tau_n_max_nm), (cfg.tau_x_max_n, cfg.tau_n_max_nm)
+        lbx, ubx = lbw - qp.w_aug, ubw - qp.w_aug
+        lbx[:NZ] = ubx[:NZ] = dz0
+        step = _qrqp(H, np.asarray(g).ravel(), A, -np.asarray(gap).ravel(), lbx, ubx)
+        reference = backend.solve_plan(dataclasses.replace(qp, w_aug=qp.w_aug + step))
+        np.testing.assert_allclose(outcome.w, reference, atol=1e-5)
+        assert np.max(np.abs(outcome.w - backend.solve_plan(qp))) > 1e-3  # the measurement moved the plan
+
+
+NATIVE_ONLY = {"nrti.py", "condensed.py", "native_lib.py", "native_source.py"}  # an IPOPT run never imports these
+
+
+def _source_hash() -> str:
+    """CasADi's version and every source file of ``vessel`` and ``mavbridge`` an IPOPT run may use."""
+    digest = hashlib.sha256(ca.__version__.encode())
+    for package in ("vessel", "mavbridge"):
+        for path in sorted((ROOT / package).rglob("*.py")):
+            if not (path.parent.name == "nmpc" and path.name in NATIVE_ONLY):
+                digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def ipopt_reference(scenario: Scenario) -> dict:
+    """The IPOPT run's metrics for ``scenario``, from the disk cache when nothing relevant changed."""
+    ipopt = dataclasses.replace(scenario, controller=scenario.controller.replace(solver="ipopt"))
+    key = hashlib.sha256(yaml.safe_dump(ipopt.to_mapping(), sort_keys=True).encode()).hexdigest()[:16]
+    path = cache_dir() / "reference" / f"ipopt_{key}_{_source_hash()}.json"
+    if path.exists():
+        return json.loads(path.read_text(encoding="utf-8"))
+    metrics = run_scenario(ipopt, None, plots=False).metrics
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(metrics), encoding="utf-8")
+    return metrics
+
+
+@needs_compiler
+@pytest.mark.slow
+def test_nrti_balanced_run_is_within_one_percent_of_ipopt(tmp_path: Path) -> None:
+    balanced = next(s for s in load_scenarios(ROOT / "scenarios" / "balanced.yaml") if s.name == "balanced")
+    nrti = dataclasses.replace(balanced, controller=balanced.controller.replace(solver="nrti"))
+    result = run_scenario(nrti, tmp_path, plots=False)
+    reference = ipopt_reference(balanced)
+    m = result.metrics
+    assert reference["time_to_waypoint_s"] is not None, "the IPOPT reference never reached the waypoint"
+    assert m["time_to_waypoint_s"] is not None, "nrti never reached the waypoint"
+    assert m["avg_roll_deg"] == pytest.approx(reference["avg_roll_deg"], rel=0.01)
+    assert m["time_to_waypoint_s"] == pytest.approx(reference["time_to_waypoint_s"], rel=0.01)
+    assert m["failures"] == 0
+    with open(tmp_path / "timeseries.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["tau_x_n"] not in ("", None)]
+    taus = np.array([[float(r["tau_x_n"]), float(r["tau_n_nm"])] for r in rows])
+    assert len(taus) == len(result.solve_ms) and np.all(np.isfinite(taus))
+
+
+def test_without_a_compiler_nrti_runs_as_asrti_and_says_so_once(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                                                  caplog: pytest.LogCaptureFixture) -> None:
+    from mavbridge.nmpc import nrti
+
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))  # no gcc, no cc
+    monkeypatch.setattr(nrti, "_SAID", set())
+    cfg = NmpcConfig(horizon=6, solver="nrti", rti_codegen="off")
+    x0 = np.zeros(12)
+    x0[6] = 1.0
+    with caplog.at_level(logging.WARNING, logger="mavbridge.nmpc.nrti"):
+        for _ in range(2):
+            with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+                assert nmpc._backend.buffers is None  # no native kernels
+                nmpc.prepare(x0, 0.0, [40.0, 10.0])
+                results = [nmpc.solve(x0, 0.1 * k, [40.0, 10.0]) for k in range(3)]
+    assert all(r.success and np.all(np.isfinite(r.tau)) for r in results)
+    assert all(r.status.startswith("RTI") for r in results)  # asrti's step
+    notices = [r for r in caplog.records if "running as asrti" in r.getMessage()]
+    assert len(notices) == 1, [r.getMessage() for r in caplog.records]
