@@ -70,7 +70,10 @@ def test_the_companion_estimates_the_simulators_sea_not_the_scenarios(tmp_path: 
     assert code == 0, text[-3000:]
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert metrics["phase"] == "ARRIVED" and metrics["wave_source"] == "estimated", text[-2000:]
-    assert "no confident estimate yet: flying without the roll term" in text
+    # the first wave line says how the run starts: usually not confident yet (Direct), but the estimator
+    # watches the boat from the first ATTITUDE, so on a slow machine it may already be confident
+    first = next((line for line in text.splitlines() if "waves (estimated)" in line), "")
+    assert "no confident estimate yet: flying without the roll term" in first or "roll term on" in first, text[-2000:]
     rows = _rows(tmp_path / "run")
     for row in rows:  # never a NaN command
         assert all(math.isfinite(float(row[c])) for c in ("tau_x_n", "tau_n_nm", "steering_pwm_us", "throttle_pwm_us"))
