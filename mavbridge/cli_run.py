@@ -11,6 +11,7 @@ from vessel.config import ConfigError
 
 from .cli_args import OUTPUTS, WAVE_SOURCES, parse_north_east, single_scenario
 from .nmpc.config import SOLVERS
+from .retry import add_retry_arguments
 
 
 def _speedup(text: str) -> float:
@@ -51,6 +52,7 @@ def add_run_parser(sub: Any) -> None:
                           "wall-clock deadline (reproducible runs; never on a real boat)")
     run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
                                                                   "before: comparable runs start in the same world")
+    add_retry_arguments(run)
 
 
 def add_demo_parser(sub: Any) -> None:
@@ -82,7 +84,8 @@ def run_command(args: argparse.Namespace) -> int:
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
-                                   waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at)
+                                   waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at,
+                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries)
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s)

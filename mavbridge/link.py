@@ -19,6 +19,8 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
+from .retry import IN_PROGRESS_FACTOR, RetryPolicy, ask, give_up_line
+
 mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
 ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
@@ -43,6 +45,12 @@ class _AddressRecordingSocket:
 Handler = Callable[[Any], None]
 
 
+def command_name(command: int) -> str:
+    """MAV_CMD_... name of a command number (the number if the dialect has none)."""
+    entry = mavlink.enums["MAV_CMD"].get(command)
+    return entry.name if entry is not None else str(command)
+
+
 class LinkError(RuntimeError):
     """The link cannot do what was asked (no autopilot, no answer); one line for the user."""
 
@@ -51,7 +59,8 @@ class Link:
     """A pymavlink connection to one autopilot, with message filtering, logging and request helpers."""
 
     def __init__(self, url: str, system_id: int = 255, component_id: int = MAV_COMP_ID_ONBOARD_COMPUTER,
-                 tlog_path: str | Path | None = None, baud: int = 921600) -> None:
+                 tlog_path: str | Path | None = None, baud: int = 921600, retry: RetryPolicy | None = None,
+                 log: Callable[[str], None] = print) -> None:
         try:
             self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
                                                    baud=baud, autoreconnect=True, dialect="ardupilotmega")
@@ -65,6 +74,8 @@ class Link:
         if self._udp_server:
             self.conn.port = _AddressRecordingSocket(self.conn.port)
         self.system_id = system_id
+        self.retry = retry or RetryPolicy()
+        self.log = log  # give-up lines (one per abandoned request)
         try:
             self._tlog = open(tlog_path, "ab") if tlog_path else None
         except OSError as exc:
@@ -72,7 +83,7 @@ class Link:
             raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
-        self.counts = {"accepted": 0, "foreign": 0, "bad": 0}
+        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "retries": 0}
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
 
@@ -181,32 +192,56 @@ class Link:
             self.send("heartbeat", mavlink.MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0,
                       mavlink.MAV_STATE_ACTIVE)
 
-    def command_long(self, command: int, params: tuple[float, ...], timeout_s: float = 1.5,
-                     retries: int = 3) -> int | None:
-        """COMMAND_LONG to the autopilot, resent until a COMMAND_ACK for it arrives; returns its result."""
+    def _count_retry(self) -> None:
+        self.counts["retries"] += 1
+
+    def command_long(self, command: int, params: tuple[float, ...], policy: RetryPolicy | None = None) -> int | None:
+        """COMMAND_LONG to the autopilot, resent (``confirmation`` + 1) until a COMMAND_ACK for it arrives.
+
+        After MAV_RESULT_IN_PROGRESS nothing is resent; the final ACK is awaited ten timeouts. Returns the
+        result, or None after the last try (one line says so).
+        """
         assert self.target is not None, "wait_autopilot() first"
+        policy = policy or self.retry
+        target = self.target
         p = list(params) + [0.0] * (7 - len(params))
-        for attempt in range(retries):
-            self.send("command_long", self.target[0], self.target[1], command, attempt, *p)
-            ack = self.wait_for(lambda m: m.get_type() == "COMMAND_ACK" and m.command == command
-                                and getattr(m, "target_system", 0) in (0, self.system_id), timeout_s / retries)
-            if ack is not None:
-                return int(ack.result)
-        return None
+        name = command_name(command)
+        self.drain()  # a late or duplicated ACK of an earlier command must not stand for this one
+
+        def is_ack(m: Any) -> bool:
+            return (m.get_type() == "COMMAND_ACK" and m.command == command
+                    and getattr(m, "target_system", 0) in (0, self.system_id))
+
+        ack, tries = ask(lambda attempt: self.send("command_long", target[0], target[1], command, min(attempt, 255),
+                                                   *p), self.wait_for, is_ack, policy, self._count_retry)
+        if ack is not None and ack.result == mavlink.MAV_RESULT_IN_PROGRESS:
+            wait_s = policy.timeout_s * IN_PROGRESS_FACTOR
+            ack = self.wait_for(lambda m: is_ack(m) and m.result != mavlink.MAV_RESULT_IN_PROGRESS, wait_s)
+            if ack is None:
+                self.log(f"link: COMMAND_LONG {name}: IN_PROGRESS, then no final COMMAND_ACK within {wait_s:g} s")
+                return None
+        if ack is None:
+            self.log(give_up_line(f"COMMAND_LONG {name}", "COMMAND_ACK", tries, policy.timeout_s))
+            return None
+        return int(ack.result)
 
     def read_optional_parameter(self, name: str) -> float | None:
-        """A parameter that older firmware (or a simulator) may not have: asked briefly."""
-        return self.read_parameter(name, 0.6)
+        """A parameter that older firmware (or a simulator) may not have: asked briefly, silent if absent."""
+        return self.read_parameter(name, self.retry.for_optional(), quiet=True)
 
-    def read_parameter(self, name: str, timeout_s: float = 3.0) -> float | None:
-        """PARAM_REQUEST_READ by name (retried); the value, or None when the autopilot does not answer."""
+    def read_parameter(self, name: str, policy: RetryPolicy | None = None, quiet: bool = False) -> float | None:
+        """PARAM_REQUEST_READ by name, resent on each timeout; the value, or None when no answer came."""
         assert self.target is not None, "wait_autopilot() first"
-        for _ in range(3):
-            self.send("param_request_read", self.target[0], self.target[1], name.encode(), -1)
-            reply = self.wait_for(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout_s / 3)
-            if reply is not None:
-                return float(reply.param_value)
-        return None
+        policy = policy or self.retry
+        target = self.target
+        reply, tries = ask(lambda _attempt: self.send("param_request_read", target[0], target[1], name.encode(), -1),
+                           self.wait_for, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, policy,
+                           self._count_retry)
+        if reply is None:
+            if not quiet:
+                self.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))
+            return None
+        return float(reply.param_value)
 
     def set_mode(self, custom_mode: int) -> int | None:
         """MAV_CMD_DO_SET_MODE with the custom-mode flag; returns the ACK result."""

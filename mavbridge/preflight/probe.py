@@ -19,6 +19,7 @@ from vessel.geo import ned_from_latlon
 from .. import streams
 from ..link import Link, LinkError, mavlink
 from ..mission_tracker import download_mission
+from ..retry import retry_policy
 from .report import FAIL, PASS, WARN, Report
 from .rules import fmt_value, parameter_findings
 
@@ -103,14 +104,14 @@ class Probe:
 
     def _read(self, link: Any, name: str) -> float | None:
         if name not in self.params:
-            self.params[name] = link.read_parameter(name, timeout_s=1.5)
+            self.params[name] = link.read_parameter(name)
         return self.params[name]
 
     def run(self) -> None:
         """Connect, run every vehicle check, close; a link that fails is one FAIL finding."""
         cfg = self.config
         try:
-            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud)
+            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud, retry_policy(cfg), self.log)
         except LinkError as exc:
             self.report.add(FAIL, "connection", cfg.connect, str(exc), "check the device/URL and baud")
             return
