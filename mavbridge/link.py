@@ -236,7 +236,7 @@ class Link:
         target = self.target
         reply, tries = ask(lambda _attempt: self.send("param_request_read", target[0], target[1], name.encode(), -1),
                            self.wait_for, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, policy,
-                           self._count_retry)
+                           (lambda: None) if quiet else self._count_retry)  # absent optional ones are no retries
         if reply is None:
             if not quiet:
                 self.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))
