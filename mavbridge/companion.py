@@ -34,7 +34,7 @@ from .nmpc import RollAwareNmpc
 from .nmpc.config import choice
 from .output_paths import MODE_HOLD, make_output
 from .preflight.rules import Context
-from .retry import retry_policy
+from .retry import RetrySettings
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, WaveSource
@@ -47,7 +47,7 @@ ARRIVAL_ACTIONS = ("hold", "release")
 
 
 @dataclass(frozen=True)
-class CompanionConfig:
+class CompanionConfig(RetrySettings):
     """How the companion reaches the autopilot and what it commands. Defaults suit the simulator."""
 
     connect: str = "udpin:0.0.0.0:14551"
@@ -60,8 +60,6 @@ class CompanionConfig:
                                        "(the pilot has had the sticks back for a while; no silent resume)")
     max_distance_m: float = bounded(10_000.0, 10.0, 1e6, "m", "a position farther than this from home is rejected")
     connect_timeout_s: float = bounded(30.0, 0.5, 600.0, "s", "wait this long for the autopilot at start")
-    command_timeout_s: float = bounded(1.0, 0.0, 60.0, "s", "wall wait per COMMAND_ACK/PARAM_VALUE", lo_open=True)
-    command_retries: int = bounded(5, 0, 1000, "", "a command or parameter read is sent again this many times")
     stale_state_s: float = bounded(0.5, 0.05, 10.0, "s", "state older than this (autopilot time) is not used")
     lookahead_steps: int = bounded(5, 1, 400, "steps", "attitude_target: plan step whose heading/speed is sent")
     on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
@@ -282,7 +280,7 @@ class Companion:
                      "estimate")
         try:
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
-                        self.out_dir / "companion.tlog", self.config.baud, retry_policy(self.config), self.log)
+                        self.out_dir / "companion.tlog", self.config.baud, self.config.retry_policy(), self.log)
         except LinkError as exc:
             self.log(f"mavbridge run: error: {exc}")
             return 1

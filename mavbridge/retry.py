@@ -18,6 +18,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from vessel.config import bounded
+
 IN_PROGRESS_FACTOR = 10.0  # after IN_PROGRESS, wait this many timeouts for the final ACK (no resend)
 MISSION_TIMEOUT_S = 1.5  # the mission protocol's default timeout per request
 MISSION_MIN_RETRIES = 5  # ... and its retry count (a larger --command-retries raises it)
@@ -52,9 +54,17 @@ class RetryPolicy:
         return RetryPolicy(min(self.timeout_s, OPTIONAL_TIMEOUT_S), min(self.retries, OPTIONAL_TRIES - 1))
 
 
-def retry_policy(config: Any) -> RetryPolicy:
-    """The policy of a companion configuration (its command_timeout_s and command_retries)."""
-    return RetryPolicy(config.command_timeout_s, config.command_retries)
+@dataclass(frozen=True)
+class RetrySettings:
+    """The retry fields of the companion's YAML (CompanionConfig inherits them; `mavbridge check` reads them)."""
+
+    command_timeout_s: float = bounded(1.0, 0.0, 60.0, "s", "wall wait per COMMAND_ACK / PARAM_VALUE before "
+                                       "sending again", lo_open=True)
+    command_retries: int = bounded(5, 0, 1000, "", "a command or parameter read is sent again this many times")
+
+    def retry_policy(self) -> RetryPolicy:
+        """These settings as the link's policy."""
+        return RetryPolicy(self.command_timeout_s, self.command_retries)
 
 
 Wait = Callable[[Callable[[Any], bool], float], Any]

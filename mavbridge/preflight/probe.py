@@ -19,7 +19,6 @@ from vessel.geo import ned_from_latlon
 from .. import streams
 from ..link import Link, LinkError, mavlink
 from ..mission_tracker import download_mission
-from ..retry import retry_policy
 from .report import FAIL, PASS, WARN, Report
 from .rules import fmt_value, parameter_findings
 
@@ -111,7 +110,7 @@ class Probe:
         """Connect, run every vehicle check, close; a link that fails is one FAIL finding."""
         cfg = self.config
         try:
-            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud, retry_policy(cfg), self.log)
+            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud, cfg.retry_policy(), self.log)
         except LinkError as exc:
             self.report.add(FAIL, "connection", cfg.connect, str(exc), "check the device/URL and baud")
             return
