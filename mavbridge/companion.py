@@ -34,6 +34,7 @@ from .nmpc import RollAwareNmpc
 from .nmpc.config import choice
 from .output_paths import MODE_HOLD, make_output
 from .preflight.rules import Context
+from .reboot import watch_reboots
 from .retry import RetrySettings
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
@@ -286,6 +287,7 @@ class Companion:
             return 1
         self.link = link
         link.handlers += [self.state.on_message, self._on_motion, self._on_heartbeat, self.mission.on_message]
+        watch_reboots(link, self)  # a reboot mid-run: release, streams again, wait for the pilot
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
         try:

@@ -83,6 +83,7 @@ class Link:
             raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
+        self.idle_hooks: list[Callable[[], None]] = []  # run between messages (never inside a handler)
         self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "retries": 0}
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
@@ -185,7 +186,10 @@ class Link:
         getattr(self.mav, f"{name}_send")(*args)
 
     def heartbeat_if_due(self, period_s: float = 1.0) -> None:
-        """Our 1 Hz HEARTBEAT as an onboard controller (wall clock: it is a link-level signal)."""
+        """Our 1 Hz HEARTBEAT as an onboard controller (wall clock: it is a link-level signal); the idle hooks
+        run first (this is called between messages, from the loop and from every wait)."""
+        for hook in self.idle_hooks:
+            hook()
         now = time.monotonic()
         if now - self._last_heartbeat_sent >= period_s:
             self._last_heartbeat_sent = now
