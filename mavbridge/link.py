@@ -25,6 +25,7 @@ mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
 ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
+SEQ_FORGET_S = 0.5  # wall seconds without a message from the autopilot after which its sequence restarts
 
 
 class _AddressRecordingSocket:
@@ -84,7 +85,9 @@ class Link:
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
         self.idle_hooks: list[Callable[[], None]] = []  # run between messages (never inside a handler)
-        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "retries": 0}
+        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "stale": 0, "retries": 0}
+        self._last_seq: int | None = None
+        self._last_seq_wall = 0.0
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
 
@@ -130,6 +133,9 @@ class Link:
         if source != self.target:
             self.counts["foreign"] += 1
             return None
+        if self._out_of_order(msg.get_seq()):
+            self.counts["stale"] += 1
+            return None
         self._write_tlog(msg.get_msgbuf())
         self.counts["accepted"] += 1
         self.rates[msg.get_type()] = self.rates.get(msg.get_type(), 0) + 1
@@ -138,6 +144,18 @@ class Link:
         for handler in self.handlers:
             handler(msg)
         return msg
+
+    def _out_of_order(self, seq: int) -> bool:
+        """A datagram the link duplicated or delivered late: its MAVLink sequence number (one counter per channel
+        of the autopilot) is not ahead of the newest one seen. A stale HEARTBEAT from before arming must not
+        read as a disarm. After SEQ_FORGET_S of silence (an outage, a reboot) any number starts afresh."""
+        now = time.monotonic()
+        if self._last_seq is not None and now - self._last_seq_wall < SEQ_FORGET_S:
+            ahead = (seq - self._last_seq) % 256
+            if ahead == 0 or ahead >= 128:
+                return True
+        self._last_seq, self._last_seq_wall = seq, now
+        return False
 
     def pending(self) -> bool:
         """True if bytes wait in the socket or device (pymavlink's own buffer may hold a partial frame: ignored)."""

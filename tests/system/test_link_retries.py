@@ -3,6 +3,7 @@ and the flags that set them (one-line errors, exit 2)."""
 
 from __future__ import annotations
 
+import itertools
 import socket
 import subprocess
 import sys
@@ -92,3 +93,22 @@ def test_bad_retry_settings_in_the_yaml_are_one_line_and_exit_2(tmp_path: Path, 
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and expected in lines[0], result.stderr
+
+
+def test_duplicated_and_reordered_datagrams_are_dropped_in_sequence_order(tmp_path: Path) -> None:
+    """Every datagram twice, a fifth held back: the link passes each message once, in the autopilot's order."""
+    port = free_port(socket.SOCK_DGRAM)
+    sim = SimProcess(tmp_path / "sim", speedup=5.0, udp_outs=1)
+    down = Faults(duplicate=1.0, reorder=0.2, reorder_s=0.2)
+    with ChaosRelay(port, down, Faults(), time_scale=5.0, port=sim.udp_ports[0]) as relay, sim:
+        link = Link(f"udpin:127.0.0.1:{port}")
+        try:
+            link.wait_autopilot(30)
+            seqs: list[int] = []
+            link.handlers.append(lambda m: seqs.append(m.get_seq()))
+            link.wait_for(lambda m: False, 3.0)
+        finally:
+            link.close()
+    assert relay.down.duplicated > 50 and link.counts["stale"] >= relay.down.duplicated * 0.9, link.counts
+    steps = [(b - a) % 256 for a, b in itertools.pairwise(seqs)]
+    assert steps and all(0 < step < 128 for step in steps), steps
