@@ -12,6 +12,7 @@ import os
 import select
 import struct
 import time
+from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ MAV_AUTOPILOT_INVALID = 8
 ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
 SEQ_FORGET_S = 0.5  # wall seconds without a message from the autopilot after which its sequence restarts
+SEQ_WINDOW = 64  # sequence numbers remembered for spotting duplicates (they wrap at 256)
 
 
 class _AddressRecordingSocket:
@@ -88,6 +90,7 @@ class Link:
         self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "stale": 0, "retries": 0}
         self._last_seq: int | None = None
         self._last_seq_wall = 0.0
+        self._recent_seqs: deque[int] = deque(maxlen=SEQ_WINDOW)
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
 
@@ -133,7 +136,7 @@ class Link:
         if source != self.target:
             self.counts["foreign"] += 1
             return None
-        if self._out_of_order(msg.get_seq()):
+        if self._out_of_order(msg):
             self.counts["stale"] += 1
             return None
         self._write_tlog(msg.get_msgbuf())
@@ -145,17 +148,23 @@ class Link:
             handler(msg)
         return msg
 
-    def _out_of_order(self, seq: int) -> bool:
-        """A datagram the link duplicated or delivered late: its MAVLink sequence number (one counter per channel
-        of the autopilot) is not ahead of the newest one seen. A stale HEARTBEAT from before arming must not
-        read as a disarm. After SEQ_FORGET_S of silence (an outage, a reboot) any number starts afresh."""
-        now = time.monotonic()
-        if self._last_seq is not None and now - self._last_seq_wall < SEQ_FORGET_S:
-            ahead = (seq - self._last_seq) % 256
-            if ahead == 0 or ahead >= 128:
-                return True
-        self._last_seq, self._last_seq_wall = seq, now
-        return False
+    def _out_of_order(self, msg: Any) -> bool:
+        """A datagram the link duplicated (its MAVLink sequence number among the last SEQ_WINDOW seen), or a
+        HEARTBEAT delivered late (its number behind the newest): a stale one from before arming must not read
+        as a disarm. Other late messages still count (an ACK is an ACK; telemetry carries its own time).
+        After SEQ_FORGET_S of silence (an outage, a reboot) numbering starts afresh."""
+        seq, now = msg.get_seq(), time.monotonic()
+        if now - self._last_seq_wall >= SEQ_FORGET_S:
+            self._recent_seqs.clear()
+            self._last_seq = None
+        self._last_seq_wall = now
+        if seq in self._recent_seqs:
+            return True
+        self._recent_seqs.append(seq)
+        behind = self._last_seq is not None and (seq - self._last_seq) % 256 >= 128
+        if not behind:
+            self._last_seq = seq
+        return behind and msg.get_type() == "HEARTBEAT"
 
     def pending(self) -> bool:
         """True if bytes wait in the socket or device (pymavlink's own buffer may hold a partial frame: ignored)."""

@@ -95,8 +95,9 @@ def test_bad_retry_settings_in_the_yaml_are_one_line_and_exit_2(tmp_path: Path, 
     assert len(lines) == 1 and expected in lines[0], result.stderr
 
 
-def test_duplicated_and_reordered_datagrams_are_dropped_in_sequence_order(tmp_path: Path) -> None:
-    """Every datagram twice, a fifth held back: the link passes each message once, in the autopilot's order."""
+def test_duplicated_datagrams_and_late_heartbeats_are_dropped(tmp_path: Path) -> None:
+    """Every datagram twice, a fifth held back: each message passes once; a HEARTBEAT overtaken by a newer one
+    is dropped (it would report an old armed state); other late messages pass."""
     port = free_port(socket.SOCK_DGRAM)
     sim = SimProcess(tmp_path / "sim", speedup=5.0, udp_outs=1)
     down = Faults(duplicate=1.0, reorder=0.2, reorder_s=0.2)
@@ -104,11 +105,15 @@ def test_duplicated_and_reordered_datagrams_are_dropped_in_sequence_order(tmp_pa
         link = Link(f"udpin:127.0.0.1:{port}")
         try:
             link.wait_autopilot(30)
-            seqs: list[int] = []
-            link.handlers.append(lambda m: seqs.append(m.get_seq()))
+            link.request_message_interval(0, 20.0)  # heartbeats at 20 Hz: some are overtaken
+            seen: list[tuple[int, str]] = []
+            link.handlers.append(lambda m: seen.append((m.get_seq(), m.get_type())))
             link.wait_for(lambda m: False, 3.0)
         finally:
             link.close()
     assert relay.down.duplicated > 50 and link.counts["stale"] >= relay.down.duplicated * 0.9, link.counts
-    steps = [(b - a) % 256 for a, b in itertools.pairwise(seqs)]
-    assert steps and all(0 < step < 128 for step in steps), steps
+    seqs = [seq for seq, _ in seen]
+    assert all(seq not in seqs[max(0, i - 63):i] for i, seq in enumerate(seqs)), "a duplicate got through"
+    beats = [seq for seq, kind in seen if kind == "HEARTBEAT"]
+    assert len(beats) > 10 and all(0 < (b - a) % 256 < 128 for a, b in itertools.pairwise(beats)), beats
+    assert any((b - a) % 256 >= 128 for a, b in itertools.pairwise(seqs)), "no late message passed (reorder 20 %)"
