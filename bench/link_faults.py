@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import socket
 import subprocess
 import sys
@@ -70,6 +71,7 @@ def main() -> None:
     p.add_argument("--json", type=Path, help="also write the rows here")
     p.add_argument("--only", metavar="LOSS,DELAY", help="one cell (e.g. 0.4,0.4), its companion output printed")
     args = p.parse_args()
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # unwind: the simulator and companion are stopped
     losses, delays = FULL_GRID if args.full else DEFAULT_GRID
     if args.only:
         loss, delay = (float(v) for v in args.only.split(","))
