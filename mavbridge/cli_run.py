@@ -11,7 +11,7 @@ from vessel.config import ConfigError
 
 from .cli_args import OUTPUTS, WAVE_SOURCES, parse_north_east, single_scenario
 from .nmpc.config import SOLVERS
-from .retry import add_retry_arguments
+from .signing import add_link_arguments
 
 
 def _speedup(text: str) -> float:
@@ -52,7 +52,7 @@ def add_run_parser(sub: Any) -> None:
                           "wall-clock deadline (reproducible runs; never on a real boat)")
     run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
                                                                   "before: comparable runs start in the same world")
-    add_retry_arguments(run)
+    add_link_arguments(run)
 
 
 def add_demo_parser(sub: Any) -> None:
@@ -85,7 +85,9 @@ def run_command(args: argparse.Namespace) -> int:
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
                                    waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at,
-                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries)
+                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries,
+                                   signing_passphrase_file=args.signing_passphrase_file)
+    config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     scenario = single_scenario(args.scenario, args.solver)
     out = Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S")
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s)

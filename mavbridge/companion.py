@@ -35,10 +35,10 @@ from .nmpc.config import choice
 from .output_paths import MODE_HOLD, make_output
 from .preflight.rules import Context
 from .reboot import watch_reboots
-from .retry import RetrySettings
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, WaveSource
+from .signing import LinkSettings
 from .state import StateEstimate
 from .streams import imu_rate, measure_rates, request_streams
 from .supervisor import Phase, Supervisor
@@ -48,7 +48,7 @@ ARRIVAL_ACTIONS = ("hold", "release")
 
 
 @dataclass(frozen=True)
-class CompanionConfig(RetrySettings):
+class CompanionConfig(LinkSettings):
     """How the companion reaches the autopilot and what it commands. Defaults suit the simulator."""
 
     connect: str = "udpin:0.0.0.0:14551"
@@ -281,7 +281,7 @@ class Companion:
                      "estimate")
         try:
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
-                        self.out_dir / "companion.tlog", self.config.baud, self.config.retry_policy(), self.log)
+                        self.out_dir / "companion.tlog", self.config.baud, self.config, self.log)
         except LinkError as exc:
             self.log(f"mavbridge run: error: {exc}")
             return 1

@@ -20,7 +20,8 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
-from .retry import IN_PROGRESS_FACTOR, RetryPolicy, ask, give_up_line
+from .retry import IN_PROGRESS_FACTOR, RetryPolicy, RetrySettings, ask, give_up_line
+from .signing import LinkSettings, sign_link
 
 mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
@@ -62,7 +63,7 @@ class Link:
     """A pymavlink connection to one autopilot, with message filtering, logging and request helpers."""
 
     def __init__(self, url: str, system_id: int = 255, component_id: int = MAV_COMP_ID_ONBOARD_COMPUTER,
-                 tlog_path: str | Path | None = None, baud: int = 921600, retry: RetryPolicy | None = None,
+                 tlog_path: str | Path | None = None, baud: int = 921600, settings: RetrySettings | None = None,
                  log: Callable[[str], None] = print) -> None:
         try:
             self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
@@ -77,7 +78,11 @@ class Link:
         if self._udp_server:
             self.conn.port = _AddressRecordingSocket(self.conn.port)
         self.system_id = system_id
-        self.retry = retry or RetryPolicy()
+        self.retry = settings.retry_policy() if settings is not None else RetryPolicy()
+        key = settings.signing_key() if isinstance(settings, LinkSettings) else None
+        self.signed = key is not None  # we sign, and accept only signed packets from the autopilot
+        if key is not None:
+            sign_link(self.conn, key)
         self.log = log  # give-up lines (one per abandoned request)
         try:
             self._tlog = open(tlog_path, "ab") if tlog_path else None
@@ -87,7 +92,7 @@ class Link:
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
         self.idle_hooks: list[Callable[[], None]] = []  # run between messages (never inside a handler)
-        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "stale": 0, "retries": 0}
+        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "unsigned": 0, "stale": 0, "retries": 0}
         self._last_seq: int | None = None
         self._last_seq_wall = 0.0
         self._recent_seqs: deque[int] = deque(maxlen=SEQ_WINDOW)
@@ -128,7 +133,7 @@ class Link:
         if msg is None:
             return None
         if msg.get_type() == "BAD_DATA":
-            self.counts["bad"] += 1
+            self.counts["unsigned" if "signature" in str(getattr(msg, "reason", "")) else "bad"] += 1
             return None
         source = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.target is None and self._is_autopilot_heartbeat(msg):

@@ -10,7 +10,7 @@ from vessel.config import ConfigError
 
 from ..cli_args import OUTPUTS, count, parse_north_east, single_scenario
 from ..nmpc.config import SOLVERS
-from ..retry import add_retry_arguments
+from ..signing import add_link_arguments
 from .report import Report
 
 DEFAULT_SOLVES = 300  # mirrors solve_time.DEFAULT_SOLVES (kept import-light: no CasADi for --help)
@@ -42,7 +42,7 @@ def add_check_parser(sub: Any) -> None:
     check.add_argument("--max-range", type=float, default=DEFAULT_MAX_RANGE_M, metavar="M",
                        help=f"largest distance home-waypoint in m (default {DEFAULT_MAX_RANGE_M:g})")
     check.add_argument("--timeout", type=float, help="wait this long for the autopilot (s; default from config)")
-    add_retry_arguments(check)
+    add_link_arguments(check)
 
 
 def check_command(args: argparse.Namespace) -> int:
@@ -55,7 +55,9 @@ def check_command(args: argparse.Namespace) -> int:
         raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, connect_timeout_s=args.timeout,
-                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries)
+                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries,
+                                   signing_passphrase_file=args.signing_passphrase_file)
+    config.signing_key()  # a bad passphrase file: one line, exit 2
     scenario = single_scenario(args.scenario, args.solver)
     report = Report()
     print(f"mavbridge check: {config.connect} as {config.system_id}/{config.component_id}, output {config.output}, "

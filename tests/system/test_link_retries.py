@@ -14,7 +14,7 @@ import pytest
 
 from bench.chaos_relay import ChaosRelay, Faults
 from mavbridge.link import Link
-from mavbridge.retry import RetryPolicy
+from mavbridge.retry import RetryPolicy, RetrySettings
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import ACCEPTED, ARM, MANUAL
 from tests.waits import command_texts, set_mode
@@ -29,7 +29,7 @@ def deaf_link(tmp_path: Path) -> Iterator[tuple[Link, list[str], ChaosRelay]]:
     sim = SimProcess(tmp_path / "sim", speedup=5.0, udp_outs=1)
     lines: list[str] = []
     with ChaosRelay(port, Faults(), Faults(loss=1.0), time_scale=5.0, port=sim.udp_ports[0]) as relay, sim:
-        link = Link(f"udpin:127.0.0.1:{port}", retry=RetryPolicy(0.1, 2), log=lines.append)
+        link = Link(f"udpin:127.0.0.1:{port}", settings=RetrySettings(0.1, 2), log=lines.append)
         try:
             link.wait_autopilot(30)
             yield link, lines, relay
