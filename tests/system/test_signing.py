@@ -16,6 +16,7 @@ from mavbridge.link import Link, LinkError
 from mavbridge.signing import LinkSettings, key_from_file
 from sim_vehicle.harness import SimProcess
 from tests.rover import ACCEPTED
+from tests.system.test_mavproxy import MAVPROXY, Console
 
 pytestmark = pytest.mark.integration
 PASSPHRASE = "otter harbour test"
@@ -86,3 +87,28 @@ def test_passphrase_file_readable_by_others_is_warned_about(tmp_path: Path, caps
         path.chmod(0)
         with pytest.raises(Exception, match="cannot read the passphrase file"):
             key_from_file(str(path))
+
+
+@pytest.mark.skipif(not Path(MAVPROXY).exists(), reason="MAVProxy is not installed (pip install '.[test]')")
+def test_mavproxy_signing_setup_interoperates_with_the_companion(tmp_path: Path) -> None:
+    """MAVProxy's `signing setup PASSPHRASE` on channel 0 (TCP); the companion, given a file with the same
+    passphrase, then gets signed heartbeats on its UDP channel and its signed ARM is accepted. (MAVProxy takes
+    the first word of what follows `signing setup` as the passphrase: a one-word passphrase here.)"""
+    word = "otter-harbour-test"
+    settings = LinkSettings(signing_passphrase_file=str(passphrase_file(tmp_path, word)))
+    with SimProcess(tmp_path / "sim", speedup=2.0, udp_outs=1, extra=["--wipe"]) as sim:
+        console = Console([MAVPROXY, "--master", f"tcp:127.0.0.1:{sim.tcp_port}", "--state-basedir",
+                           str(tmp_path / "mavproxy"), "--default-modules", "signing"])
+        try:
+            console.expect("online system 1", timeout=60)
+            console.type(f"signing setup {word}")
+            console.expect("Sent secret_key")
+        finally:
+            console.close()
+        link = Link(f"udpin:127.0.0.1:{sim.udp_ports[0]}", settings=settings)
+        try:
+            link.wait_autopilot(30)
+            assert link.command_long(400, (1.0, 2989.0)) == ACCEPTED
+            assert link.mav.signing.goodsig_count > 0
+        finally:
+            link.close()
