@@ -37,6 +37,7 @@ def signing_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge signing setup`: 0 once the autopilot signs with the key, 1 if it does not."""
     from .companion import load_companion_config
     from .link import Link, LinkError
+    from .retry import RetrySettings
     from .signing import sign_link, ticks_now
 
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud,
@@ -45,7 +46,8 @@ def signing_command(args: argparse.Namespace) -> int:
     if key is None:
         raise ConfigError("--signing-passphrase-file: needed (or signing_passphrase_file in the --config YAML)")
     try:
-        link = Link(config.connect, config.system_id, config.component_id, None, config.baud)
+        link = Link(config.connect, config.system_id, config.component_id, None, config.baud,
+                    RetrySettings(config.command_timeout_s, config.command_retries))  # unsigned until sent
     except LinkError as exc:
         print(f"mavbridge signing: error: {exc}")
         return 1
