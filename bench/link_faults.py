@@ -5,7 +5,7 @@ Run: OMP_NUM_THREADS=1 python bench/link_faults.py [--full] [--speedup 5] [--see
 Each cell is one real run: `sim-vehicle` in the paper's waves (seeded), the chaos relay (the same loss
 and delay both ways, delay in simulated time, jitter as a fraction of it), and `mavbridge run --arm
 --set-mode` to the Balanced waypoint. The default grid is loss 0/20/40 % × delay 0/400 ms; ``--full``
-runs loss 0/10/20/30/40 % × delay 0/100/200/400 ms (20 runs, about 10 minutes here). Paced runs: the
+runs loss 0/10/20/30/40 % × delay 0/100/200/400 ms (20 runs, about 11 minutes on 2 shared cores). Paced runs: the
 figures move a little with the machine's load (lockstep cannot wait for what the relay lost).
 """
 
