@@ -16,6 +16,7 @@ from .cli_args import positive
 from .cli_run import add_demo_parser, add_run_parser, demo_command, run_command
 from .nmpc.config import SOLVERS
 from .preflight.cli import add_check_parser, check_command
+from .signing_cli import add_signing_parser, signing_command
 from .sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.scenario.PLANTS (kept import-light)
@@ -54,6 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_check_parser(sub)
     add_sweep_parser(sub)
     add_tune_parser(sub)
+    add_signing_parser(sub)
     return parser
 
 
@@ -113,6 +115,8 @@ def main(argv: list[str] | None = None) -> int:
             return sweep_command(args)
         if args.command == "tune":
             return tune_command(args)
+        if args.command == "signing":
+            return signing_command(args)
     except (ConfigError, ValueError) as exc:
         sys.stderr.write(f"mavbridge: error: {_first_line(exc)}\n")
         return 2

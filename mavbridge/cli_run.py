@@ -20,6 +20,7 @@ from .cli_args import (
     single_scenario,
 )
 from .nmpc.config import SOLVERS
+from .signing import add_link_arguments
 
 
 def _speedup(text: str) -> float:
@@ -63,6 +64,7 @@ def add_run_parser(sub: Any) -> None:
                           "wall-clock deadline (reproducible runs; never on a real boat)")
     run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
                                                                   "before: comparable runs start in the same world")
+    add_link_arguments(run)
 
 
 def add_demo_parser(sub: Any) -> None:
@@ -96,7 +98,10 @@ def run_command(args: argparse.Namespace) -> int:
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
                                    waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at,
-                                   max_range_m=args.max_range)
+                                   max_range_m=args.max_range,
+                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries,
+                                   signing_passphrase_file=args.signing_passphrase_file)
+    config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
                           f"from home, farther than --max-range {config.max_range_m:g} m")

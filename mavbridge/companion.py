@@ -38,6 +38,7 @@ from .nmpc.model_state import resolve_heave_feedback
 from .output_paths import MODE_HOLD, make_output
 from .port_guard import hold_exclusively, refuse_if_taken
 from .preflight.rules import Context
+from .reboot import watch_reboots
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, WaveSource
@@ -254,13 +255,14 @@ class Companion:
         try:
             refuse_if_taken(self.config.connect)  # one companion per UDP port
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
-                        self.out_dir / "companion.tlog", self.config.baud)
+                        self.out_dir / "companion.tlog", self.config.baud, self.config, self.log)
         except LinkError as exc:
             self.log(f"mavbridge run: error: {exc}")
             return 1
         self.link = link
         hold_exclusively(link.conn)
         link.handlers += [self.state.on_message, self._on_motion, self._on_heartbeat, self.mission.on_message]
+        watch_reboots(link, self)  # a reboot mid-run: release, streams again, wait for the pilot
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
         try:

@@ -13,12 +13,13 @@ from vessel.geo import DEFAULT_MAX_RANGE_M
 from .cli_args import OUTPUTS, WAVE_SOURCES
 from .link import MAV_COMP_ID_ONBOARD_COMPUTER
 from .nmpc.config import choice
+from .signing import LinkSettings
 
 ARRIVAL_ACTIONS = ("hold", "release")
 
 
 @dataclass(frozen=True)
-class CompanionConfig:
+class CompanionConfig(LinkSettings):
     """How the companion reaches the autopilot and what it commands. Defaults suit the simulator."""
 
     connect: str = "udpin:0.0.0.0:14551"

@@ -12,6 +12,7 @@ import os
 import select
 import struct
 import time
+from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -19,10 +20,15 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
+from .retry import IN_PROGRESS_FACTOR, RetryPolicy, RetrySettings, ask, give_up_line
+from .signing import LinkSettings, sign_link
+
 mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
 ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
+SEQ_FORGET_S = 0.5  # wall seconds without a message from the autopilot after which its sequence restarts
+SEQ_WINDOW = 64  # sequence numbers remembered for spotting duplicates (they wrap at 256)
 
 
 class _AddressRecordingSocket:
@@ -43,6 +49,12 @@ class _AddressRecordingSocket:
 Handler = Callable[[Any], None]
 
 
+def command_name(command: int) -> str:
+    """MAV_CMD_... name of a command number (the number if the dialect has none)."""
+    entry = mavlink.enums["MAV_CMD"].get(command)
+    return entry.name if entry is not None else str(command)
+
+
 class LinkError(RuntimeError):
     """The link cannot do what was asked (no autopilot, no answer); one line for the user."""
 
@@ -51,7 +63,8 @@ class Link:
     """A pymavlink connection to one autopilot, with message filtering, logging and request helpers."""
 
     def __init__(self, url: str, system_id: int = 255, component_id: int = MAV_COMP_ID_ONBOARD_COMPUTER,
-                 tlog_path: str | Path | None = None, baud: int = 921600) -> None:
+                 tlog_path: str | Path | None = None, baud: int = 921600, settings: RetrySettings | None = None,
+                 log: Callable[[str], None] = print) -> None:
         try:
             self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
                                                    baud=baud, autoreconnect=True, dialect="ardupilotmega")
@@ -65,6 +78,12 @@ class Link:
         if self._udp_server:
             self.conn.port = _AddressRecordingSocket(self.conn.port)
         self.system_id = system_id
+        self.retry = settings.retry_policy() if settings is not None else RetryPolicy()
+        key = settings.signing_key() if isinstance(settings, LinkSettings) else None
+        self.signed = key is not None  # we sign, and accept only signed packets from the autopilot
+        if key is not None:
+            sign_link(self.conn, key)
+        self.log = log  # give-up lines (one per abandoned request)
         try:
             self._tlog = open(tlog_path, "ab") if tlog_path else None
         except OSError as exc:
@@ -72,7 +91,11 @@ class Link:
             raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
-        self.counts = {"accepted": 0, "foreign": 0, "bad": 0}
+        self.idle_hooks: list[Callable[[], None]] = []  # run between messages (never inside a handler)
+        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "unsigned": 0, "stale": 0, "retries": 0}
+        self._last_seq: int | None = None
+        self._last_seq_wall = 0.0
+        self._recent_seqs: deque[int] = deque(maxlen=SEQ_WINDOW)
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
 
@@ -110,13 +133,16 @@ class Link:
         if msg is None:
             return None
         if msg.get_type() == "BAD_DATA":
-            self.counts["bad"] += 1
+            self.counts["unsigned" if "signature" in str(getattr(msg, "reason", "")) else "bad"] += 1
             return None
         source = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.target is None and self._is_autopilot_heartbeat(msg):
             self.target = source
         if source != self.target:
             self.counts["foreign"] += 1
+            return None
+        if self._out_of_order(msg):
+            self.counts["stale"] += 1
             return None
         self._write_tlog(msg.get_msgbuf())
         self.counts["accepted"] += 1
@@ -126,6 +152,24 @@ class Link:
         for handler in self.handlers:
             handler(msg)
         return msg
+
+    def _out_of_order(self, msg: Any) -> bool:
+        """A datagram the link duplicated (its MAVLink sequence number among the last SEQ_WINDOW seen), or a
+        HEARTBEAT delivered late (its number behind the newest): a stale one from before arming must not read
+        as a disarm. Other late messages still count (an ACK is an ACK; telemetry carries its own time).
+        After SEQ_FORGET_S of silence (an outage, a reboot) numbering starts afresh."""
+        seq, now = msg.get_seq(), time.monotonic()
+        if now - self._last_seq_wall >= SEQ_FORGET_S:
+            self._recent_seqs.clear()
+            self._last_seq = None
+        self._last_seq_wall = now
+        if seq in self._recent_seqs:
+            return True
+        self._recent_seqs.append(seq)
+        behind = self._last_seq is not None and (seq - self._last_seq) % 256 >= 128
+        if not behind:
+            self._last_seq = seq
+        return behind and msg.get_type() == "HEARTBEAT"
 
     def pending(self) -> bool:
         """True if bytes wait in the socket or device (pymavlink's own buffer may hold a partial frame: ignored)."""
@@ -174,39 +218,66 @@ class Link:
         getattr(self.mav, f"{name}_send")(*args)
 
     def heartbeat_if_due(self, period_s: float = 1.0) -> None:
-        """Our 1 Hz HEARTBEAT as an onboard controller (wall clock: it is a link-level signal)."""
+        """Our 1 Hz HEARTBEAT as an onboard controller (wall clock: it is a link-level signal); the idle hooks
+        run first (this is called between messages, from the loop and from every wait)."""
+        for hook in self.idle_hooks:
+            hook()
         now = time.monotonic()
         if now - self._last_heartbeat_sent >= period_s:
             self._last_heartbeat_sent = now
             self.send("heartbeat", mavlink.MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0,
                       mavlink.MAV_STATE_ACTIVE)
 
-    def command_long(self, command: int, params: tuple[float, ...], timeout_s: float = 1.5,
-                     retries: int = 3) -> int | None:
-        """COMMAND_LONG to the autopilot, resent until a COMMAND_ACK for it arrives; returns its result."""
+    def _count_retry(self) -> None:
+        self.counts["retries"] += 1
+
+    def command_long(self, command: int, params: tuple[float, ...], policy: RetryPolicy | None = None) -> int | None:
+        """COMMAND_LONG to the autopilot, resent (``confirmation`` + 1) until a COMMAND_ACK for it arrives.
+
+        After MAV_RESULT_IN_PROGRESS nothing is resent; the final ACK is awaited ten timeouts. Returns the
+        result, or None after the last try (one line says so).
+        """
         assert self.target is not None, "wait_autopilot() first"
+        policy = policy or self.retry
+        target = self.target
         p = list(params) + [0.0] * (7 - len(params))
-        for attempt in range(retries):
-            self.send("command_long", self.target[0], self.target[1], command, attempt, *p)
-            ack = self.wait_for(lambda m: m.get_type() == "COMMAND_ACK" and m.command == command
-                                and getattr(m, "target_system", 0) in (0, self.system_id), timeout_s / retries)
-            if ack is not None:
-                return int(ack.result)
-        return None
+        name = command_name(command)
+        self.drain()  # a late or duplicated ACK of an earlier command must not stand for this one
+
+        def is_ack(m: Any) -> bool:
+            return (m.get_type() == "COMMAND_ACK" and m.command == command
+                    and getattr(m, "target_system", 0) in (0, self.system_id))
+
+        ack, tries = ask(lambda attempt: self.send("command_long", target[0], target[1], command, min(attempt, 255),
+                                                   *p), self.wait_for, is_ack, policy, self._count_retry)
+        if ack is not None and ack.result == mavlink.MAV_RESULT_IN_PROGRESS:
+            wait_s = policy.timeout_s * IN_PROGRESS_FACTOR
+            ack = self.wait_for(lambda m: is_ack(m) and m.result != mavlink.MAV_RESULT_IN_PROGRESS, wait_s)
+            if ack is None:
+                self.log(f"link: COMMAND_LONG {name}: IN_PROGRESS, then no final COMMAND_ACK within {wait_s:g} s")
+                return None
+        if ack is None:
+            self.log(give_up_line(f"COMMAND_LONG {name}", "COMMAND_ACK", tries, policy.timeout_s))
+            return None
+        return int(ack.result)
 
     def read_optional_parameter(self, name: str) -> float | None:
-        """A parameter that older firmware (or a simulator) may not have: asked briefly."""
-        return self.read_parameter(name, 0.6)
+        """A parameter that older firmware (or a simulator) may not have: asked briefly, silent if absent."""
+        return self.read_parameter(name, self.retry.for_optional(), quiet=True)
 
-    def read_parameter(self, name: str, timeout_s: float = 3.0) -> float | None:
-        """PARAM_REQUEST_READ by name (retried); the value, or None when the autopilot does not answer."""
+    def read_parameter(self, name: str, policy: RetryPolicy | None = None, quiet: bool = False) -> float | None:
+        """PARAM_REQUEST_READ by name, resent on each timeout; the value, or None when no answer came."""
         assert self.target is not None, "wait_autopilot() first"
-        for _ in range(3):
-            self.send("param_request_read", self.target[0], self.target[1], name.encode(), -1)
-            reply = self.wait_for(lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, timeout_s / 3)
-            if reply is not None:
-                return float(reply.param_value)
-        return None
+        policy = policy or self.retry
+        target = self.target
+        reply, tries = ask(lambda _attempt: self.send("param_request_read", target[0], target[1], name.encode(), -1),
+                           self.wait_for, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, policy,
+                           (lambda: None) if quiet else self._count_retry)  # absent optional ones are no retries
+        if reply is None:
+            if not quiet:
+                self.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))
+            return None
+        return float(reply.param_value)
 
     def set_mode(self, custom_mode: int) -> int | None:
         """MAV_CMD_DO_SET_MODE with the custom-mode flag; returns the ACK result."""

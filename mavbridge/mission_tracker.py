@@ -15,6 +15,7 @@ from typing import Any
 from vessel.geo import ned_from_latlon
 
 from .link import LinkError, mavlink
+from .retry import RetryPolicy, ask, give_up_line
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 
@@ -25,31 +26,31 @@ def _for_us(link: Any, msg: Any) -> bool:
             and getattr(msg, "mission_type", MISSION) == MISSION)
 
 
-def _ask(link: Any, request: tuple[Any, ...], answer: Callable[[Any], bool], timeout_s: float, retries: int) -> Any:
-    """Send ``request`` (message name, fields) until a message satisfying ``answer`` comes; None if none."""
-    for _ in range(retries):
-        link.send(*request)
-        reply = link.wait_for(lambda m: answer(m) and _for_us(link, m), timeout_s)
-        if reply is not None:
-            return reply
-    return None
+def _ask(link: Any, request: tuple[Any, ...], answer: Callable[[Any], bool], policy: RetryPolicy,
+         awaited: str) -> Any:
+    """Send ``request`` (message name, fields) until a message satisfying ``answer`` comes; LinkError if none."""
+    reply, tries = ask(lambda _attempt: link.send(*request), link.wait_for, lambda m: answer(m) and _for_us(link, m),
+                       policy, lambda: link.counts.__setitem__("retries", link.counts.get("retries", 0) + 1))
+    if reply is None:
+        raise LinkError(give_up_line(f"mission download: {request[0].upper()}", awaited, tries, policy.timeout_s))
+    return reply
 
 
-def download_mission(link: Any, timeout_s: float = 2.0, retries: int = 5) -> list[Any]:
-    """The autopilot's mission with the mission protocol (MISSION_REQUEST_INT per item); home is seq 0."""
+def download_mission(link: Any, policy: RetryPolicy | None = None) -> list[Any]:
+    """The autopilot's mission with the mission protocol (MISSION_REQUEST_INT per item); home is seq 0.
+
+    Each request is repeated on the protocol's timeout (1.5 s, at least 5 retries: ``RetryPolicy.for_mission``).
+    """
     assert link.target is not None, "wait_autopilot() first"
+    policy = policy or getattr(link, "retry", RetryPolicy()).for_mission()
     sysid, compid = link.target
     count = _ask(link, ("mission_request_list", sysid, compid, MISSION), lambda m: m.get_type() == "MISSION_COUNT",
-                 timeout_s, retries)
-    if count is None:
-        raise LinkError("mission download: no MISSION_COUNT from the autopilot")
+                 policy, "MISSION_COUNT")
     items = []
     for seq in range(count.count):
-        item = _ask(link, ("mission_request_int", sysid, compid, seq, MISSION),
-                    lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s, timeout_s, retries)
-        if item is None:
-            raise LinkError(f"mission download: item {seq} never came")
-        items.append(item)
+        items.append(_ask(link, ("mission_request_int", sysid, compid, seq, MISSION),
+                          lambda m, s=seq: m.get_type() == "MISSION_ITEM_INT" and m.seq == s, policy,
+                          f"MISSION_ITEM_INT {seq}"))
     link.send("mission_ack", sysid, compid, mavlink.MAV_MISSION_ACCEPTED, MISSION)
     return items
 

@@ -91,6 +91,15 @@ class Supervisor:
         """True while commands may be sent (or, in a dry run, computed)."""
         return self.phase == Phase.ENGAGED
 
+    def rebooted(self, reason: str) -> None:
+        """The autopilot rebooted: back to waiting, and only a fresh change into armed + mode engages again
+        (consent given to the previous boot, the companion's own arming included, does not carry over)."""
+        if self.phase.final:
+            return
+        self.phase, self.reason = Phase.WAITING, reason
+        self.self_commanded = self.seen_not_ready = False
+        self.mode = self.expected_mode = None
+
     def arrived(self) -> None:
         """The waypoint is reached: the run ends."""
         self._finish(Phase.ARRIVED, "waypoint reached")

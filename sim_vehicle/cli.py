@@ -21,6 +21,7 @@ from .argtypes import SEED_MAX, positive_seconds, seed_number
 from .logs import fresh_log_dir
 from .params import ParamTable, is_param_name, read_parm
 from .scenario import sim_world
+from .signing import store_signing_passphrase
 from .sim import Options, Simulator
 
 DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
@@ -178,6 +179,8 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"where parameter changes persist (default {DEFAULT_STORE}); missions go next to it",
     )
     p.add_argument("--wipe", action="store_true", help="forget stored parameters and missions first")
+    p.add_argument("--signing-passphrase", metavar="TEXT", help="MAVLink 2 signing on, key SHA-256(TEXT) as MAVProxy's "
+                   "`signing setup` makes it, stored with the parameters (unsigned accepted only on the TCP port)")
     p.add_argument("--log-dir", type=Path, metavar="DIR", help="write sim_vehicle.tlog and state.csv here")
     p.add_argument(
         "--no-rc-receiver",
@@ -308,6 +311,8 @@ def main(argv: list[str] | None = None) -> int:
         home = args.home or Home()
         world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state)  # before writing
         params = _load_params(args)
+        if args.signing_passphrase is not None:
+            store_signing_passphrase(params, args.signing_passphrase)
         if args.log_dir is not None:
             args.log_dir = _log_dir(args.log_dir)
             if shutil.disk_usage(args.log_dir).free < 1 << 20:

@@ -22,6 +22,7 @@ from .vehicle import Vehicle
 
 ARM_MAGIC, DISARM_MAGIC = 2989, 21196
 REPOSITION_CHANGE_MODE = 1  # DO_REPOSITION param2 bit (MAV_DO_REPOSITION_FLAGS_CHANGE_MODE)
+REBOOT_FORCE = 20190226  # PREFLIGHT_REBOOT_SHUTDOWN param6: REBOOT_SHUTDOWN_CONDITIONS_FORCE (reboot even armed)
 M = mavlink
 log = logging.getLogger(__name__)
 
@@ -58,6 +59,7 @@ class CommandHandler:
     ) -> None:
         self.vehicle, self.telemetry, self.missions = vehicle, telemetry, missions
         self.schedule, self.text = schedule, text
+        self.reboot_requested = False  # the simulator restarts after this step (the ACK goes out first)
         self._table: dict[int, Callable[[Channel, list[float], list[mavlink.MAVLink_message]], int]] = {
             M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
             M.MAV_CMD_DO_SET_MODE: lambda _c, p, _f: self._set_mode(int(p[0]), p[1]),
@@ -71,6 +73,7 @@ class CommandHandler:
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             M.MAV_CMD_GET_HOME_POSITION: self._home_position,
             M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
+            M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: lambda _c, p, _f: self._reboot(p),
         }
 
     def handle_command(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
@@ -110,6 +113,18 @@ class CommandHandler:
         if p[0] == 0:
             return self.vehicle.disarm()
         return M.MAV_RESULT_UNSUPPORTED
+
+    def _reboot(self, p: list[float]) -> int:
+        """PREFLIGHT_REBOOT_SHUTDOWN p1 1 reboots the autopilot; like ArduPilot, refused while armed unless p6 is
+        the force value. p1 0 (nothing for the autopilot) is accepted; shutdown and bootloader are not simulated."""
+        if p[0] == 0:
+            return M.MAV_RESULT_ACCEPTED
+        if p[0] != 1:
+            return M.MAV_RESULT_UNSUPPORTED
+        if self.vehicle.armed and p[5] != REBOOT_FORCE:
+            return M.MAV_RESULT_FAILED
+        self.reboot_requested = True
+        return M.MAV_RESULT_ACCEPTED
 
     def _change_speed(self, speed: float) -> int:
         """DO_CHANGE_SPEED p2 (m/s): a new speed for AUTO or GUIDED waypoints; other modes have none to change."""

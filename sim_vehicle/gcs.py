@@ -16,6 +16,7 @@ from .mission import MissionStore
 from .missionproto import MissionServer
 from .paramproto import ParamServer
 from .params import ParamTable
+from .signing import Signing
 from .streams import Schedule
 from .telemetry import Telemetry
 from .vehicle import Vehicle
@@ -55,12 +56,15 @@ class Gcs:
         self.param_server = ParamServer(params, self.text, self.broadcast, banner)
         self.commands = CommandHandler(vehicle, telemetry, self.missions, self.schedule, self.text)
         self.inputs = ControlInputs(params, vehicle, self.sysid, self.text)
+        self.signing = Signing(params, lambda: vehicle.armed, self.text,
+                               lambda: telemetry.boot_unix_us + round(self.now * 1e6))
         self._handlers: dict[str, Callable[[Channel, mavlink.MAVLink_message], None]] = {
             "COMMAND_LONG": self.commands.handle_command,
             "COMMAND_INT": self.commands.handle_command,
             "SET_MODE": self.commands.handle_set_mode,
             "REQUEST_DATA_STREAM": self._data_stream,
             "TIMESYNC": self._timesync,
+            "SETUP_SIGNING": self.signing.handle_setup,
             **self.inputs.handlers(),
         }
         self.now = 0.0
@@ -133,6 +137,7 @@ class Gcs:
             for client in server.accept(self.sysid, self.compid, self.tlog):
                 log.info("client connected on %s", client.name)
                 self.channels.append(client)
+        self.signing.update(self.channels, now)
         for channel in list(self.channels):
             for msg in channel.receive():
                 self.messages_received += 1

@@ -45,7 +45,10 @@ class Channel:
         try:
             msgs = self.codec.parse_buffer(data) or []
         except Exception:
-            self.codec = make_codec(self.codec.srcSystem, self.codec.srcComponent)
+            old, self.codec = self.codec, make_codec(self.codec.srcSystem, self.codec.srcComponent)
+            self.codec.signing = old.signing  # a parser reset must never drop the signing key
+            if "check_signature" in vars(old):
+                self.codec.check_signature = old.check_signature
             return out
         for msg in msgs:
             if msg is None or msg.get_type() in ("BAD_DATA", "UNKNOWN") or msg.get_msgId() < 0:

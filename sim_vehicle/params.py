@@ -14,6 +14,7 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from vessel.config import ConfigError
 
@@ -193,7 +194,8 @@ class ParamTable:
         for name, value in (defaults or {}).items():
             self._values[self._by_name[name]] = cast(self.defs[self._by_name[name]].ptype, value)
         self.store = store
-        if store is not None:
+        self.storage: dict[str, Any] = {}  # non-parameter records kept in the same store (``_name`` keys), e.g.
+        if store is not None:  # the MAVLink signing key, which like ArduPilot's lives with the parameters
             self._load_store(store)
 
     def __len__(self) -> int:
@@ -225,6 +227,15 @@ class ParamTable:
             self._save_store(self.store)
         return True
 
+    def save_storage(self, name: str, record: dict[str, Any] | None) -> None:
+        """Keep (or, with None, forget) a non-parameter record in the store, persisted at once."""
+        if record is None:
+            self.storage.pop(name, None)
+        else:
+            self.storage[name] = record
+        if self.store is not None:
+            self._save_store(self.store)
+
     def _load_store(self, path: Path) -> None:
         """Apply saved values; a missing store is an empty one, a corrupt store is a ConfigError."""
         if not path.exists():
@@ -238,12 +249,15 @@ class ParamTable:
         if not isinstance(saved, dict):
             raise ConfigError(f"{path}: parameter store is not a mapping; use --wipe to start afresh")
         for name, value in saved.items():
-            if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if str(name).startswith("_") and isinstance(value, dict):
+                self.storage[str(name)[1:]] = value
+            elif isinstance(value, (int, float)) and not isinstance(value, bool):
                 self.set(str(name), float(value), save=False)
 
     def _save_store(self, path: Path) -> None:
         """Write every value that differs from its default, atomically."""
-        changed = {d.name: v for d, v in zip(self.defs, self._values, strict=True) if v != d.default}
+        changed: dict[str, Any] = {d.name: v for d, v in zip(self.defs, self._values, strict=True) if v != d.default}
+        changed.update({f"_{name}": record for name, record in self.storage.items()})
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_suffix(path.suffix + ".tmp")

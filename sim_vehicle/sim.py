@@ -35,6 +35,7 @@ HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is he
 RESEND_WALL_S = 0.25  # lockstep: a held tick repeats its HEARTBEAT and ATTITUDE this often (lost datagrams)
 FRAME_CLASS_BOAT = 2
 SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
+REBOOT_SILENCE_S = 2.0  # wall seconds a reboot is silent (an autopilot's boot; SITL's restart)
 
 
 @dataclass
@@ -72,18 +73,29 @@ class Simulator:
         self.opts = opts
         self.params = opts.params
         self.home = opts.home
-        started = time.monotonic()
-        self.physics = Physics.create(opts.world, opts.seed, opts.surface_heave)
-        self.physics.attach_sensing(self.params.__getitem__, opts.ideal_sensors, opts.noise_seed)
-        self.startup_s = time.monotonic() - started  # an irregular plant compiles (vessel.jit) before time starts
-        if opts.log_dir is not None:
-            write_sea_record(opts.log_dir / "sea.json", opts.seed, self.physics.plant.waves,
-                             self.physics.plant.current, opts.world.vessel, opts.world.plant_state(),
-                             note="known to the simulator only; nothing it sends over MAVLink carries the sea")
         self.store = MissionStore(opts.mission_store)
         self.boot_unix_us = int(time.time() * 1e6)
         self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
         self.csv = StateCsv(opts.log_dir / "state.csv") if opts.log_dir else None
+        self.running = True
+        self.boots = 0
+        self._boot()
+
+    def _boot(self) -> None:
+        """Everything a reboot starts again: the plant and its clock, the autopilot's state, the links.
+
+        Parameters, the mission store and the logs outlive it (as ArduPilot's storage and SITL's files do).
+        """
+        opts = self.opts
+        self.boots += 1
+        started = time.monotonic()
+        self.physics = Physics.create(opts.world, opts.seed, opts.surface_heave)
+        self.physics.attach_sensing(self.params.__getitem__, opts.ideal_sensors, opts.noise_seed)
+        self.startup_s = time.monotonic() - started  # an irregular plant compiles (vessel.jit) before time starts
+        if opts.log_dir is not None and self.boots == 1:
+            write_sea_record(opts.log_dir / "sea.json", opts.seed, self.physics.plant.waves,
+                             self.physics.plant.current, opts.world.vessel, opts.world.plant_state(),
+                             note="known to the simulator only; nothing it sends over MAVLink carries the sea")
         self.battery = Battery()
         self.vehicle = Vehicle(self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver)
         self.telemetry = Telemetry(
@@ -111,10 +123,19 @@ class Simulator:
             self.gcs.add_udp(host, port)
         if opts.serial is not None:
             self._open_serial(*opts.serial)
-        self.running = True
         self.n_cmd = (0.0, 0.0)
         self.lockstep = self._make_lockstep()
         self._controller_channel: int | None = None  # id() of the channel the controller commands on
+
+    def _reboot(self) -> Pacer:
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (param1 1), as SITL restarts: the links close, nothing is said for
+        REBOOT_SILENCE_S of wall time, then everything in ``_boot`` starts again with the clock at 0."""
+        log.warning("rebooting (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)")
+        self.gcs.close()
+        time.sleep(REBOOT_SILENCE_S)
+        self.boot_unix_us = int(time.time() * 1e6)
+        self._boot()
+        return Pacer(self.opts.speedup)
 
     def _make_lockstep(self) -> Lockstep | None:
         """--lockstep: the controller is SYSID_MYGCS, as for RC overrides; its commands are watched here."""
@@ -215,6 +236,9 @@ class Simulator:
                 if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
                     break
                 self.step()
+                if self.gcs.commands.reboot_requested:
+                    pacer, plant = self._reboot(), self.physics.plant
+                    continue
                 if self.lockstep is not None:
                     self._hold_for_command(self.lockstep, pacer)
                 pacer.wait_until(plant.time)

@@ -11,6 +11,7 @@ from vessel.geo import DEFAULT_MAX_RANGE_M
 
 from ..cli_args import OUTPUTS, REAL_TIME_SOLVER, SOLVER_HELP, count, parse_north_east, positive_metres, single_scenario
 from ..nmpc.config import SOLVERS
+from ..signing import add_link_arguments
 from .report import Report
 
 DEFAULT_SOLVES = 300  # mirrors solve_time.DEFAULT_SOLVES (kept import-light: no CasADi for --help)
@@ -42,6 +43,7 @@ def add_check_parser(sub: Any) -> None:
                        help=f"largest distance of a waypoint from home in m (default {DEFAULT_MAX_RANGE_M:g}, the "
                             "companion's engage limit)")
     check.add_argument("--timeout", type=float, help="wait this long for the autopilot (s; default from config)")
+    add_link_arguments(check)
 
 
 def check_command(args: argparse.Namespace) -> int:
@@ -54,7 +56,10 @@ def check_command(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 9:
         raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
-                                   component_id=args.compid, output=args.output, connect_timeout_s=args.timeout)
+                                   component_id=args.compid, output=args.output, connect_timeout_s=args.timeout,
+                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries,
+                                   signing_passphrase_file=args.signing_passphrase_file)
+    config.signing_key()  # a bad passphrase file: one line, exit 2
     refuse_if_taken(config.connect)
     scenario = single_scenario(args.scenario, args.solver)
     report = Report()

@@ -102,14 +102,14 @@ class Probe:
 
     def _read(self, link: Any, name: str) -> float | None:
         if name not in self.params:
-            self.params[name] = link.read_parameter(name, timeout_s=1.5)
+            self.params[name] = link.read_parameter(name)
         return self.params[name]
 
     def run(self) -> None:
         """Connect, run every vehicle check, close; a link that fails is one FAIL finding."""
         cfg = self.config
         try:
-            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud)
+            link = Link(cfg.connect, cfg.system_id, cfg.component_id, None, cfg.baud, cfg, self.log)
         except LinkError as exc:
             self.report.add(FAIL, "connection", cfg.connect, str(exc), "check the device/URL and baud")
             return
@@ -128,8 +128,11 @@ class Probe:
         except LinkError as exc:
             self.report.add(FAIL, "heartbeat", f"autopilot on {cfg.connect}", str(exc),
                             "check wiring, SERIALn_PROTOCOL 2, baud rate and the connection string")
+            if link.signed:  # perhaps an autopilot that does not sign (its packets were rejected)
+                self.signing(link)
             return
         self.heartbeat()
+        self.signing(link)
         parameter_findings(self.report, lambda name: self._read(link, name), cfg.system_id, cfg.output,
                            self.period_s, float(self.scenario.waypoint.acceptance_radius_m))
         self.streams(link)
@@ -147,6 +150,21 @@ class Probe:
         boat = hb is not None and hb.type == mavlink.MAV_TYPE_SURFACE_BOAT
         self.report.add(PASS if boat else FAIL, "heartbeat vehicle type", "11 (SURFACE_BOAT)",
                         str(hb.type if hb else "-"), "set FRAME_CLASS 2 (boat) and reboot the autopilot")
+
+    def signing(self, link: Any) -> None:
+        """MAVLink 2 signing: PASS when the autopilot's packets arrive signed with our key, FAIL when we sign
+        and it does not (or uses another key), WARN for an unsigned link (anyone in radio range can command)."""
+        item, expected = "MAVLink 2 signing", "signed with our key"
+        good, rejected = link.mav.signing.goodsig_count, link.counts.get("unsigned", 0)
+        if not link.signed:
+            self.report.add(WARN, item, expected, "unsigned link",
+                            "anyone in radio range can command the boat: `mavbridge signing setup "
+                            "--signing-passphrase-file FILE`, then give the companion the same file")
+        elif good > 0:
+            self.report.add(PASS, item, expected, f"{good} signed packets, {rejected} rejected")
+        else:
+            self.report.add(FAIL, item, expected, f"no signed packet ({rejected} unsigned or wrongly signed rejected)",
+                            "the autopilot has no key or another one: `mavbridge signing setup` with this passphrase")
 
     def streams(self, link: Any) -> None:
         """Rates as configured, then after the companion's own request; restore the configured ones after."""

@@ -1,0 +1,114 @@
+"""RebootWatch on real MAVLink messages: a reboot needs both the heartbeat gap and time_boot_ms going back;
+the heartbeat after a gap reaches the supervisor only once that is decided; consent does not survive it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavbridge.reboot import DECIDE_S, GAP_S, RebootWatch
+from mavbridge.supervisor import Phase, Supervisor
+
+ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED | mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+MANUAL = mavlink.ROVER_MODE_MANUAL
+
+
+def heartbeat(armed: bool = True) -> Any:
+    return mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                             ARMED if armed else mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MANUAL,
+                                             mavlink.MAV_STATE_ACTIVE, 3)
+
+
+def attitude(ms: int) -> Any:
+    return mavlink.MAVLink_attitude_message(ms, 0, 0, 0, 0, 0, 0)
+
+
+class Run:
+    """A RebootWatch fed at given wall times; what it passed on and the reboots it reported."""
+
+    def __init__(self) -> None:
+        self.reasons: list[str] = []
+        self.logged: list[str] = []
+        self.watch = RebootWatch(self.reasons.append, self.logged.append)
+        self.passed: list[Any] = []
+
+    def feed(self, msg: Any, at_s: float) -> None:
+        self.passed += self.watch.filter(msg, at_s)
+
+
+def steady(run: Run, until_s: float, start_ms: int = 0, start_s: float = 0.0) -> None:
+    """Heartbeats every 0.5 s and ATTITUDE every 0.1 s (autopilot time = wall time here)."""
+    t = start_s
+    while t < until_s:
+        if round(t * 10) % 5 == 0:
+            run.feed(heartbeat(), t)
+        run.feed(attitude(start_ms + round((t - start_s) * 1000)), t)
+        t += 0.1
+
+
+def test_gap_then_time_back_is_a_reboot_and_the_heartbeat_follows_it() -> None:
+    run = Run()
+    steady(run, 20.0)
+    n = len(run.passed)
+    run.feed(heartbeat(armed=False), 20.0 + GAP_S + 0.5)  # the new boot: disarmed
+    assert len(run.passed) == n and not run.reasons  # held until time says what it is
+    run.feed(attitude(40), 20.0 + GAP_S + 0.6)
+    assert len(run.reasons) == 1 and "time_boot_ms 19900 -> 40" in run.reasons[0]
+    assert run.passed[-1].base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED == 0  # then it reaches the supervisor
+    assert run.watch.streams_due and "asking for the streams again" in run.logged[0]
+
+
+def test_a_gap_alone_or_time_back_alone_is_not_a_reboot() -> None:
+    run = Run()
+    steady(run, 20.0)
+    run.feed(heartbeat(), 20.0 + GAP_S + 1.0)  # a lossy radio: heartbeats missed
+    run.feed(attitude(23_000), 23.0)
+    assert not run.reasons and run.passed[-1].get_type() == "HEARTBEAT"
+    run.feed(heartbeat(), 23.1)
+    run.feed(attitude(10_000), 23.2)  # time back 13 s, heartbeats steady: not a reboot
+    assert not run.reasons and "without a heartbeat gap" in run.logged[0]
+
+
+def test_a_small_step_back_after_a_gap_is_reordering_not_a_reboot() -> None:
+    run = Run()
+    steady(run, 20.0)
+    run.feed(heartbeat(), 20.0 + GAP_S + 0.1)
+    run.feed(attitude(19_000), 21.7)  # 900 ms behind: a datagram overtaken
+    assert not run.reasons and run.passed[-1].get_type() == "HEARTBEAT"
+
+
+def test_a_held_heartbeat_is_let_through_when_no_time_comes() -> None:
+    run = Run()
+    steady(run, 5.0)
+    run.feed(heartbeat(), 5.0 + GAP_S)
+    n = len(run.passed)
+    run.feed(heartbeat(), 5.0 + GAP_S + DECIDE_S + 0.1)
+    assert len(run.passed) == n + 1 and not run.reasons
+
+
+def test_time_back_before_the_first_heartbeat_of_the_new_boot_is_a_reboot() -> None:
+    run = Run()
+    steady(run, 20.0)
+    run.feed(attitude(30), 20.0 + GAP_S + 0.5)  # stamped messages of the new boot overtook its heartbeat
+    assert len(run.reasons) == 1
+
+
+@pytest.mark.parametrize("self_commanded", [True, False])
+def test_after_a_reboot_only_a_fresh_arming_in_the_mode_engages(self_commanded: bool) -> None:
+    sup = Supervisor(required_mode=MANUAL, link_timeout_s=2.0, self_commanded=self_commanded)
+    if not self_commanded:
+        sup.on_heartbeat(0.0, False, MANUAL)
+    assert sup.on_heartbeat(1.0, True, MANUAL) == Phase.ENGAGED
+    sup.rebooted("autopilot rebooted")
+    assert sup.phase == Phase.WAITING and not sup.may_command()
+    assert sup.on_heartbeat(5.0, False, MANUAL) == Phase.WAITING  # the new boot, disarmed: not taken over
+    assert sup.on_heartbeat(9.0, True, MANUAL) == Phase.ENGAGED  # the pilot arms again
+
+
+def test_found_armed_after_a_reboot_is_not_consent() -> None:
+    sup = Supervisor(required_mode=MANUAL, link_timeout_s=2.0, self_commanded=True)
+    sup.on_heartbeat(1.0, True, MANUAL)
+    sup.rebooted("autopilot rebooted")
+    assert sup.on_heartbeat(5.0, True, MANUAL) == Phase.WAITING  # armed in the mode already: switch out and back
