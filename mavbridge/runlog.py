@@ -21,6 +21,7 @@ import numpy as np
 
 from vessel import NX_RIGID, STATE_NAMES
 from vessel.config import ConfigError
+from vessel.folders import fresh_folder
 
 # Column name stem and SI unit of each rigid-body state, keyed by vessel's state name.
 _STATE_LOG = {"north": "north_m", "east": "east_m", "down": "down_m", "phi": "roll_rad", "theta": "pitch_rad",
@@ -139,24 +140,11 @@ def column(rows: Iterable[Mapping[str, Any]], name: str) -> np.ndarray:
 
 
 def fresh_run_folder(path: Path, flag: str = "--out", say: Callable[[str], None] = print) -> Path:
-    """A run folder that holds no earlier run: ``path`` when it is new or empty, else the first free
-    ``path-2``, ``path-3``, … (said in one line). Created here, so that two runs never pick the same one.
-    A run's logs are never overwritten or appended to; ConfigError (one line naming ``flag``) when the
-    folder cannot be made."""
-    candidate, number = path, 1
-    while True:
-        try:
-            candidate.mkdir(parents=True)
-            break
-        except FileExistsError:
-            if candidate.is_dir() and not any(candidate.iterdir()):
-                break  # an empty folder: nothing to lose
-            if candidate == path and not path.is_dir():
-                raise ConfigError(f"{flag}: {path} is a file, not a folder") from None
-        except OSError as exc:
-            raise ConfigError(f"{flag}: {path}: cannot create the folder ({exc.strerror or exc})") from None
-        number += 1
-        candidate = path.with_name(f"{path.name}-{number}")
-    if candidate != path:
-        say(f"{flag}: {path} already holds a run; writing this one to {candidate} instead")
-    return candidate
+    """A run folder that holds no earlier run (``vessel.folders.fresh_folder``); ConfigError (one line naming
+    ``flag``) when it cannot be made."""
+    try:
+        return fresh_folder(path, flag, say)
+    except FileExistsError:
+        raise ConfigError(f"{flag}: {path} is a file, not a folder") from None
+    except OSError as exc:
+        raise ConfigError(f"{flag}: {path}: cannot create the folder ({exc.strerror or exc})") from None

@@ -10,6 +10,8 @@ from typing import IO
 
 import numpy as np
 
+from vessel.folders import fresh_folder
+
 CSV_COLUMNS = (
     "t_s",
     "north_m",
@@ -92,21 +94,6 @@ class StateCsv:
 
 
 def fresh_log_dir(path: Path, say: Callable[[str], None]) -> Path:
-    """A log folder that holds no earlier run: ``path`` when it is new or empty, else the first free
-    ``path-2``, ``path-3``, … (said in one line through ``say``), created here. Logs are never overwritten.
+    """A log folder that holds no earlier run (``vessel.folders.fresh_folder``, said through ``say``).
     OSError when a folder cannot be made; FileExistsError when ``path`` is a file."""
-    candidate, number = path, 1
-    while True:
-        try:
-            candidate.mkdir(parents=True)
-            break
-        except FileExistsError:
-            if candidate.is_dir() and not any(candidate.iterdir()):
-                break  # an empty folder: nothing to lose
-            if candidate == path and not path.is_dir():
-                raise
-        number += 1
-        candidate = path.with_name(f"{path.name}-{number}")
-    if candidate != path:
-        say(f"--log-dir: {path} already holds a run; writing this one to {candidate} instead")
-    return candidate
+    return fresh_folder(path, "--log-dir", say)

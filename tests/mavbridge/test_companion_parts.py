@@ -27,6 +27,7 @@ from mavbridge.seasource import SCENARIO_TRUTH, MotionSample, ScenarioTruth, Wav
 from mavbridge.state import StateEstimate
 from mavbridge.wave_gate import WaveGate, make_wave_source
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea
+from tests.mavbridge.wave_sources import ToldSource
 from vessel import NX_RIGID, STATE_NAMES, CalmWater, otter_parameters
 from vessel.geo import latlon_from_ned
 
@@ -313,28 +314,14 @@ def test_a_boat_at_rest_without_heave_never_gets_a_roll_term(nmpc: Any) -> None:
     assert flight.samples_seen >= 790
 
 
-@dataclass
-class FixedEstimate:
-    """A wave source that always answers one estimate (as a confident estimator might, right or wrong)."""
-
-    answer: WaveEstimate
-    name: str = "fixed"
-
-    def observe(self, sample: MotionSample) -> None:
-        """Nothing to learn."""
-
-    def estimate(self, t_s: float) -> WaveEstimate | None:
-        return self.answer
-
-
 def test_a_confident_estimate_the_wave_model_refuses_means_no_roll_term_not_a_crash(nmpc: Any) -> None:
     lines: list[str] = []
     steep = WaveEstimate(6.0, 3.0, 20.0, 0.0, 0.0, 0.9)  # H/λ = 0.3: a breaking wave
-    gate = WaveGate(FixedEstimate(steep), lines.append)
+    gate = WaveGate(ToldSource(steep), lines.append)
     for t in (1.0, 1.1, 1.2):
         gate.step(nmpc, t)
     assert not nmpc.roll_term_active and gate.roll_steps == 0
     assert sum("outside the wave model" in line for line in lines) == 1 and "height_m" in lines[0]
-    gate.source = FixedEstimate(WaveEstimate(1.75, 6.0, 35.0, -math.pi / 2, 0.3, 0.9))
+    gate.source = ToldSource(WaveEstimate(1.75, 6.0, 35.0, -math.pi / 2, 0.3, 0.9))
     gate.step(nmpc, 1.3)
     assert nmpc.roll_term_active and gate.changes == 1 and "roll term on" in lines[-1]

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -16,9 +15,10 @@ import pytest
 from mavbridge.companion import build_nmpc
 from mavbridge.nmpc.model_state import on_mean_surface, resolve_heave_feedback
 from mavbridge.scenario import Scenario
-from mavbridge.seasource import MotionSample, ScenarioTruth, WaveEstimate
+from mavbridge.seasource import ScenarioTruth, WaveEstimate
 from mavbridge.wave_gate import WaveGate
 from mavbridge.waves.steadiness import SolutionSteadiness
+from tests.mavbridge.wave_sources import ToldSource
 from vessel import CalmWater
 from vessel.dynamics import rotation_body_to_ned
 
@@ -65,20 +65,6 @@ def test_the_companion_plans_a_heaving_boat_as_if_on_its_waterline(scenario: Sce
     with build_nmpc(scenario, ScenarioTruth(CalmWater())) as measured:  # simulation truth: the paper's setting
         assert measured.config.heave_feedback == "measured"
         assert measured.solve(x, 0.0, (80.0, 80.0)).tau != pytest.approx(flat, abs=1e-3)
-
-
-@dataclass
-class ToldSource:
-    """A wave source that answers ``answer`` (None: not confident), as the test sets it."""
-
-    answer: WaveEstimate | None
-    name: str = "told"
-
-    def observe(self, sample: MotionSample) -> None:
-        """Nothing to learn."""
-
-    def estimate(self, t_s: float) -> WaveEstimate | None:
-        return self.answer
 
 
 def test_gate_holds_the_last_confident_wave_for_hold_s_then_degrades(scenario: Scenario) -> None:
