@@ -8,6 +8,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from vessel.argtypes import positive_metres as positive_metres  # re-exported for the CLIs
 from vessel.config import ConfigError
 
 OUTPUTS = ("rc_override", "attitude_target")  # mirrors mavbridge.companion (kept import-light)
@@ -26,17 +27,6 @@ def parse_north_east(text: str) -> tuple[float, float]:
     if not (math.isfinite(north) and math.isfinite(east)):
         raise argparse.ArgumentTypeError(f"{text!r} has a non-finite number")
     return north, east
-
-
-def positive_metres(text: str) -> float:
-    """A distance in metres, finite and > 0 (argparse type)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a distance in metres > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range: finite and > 0 m")
-    return value
 
 
 def whole_number(minimum: int) -> Callable[[str], int]:

@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from vessel.argtypes import positive_seconds
 from vessel.config import bounded
 
 IN_PROGRESS_FACTOR = 10.0  # after IN_PROGRESS, wait this many timeouts for the final ACK (no resend)
@@ -86,17 +87,6 @@ def ask(send: Callable[[int], None], wait: Wait, answer: Callable[[Any], bool], 
 def give_up_line(what: str, awaited: str, tries: int, timeout_s: float) -> str:
     """The one line logged when a request is abandoned."""
     return f"link: {what}: no {awaited} after {tries} {'try' if tries == 1 else 'tries'} ({timeout_s:g} s each)"
-
-
-def positive_seconds(text: str) -> float:
-    """argparse type: seconds > 0, finite (argparse names the flag in front of the error)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range > 0 s")
-    return value
 
 
 def retry_count(text: str) -> int:

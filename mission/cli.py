@@ -9,6 +9,7 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+from vessel.argtypes import positive_metres
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
 from . import transfer
@@ -39,17 +40,6 @@ def _pair(text: str) -> tuple[float, float]:
     return a, b
 
 
-def _range(text: str) -> float:
-    """A distance in metres, finite and > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a distance in metres > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range: finite and > 0 m")
-    return value
-
-
 def build_parser() -> OneLineParser:
     """`mission upload|download|clear`."""
     parser = OneLineParser(prog="mission", description=__doc__)
@@ -63,7 +53,7 @@ def build_parser() -> OneLineParser:
     source.add_argument("--waypoint", type=_pair, metavar="N,E", help="one waypoint, metres north,east of home")
     source.add_argument("--latlon", type=_pair, metavar="LAT,LON", help="one waypoint in degrees")
     source.add_argument("file", nargs="?", help="a QGroundControl .plan or QGC WPL 110 .waypoints file")
-    up.add_argument("--max-range", type=_range, default=DEFAULT_MAX_RANGE_M, metavar="M",
+    up.add_argument("--max-range", type=positive_metres, default=DEFAULT_MAX_RANGE_M, metavar="M",
                     help=f"refuse a waypoint farther than this from home (m, default {DEFAULT_MAX_RANGE_M:g}: the "
                          "companion's engage limit)")
     down = sub.add_parser("download", parents=[common], help="download the stored mission")
