@@ -137,6 +137,7 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
         source = ScenarioTruth(truth)
     plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
                            scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source)
+    plant.watch(est.watch_s, cfg.period_s)
     say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
     return plant, WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s)
 

@@ -78,6 +78,9 @@ class Estimation:
     sensors: str = choice("default", SENSOR_MODELS, "default: vessel.sensors defaults; ideal: exact readings")
     calibrate: bool = True
     roll_sign: float = bounded(1.0, -1.0, 1.0, "", "+1 paper plant, -1 a real hull (estimator's roll sign)")
+    watch_s: float = bounded(0.0, 0.0, 3600.0, "s", "the estimator watches the boat drifting at the start, "
+                             "thrusters idle, this long before the run (as the companion watches from connection "
+                             "until the pilot engages); the run's clock starts after it")
     hold_s: float = bounded(20.0, 0.0, 600.0, "s", "keep flying on the last confident estimate this long after "
                             "the confidence drops (0: degrade at once); in-process and in the companion")
 

@@ -72,7 +72,7 @@ class WaveEstimator:
         self._fit = {key: SinusoidFit(s.fit_tau_s) for key in ("sn", "se", "roll", "pitch", "acc", "z")}
         self._heading = (1.0, 0.0)  # low-passed (cos ψ, sin ψ)
         self._doppler = DopplerLine(s.doppler_memory_s, s.doppler_spread_mps)
-        self._steady = SolutionSteadiness()
+        self._steady, self._steady_t = SolutionSteadiness(), -math.inf
         self._t: float | None = None
         self._dt = 0.05
         self._theta = 0.0
@@ -97,7 +97,6 @@ class WaveEstimator:
         self._turn_fast = 0.0  # low-passed over 1 s: sharp turns
         self._doppler_t = -math.inf
 
-    # ------------------------------------------------------------------ observe
     def observe(self, sample: MotionSample) -> None:
         """Take one motion sample (any rate, in time order); bad samples only lower the confidence."""
         stamp = _finite((sample.t_s,), 1)
@@ -124,6 +123,7 @@ class WaveEstimator:
         self._update_heave(sample, att, rotor, t, dt)
         self._update_lock(prev, dt)
         self._update_doppler(t)
+        self._update_steadiness(t)
 
     def _restart(self, t: float) -> None:
         """First sample, or after a long silence: keep the fits, restart the settling clock."""
@@ -268,6 +268,16 @@ class WaveEstimator:
         self._doppler.add(u[0] * v[0] + u[1] * v[1], self._w_mean, dt)
         self._doppler_t = t
 
+    def _update_steadiness(self, t: float) -> None:
+        """Every 0.1 s of samples, the heave solve into the steadiness (else reset): what the boat did decides."""
+        if t - self._steady_t < 0.1 or not self._w_mean > 0:
+            return
+        self._steady_t, (sol, extras) = t, self._solve(self._w_mean)
+        if sol is not None and extras.get("mode") == 1.0:
+            self._steady.update(t, sol.omega, sol.travel_dir_rad)
+        else:
+            self._steady.reset()  # steadiness is the heave solve's: earned again when it comes back
+
     def _coarse_disagrees(self, omega: float) -> bool:
         """True while the coarse tracker has few crossings yet, or has left the oscillator far behind."""
         crossings = getattr(self._tracker, "crossings", 99)
@@ -345,11 +355,7 @@ class WaveEstimator:
             fit_n.noise_variance(self._dt) + fit_e.noise_variance(self._dt), 1e-30)
         slope_amp = math.hypot(abs(fit_n.X), abs(fit_e.X))
         strong = _smooth_step(slope_amp / max(self.s.min_slope_rad, 1e-9) - 1.0)
-        if extras.get("mode") == 1.0:
-            lock = self._steady.update(t, sol.omega, sol.travel_dir_rad)
-        else:
-            self._steady.reset()  # steadiness is the heave solve's: earned again when it comes back
-            lock = self._lock_quality()
+        lock = self._steady.value if extras.get("mode") == 1.0 else self._lock_quality()
         conf = lock * settle * (snr / (snr + 100.0)) * strong
         conf *= math.exp(-((sol.consistency / 0.3) ** 2))
         if extras.get("mode") == 2.0:

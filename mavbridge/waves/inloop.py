@@ -91,6 +91,15 @@ class SensedTauPlant:
         self.source.observe(MotionSample(reading.t_s, reading.attitude, reading.rates, reading.position_ned,
                                          reading.velocity_ned, reading.accel_body))
 
+    def watch(self, seconds: float, period_s: float) -> None:
+        """The boat drifting with idle thrusters for ``seconds`` before t = 0, sensed as in the run (the wave
+        source learns; the run's clock then starts at 0 where this ends)."""
+        steps = round(seconds / period_s)
+        for i in range(steps):
+            t = (i - steps) * period_s
+            self.sense(t)
+            self.advance(t, np.zeros(2), (0.0, 0.0))
+
     def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:
         """One control period from ``t`` with τ held, sensing at each half period inside it."""
         self._tau = np.asarray(tau, float)
