@@ -72,7 +72,8 @@ def mavbridge(*args: str, config: Path | None = None) -> subprocess.CompletedPro
 
 @pytest.mark.parametrize(("sub", "flag", "value", "expected"), [
     ("run", "--command-timeout", "0", "argument --command-timeout: '0' is outside the allowed range: finite and > 0 s"),
-    ("run", "--command-timeout", "nan", "argument --command-timeout: 'nan' is outside the allowed range: finite and > 0 s"),
+    ("run", "--command-timeout", "nan",
+     "argument --command-timeout: 'nan' is outside the allowed range: finite and > 0 s"),
     ("check", "--command-retries", "-1", "argument --command-retries: -1 is outside the allowed range >= 0"),
 ])
 def test_bad_retry_flags_are_one_line_and_exit_2(sub: str, flag: str, value: str, expected: str) -> None:
