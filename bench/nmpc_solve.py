@@ -68,11 +68,13 @@ CONFIGS: dict[str, dict] = {
     "asrti-setwave-noisy": {"solver": "asrti"},  # set_wave every step, truth + noise
     "asrti-estimated": {"solver": "asrti"},  # the wave estimator in the loop (see ESTIMATED)
     "rti-estimated": {"solver": "rti"},
+    "nrti-estimated": {"solver": "nrti"},
 }
 # Configurations flown on the wave estimator: the realistic in-process loop (hull heaving with the sea, hidden
 # phase, default sensors at 20 Hz); the step time is the solve plus the estimator's share of that step
 # (two observe at 20 Hz, one estimate, set_wave).
-ESTIMATED = {"waves": "estimated", "surface_heave": True, "hidden_phase": True, "seed": 1, "hold_s": 30.0}
+ESTIMATED = {"waves": "estimated", "surface_heave": True, "hidden_phase": True, "seed": 1, "hold_s": 30.0,
+             "watch_s": 60.0}  # as scenarios/estimated.yaml: the estimator has watched the boat, the roll term is on
 # name -> (phase noise σ rad, relative height noise σ) of the wave handed to set_wave every step
 WAVE_FEEDS: dict[str, tuple[float, float]] = {"asrti-setwave": (0.0, 0.0), "asrti-setwave-noisy": (0.05, 0.03)}
 
