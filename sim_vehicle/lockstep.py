@@ -4,9 +4,16 @@ In the spirit of ArduPilot's lockstep with its physics backends, but with the ro
 once the controller (the system whose id is SYSID_MYGCS, or the one given) has sent its first command
 (RC_CHANNELS_OVERRIDE, MANUAL_CONTROL or SET_ATTITUDE_TARGET), every step that emits ATTITUDE at least
 one control period after the previous tick is a tick; after it, simulated time holds until a command
-from the controller arrives, or a wall-clock timeout passes (counted). The ticks therefore follow the
-controller's own grid (it ticks on the first ATTITUDE at or after its next tick time), whatever phase
-its first command had.
+from the controller arrives, or a wall-clock timeout passes (counted).
+
+The ticks follow the controller's own grid (it ticks on the first ATTITUDE at or after its next tick
+time): every command anchors the grid at the newest ATTITUDE sent before it arrived, the sample the
+controller answered. Without the anchor, a first command that arrives after the next ATTITUDE has gone
+out (a slow first step, a busy machine) puts the holds half a stream interval off the controller's
+ticks: each hold then waits for a command the controller will only send for a sample the hold keeps
+back, and every tick times out. A hold's own command anchors at the tick itself, so a steady run is
+unchanged; a command between ticks (a late one, a stand-down, a restart) moves the grid to the
+controller's.
 
 With a start time (``--lockstep-start S``, for runs that must repeat), the ticks are held from simulated
 time S on even before the first command, so the controller's first tick is exactly at S. Before the
@@ -61,12 +68,15 @@ class Lockstep:
     _last_tick_s: float | None = None
     _commands: int = 0  # commands from the controller since the last tick was released
     _missed_in_a_row: int = 0
+    _last_attitude_s: float | None = None  # the newest ATTITUDE sent (the controller's sample for its command)
 
     def on_message(self, kind: str, src_system: int) -> None:
         """Every decoded incoming message: counts the controller's commands; the first one engages."""
         if kind not in COMMAND_MESSAGES or src_system != self.controller_sysid:
             return
         self._commands += 1
+        if self._last_attitude_s is not None:
+            self._last_tick_s = self._last_attitude_s  # the controller answered that sample: its grid is there
         if not self.engaged:
             self._engage(f"system {src_system} commands")
 
@@ -82,6 +92,8 @@ class Lockstep:
         if self.start_s is not None and sim_t >= self.start_s - 1e-6:
             self.start_s = None  # once: a controller that never comes is released after a few timeouts
             self._engage(f"t = {sim_t:.2f} s (--lockstep-start)")
+        if attitude_sent:
+            self._last_attitude_s = sim_t
         if not (self.engaged and attitude_sent):
             return False
         if self._last_tick_s is not None and sim_t < self._last_tick_s + self.period_s - 1e-6:

@@ -29,13 +29,43 @@ def test_ticks_follow_the_controllers_grid_once_it_commands() -> None:
     assert not lock.engaged
     lock.on_message("RC_CHANNELS_OVERRIDE", 255)
     assert lock.engaged and lock.stats.engagements == 1
-    assert lock.is_tick(1.05, attitude_sent=True)  # the first ATTITUDE after engaging
+    assert not lock.is_tick(1.05, attitude_sent=True)  # it answered the 1.0 s sample: its next tick is 1.1 s
+    assert not lock.is_tick(1.10, attitude_sent=False)  # no ATTITUDE, no tick
+    assert lock.is_tick(1.10 + 1e-9, attitude_sent=True)
     assert not lock.command_arrived()
-    assert not lock.is_tick(1.10, attitude_sent=True)  # less than a period later: no hold
-    assert not lock.is_tick(1.15, attitude_sent=False)  # no ATTITUDE, no tick
-    assert lock.is_tick(1.15 + 1e-9, attitude_sent=True)
-    lock.on_message("SET_ATTITUDE_TARGET", 255)
+    lock.on_message("SET_ATTITUDE_TARGET", 255)  # the held tick's command
     assert lock.command_arrived()
+    assert not lock.is_tick(1.15, attitude_sent=True)  # less than a period later: no hold
+    assert lock.is_tick(1.2, attitude_sent=True)
+
+
+def test_a_late_first_command_still_lands_the_holds_on_the_controllers_ticks() -> None:
+    """The controller answers the 34.80 s sample, but its command arrives after the 34.85 s ATTITUDE went out:
+    the holds must fall on 34.90, 35.00, ... (its ticks), not on 34.85, 34.95, ... where no command comes."""
+    lock = Lockstep(period_s=0.1, timeout_s=1.0, controller_sysid=255)
+    assert not lock.is_tick(34.80, attitude_sent=True)
+    assert not lock.is_tick(34.85, attitude_sent=True)
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # for the 34.80 s sample, but the 34.85 s one has gone out
+    assert not lock.is_tick(34.90, attitude_sent=True)  # the command answered 34.85 as far as the sim knows
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # its 34.90 s command, before the next ATTITUDE
+    assert not lock.is_tick(34.95, attitude_sent=True)
+    assert lock.is_tick(35.00, attitude_sent=True)  # on the controller's grid from here on
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)
+    assert lock.command_arrived()
+    assert not lock.is_tick(35.05, attitude_sent=True)
+    assert lock.is_tick(35.10, attitude_sent=True)
+
+
+def test_a_command_between_ticks_moves_the_holds_to_it() -> None:
+    """A stand-down or a restarted controller speaks between the holds: the next hold is a period after the
+    sample it answered, so a timed-out grid half an interval off recovers at the controller's next command."""
+    lock = Lockstep(period_s=0.1, timeout_s=1.0, controller_sysid=255, start_s=10.05)
+    assert lock.is_tick(10.05, attitude_sent=True)  # held at the start time, off the grid the controller keeps
+    lock.timed_out(10.05, 1.0)
+    assert not lock.is_tick(10.10, attitude_sent=True)
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # the controller's 10.10 s tick
+    assert not lock.is_tick(10.15, attitude_sent=True)
+    assert lock.is_tick(10.20, attitude_sent=True)
 
 
 def test_a_silent_controller_is_released_after_a_few_timeouts() -> None:
