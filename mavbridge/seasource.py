@@ -67,6 +67,27 @@ class WaveEstimate:
                 "wave_phase_rad": self.phase_rad, "wave_confidence": self.confidence}
 
 
+@dataclass
+class EstimateHold:
+    """The estimate, or for ``hold_s`` after the confidence dropped the last confident one: its phase is
+    referred to the autopilot clock and the NED frame, so it stays valid while the boat turns (where the
+    estimator loses and regains its lock) as long as the period was right. Never across the clock going
+    back (a reboot): that phase belongs to the old clock. Used by the companion and the in-process loop."""
+
+    hold_s: float = 0.0
+    _held: WaveEstimate | None = None
+    _held_t: float = -math.inf
+
+    def apply(self, est: WaveEstimate | None, t_s: float) -> WaveEstimate | None:
+        """``est`` if there is one (and remember it), else the held one while it may be held, else None."""
+        if est is not None:
+            self._held, self._held_t = est, t_s
+            return est
+        if t_s < self._held_t:
+            self._held = None
+        return self._held if t_s - self._held_t <= self.hold_s else None
+
+
 class WaveSource(Protocol):
     """Where the loop's wave knowledge comes from (see the module docstring)."""
 

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from vessel.dynamics import rotation_body_to_ned
 from vessel.geo import ned_from_latlon
+from vessel.sensors import rotation_body_to_ned
 
 from .seasource import MotionSample
 
@@ -137,7 +137,7 @@ class StateEstimate:
         phi, theta, psi = self.attitude[0:3]
         lag_s = (self.attitude_ms - self.position_ms) / 1000.0  # type: ignore[operator]
         position = self.position_ned + self.velocity_ned * float(np.clip(lag_s, 0.0, 0.5))
-        body_velocity = np.array(rotation_body_to_ned(phi, theta, psi)).T @ self.velocity_ned
+        body_velocity = rotation_body_to_ned(phi, theta, psi).T @ self.velocity_ned
         return np.concatenate([position, self.attitude[0:3], body_velocity, self.attitude[3:6]])
 
     def motion_sample(self) -> MotionSample:

@@ -20,7 +20,7 @@ import numpy as np
 
 from vessel.config import ConfigError
 
-from .seasource import MotionSample, WaveEstimate, WaveSource
+from .seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource
 
 
 def describe(est: WaveEstimate) -> str:
@@ -52,8 +52,10 @@ class WaveGate:
     cost_ms: list[float] = field(default_factory=list)  # per control step: observes since the last + estimate
     _observe_s: float = 0.0
     _rejected: int = 0  # confident estimates the wave model refused
-    _held: WaveEstimate | None = None
-    _held_t: float = -math.inf
+    _hold: EstimateHold = field(init=False)
+
+    def __post_init__(self) -> None:
+        self._hold = EstimateHold(self.hold_s)
 
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the source (every ATTITUDE), timed."""
@@ -64,7 +66,7 @@ class WaveGate:
     def step(self, nmpc: Any, t_s: float) -> dict[str, float]:
         """The wave at ``t_s`` to the NMPC (None: no roll term); returns the log columns of the latest fit."""
         start = time.perf_counter()
-        est = self._with_hold(self.source.estimate(t_s), t_s)
+        est = self._hold.apply(self.source.estimate(t_s), t_s)
         self.cost_ms.append((time.perf_counter() - start + self._observe_s) * 1e3)
         self._observe_s = 0.0
         wave = self._field(est)
@@ -76,17 +78,6 @@ class WaveGate:
         if shown is not None:
             self.last = shown
         return shown.row() if shown is not None else {}
-
-    def _with_hold(self, est: WaveEstimate | None, t_s: float) -> WaveEstimate | None:
-        """The estimate, or for ``hold_s`` after the confidence dropped the last confident one: its phase is
-        referred to the autopilot clock and the NED frame, so it stays valid while the boat turns (where the
-        estimator loses and regains its lock) as long as the period was right."""
-        if est is not None:
-            self._held, self._held_t = est, t_s
-            return est
-        if t_s < self._held_t:  # the autopilot's clock went back (a reboot): that phase belongs to the old one
-            self._held = None
-        return self._held if t_s - self._held_t <= self.hold_s else None
 
     def _field(self, est: WaveEstimate | None) -> Any:
         """The estimate as the NMPC's wave field; None (no roll term) when there is none or it is outside the

@@ -20,7 +20,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from mavbridge.seasource import MotionSample, WaveEstimate, WaveSource
+from mavbridge.seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource
 from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
 from vessel.dynamics import OceanCurrent, rigid_body_ode
@@ -156,9 +156,7 @@ class WaveFeed:
         self.estimator_ms: list[float] = []
         self.first_errors: dict[str, float | None] = {}
         self._confident: bool | None = None
-        self.hold_s = hold_s  # keep flying on the last confident estimate this long (its phase is fixed)
-        self._held: WaveEstimate | None = None
-        self._held_t = -math.inf
+        self._hold = EstimateHold(hold_s)  # keep flying on the last confident estimate this long
 
     def _note(self, line: str) -> None:
         self.notes.append(line)
@@ -178,7 +176,7 @@ class WaveFeed:
             est = self.source.estimate(t)
             self.estimator_ms.append((time.perf_counter() - start) * 1e3)
             return est.row() if est is not None else {}
-        est = self._with_hold(t, self.source.estimate(t))
+        est = self._hold.apply(self.source.estimate(t), t)
         nmpc.set_wave(est.field() if est is not None else None)
         self.estimator_ms.append((time.perf_counter() - start) * 1e3)
         if est is not None and self.first_confident_s is None:
@@ -186,15 +184,6 @@ class WaveFeed:
         self._track(t, est is not None, bool(getattr(nmpc, "roll_term_active", True)))
         latest = self.source.latest(t) if hasattr(self.source, "latest") else est
         return latest.row() if latest is not None else {}
-
-    def _with_hold(self, t: float, est: WaveEstimate | None) -> WaveEstimate | None:
-        """The estimate, or the last confident one for ``hold_s`` after the confidence dropped."""
-        if est is not None:
-            self._held, self._held_t = est, t
-            return est
-        if t < self._held_t:  # time went back: that phase belongs to another clock
-            self._held = None
-        return self._held if t - self._held_t <= self.hold_s else None
 
     def _track(self, t: float, confident: bool, roll_term: bool) -> None:
         """Count confident steps; say when the roll term is off at the start and when confidence changes."""
