@@ -298,6 +298,7 @@ class Companion:
         boat = (float(self.state.vector()[0]), float(self.state.vector()[1])) if self.state.ready() else None
         check_waypoints(self.mission.waypoints, self.config.max_range_m, boat)  # before arming or any mode change
         imu, imu_hz = imu_rate(rates)
+        self.state.use_imu(imu)  # the fastest IMU stream, not the first to arrive
         if self.waves.name != SCENARIO_TRUTH:
             self.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
                      "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")

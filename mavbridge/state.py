@@ -28,7 +28,8 @@ from .seasource import MotionSample
 
 GRAVITY_MSS = 9.80665  # ArduPilot's milli-g scale for SCALED_IMU / RAW_IMU
 IMU_MESSAGES = ("SCALED_IMU", "RAW_IMU", "SCALED_IMU2")
-IMU_FRESH_MS = 200  # an IMU sample older than this (against ATTITUDE) is not handed to the wave source
+IMU_FRESH_MS = 60  # an IMU sample farther than this from ATTITUDE's time is not handed to the wave source: it
+# would be taken as the attitude's instant (0.1 s is 6° of heave phase at ω_e = 1 rad/s); a 20 Hz stream fits
 
 
 def imu_specific_force(msg: Any) -> tuple[int, np.ndarray] | None:
@@ -57,7 +58,7 @@ class StateEstimate:
     velocity_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
     accel_body: np.ndarray | None = None  # specific force, body FRD, m/s² (IMU)
     imu_ms: int | None = None
-    imu_kind: str | None = None  # the IMU message taken (the first that arrived)
+    imu_kind: str | None = None  # the IMU message taken (the first that arrived, until ``use_imu`` names one)
     rejected: int = 0
     max_distance_m: float = 10_000.0  # positions farther from home are rejected (no fix reports 0, 0)
     _psi_unwrapped: float | None = None
@@ -103,6 +104,15 @@ class StateEstimate:
                 return
             self.velocity_ned = velocity
             self.velocity_ms = int(msg.time_boot_ms)
+
+    def use_imu(self, kind: str | None) -> None:
+        """Take the IMU from ``kind`` only (the fastest stream measured); None: the first kind that arrives.
+
+        The first IMU message to arrive is often a slow default stream (Rover sends RAW_IMU at SRx_RAW_SENS,
+        1-2 Hz, before SCALED_IMU is requested): the wave estimator fed from it sees one heave sample a second.
+        """
+        if kind != self.imu_kind:
+            self.imu_kind, self.imu_ms, self.accel_body = kind, None, None
 
     def _on_imu(self, kind: str, msg: Any) -> None:
         """One IMU message of the kind in use (the first kind that arrived)."""

@@ -50,6 +50,8 @@ class WaveGate:
     first_confident_s: float | None = None
     last: WaveEstimate | None = None
     cost_ms: list[float] = field(default_factory=list)  # per control step: observes since the last + estimate
+    samples: int = 0  # motion samples observed
+    imu_samples: int = 0  # of them, with an IMU specific force (the heave the estimator sees)
     _observe_s: float = 0.0
     _rejected: int = 0  # confident estimates the wave model refused
     _hold: EstimateHold = field(init=False)
@@ -60,6 +62,8 @@ class WaveGate:
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the source (every ATTITUDE), timed."""
         start = time.perf_counter()
+        self.samples += 1
+        self.imu_samples += sample.accel_body is not None
         self.source.observe(sample)
         self._observe_s += time.perf_counter() - start
 
@@ -122,6 +126,7 @@ class WaveGate:
             else round(self.first_confident_s - self.first_step_s, 3),
             "roll_term_fraction": round(self.roll_steps / self.steps, 4) if self.steps else None,
             "confidence_changes": self.changes,
+            "imu_sample_share": round(self.imu_samples / self.samples, 4) if self.samples else None,
             "final": {k: round(v, 4) for k, v in self.last.row().items()} if self.last is not None else None,
             "estimator_ms_median": round(float(np.median(cost)), 4) if cost.size else None,
             "estimator_ms_p99": round(float(np.percentile(cost, 99)), 4) if cost.size else None,

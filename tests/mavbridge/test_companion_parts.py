@@ -176,13 +176,32 @@ def test_imu_messages_become_body_specific_force_on_the_autopilot_clock() -> Non
     assert state.imu_kind == "SCALED_IMU"
     state.on_message(mavlink.MAVLink_raw_imu_message(995_000, 0, 0, -500, 0, 0, 0, 0, 0, 0))
     assert state.imu_ms == 990  # the first kind that arrived is the one used
-    state.on_message(mavlink.MAVLink_attitude_message(1300, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-    assert state.motion_sample().accel_body is None  # 310 ms old: not handed on as if current
+    state.on_message(mavlink.MAVLink_attitude_message(1070, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    assert state.motion_sample().accel_body is None  # 80 ms old: not handed on as if current
     other = StateEstimate()
     other.on_message(mavlink.MAVLink_raw_imu_message(2_500_000, 0, 0, 0, 0, 0, 0, 0, 0, 0))
     assert other.imu_ms is None and other.rejected == 1  # all zeros: no IMU behind it
     other.on_message(mavlink.MAVLink_raw_imu_message(2_500_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
     assert other.imu_ms == 2500 and other.imu_kind == "RAW_IMU"
+
+
+def test_the_fastest_imu_stream_is_used_not_the_first_to_arrive() -> None:
+    """Rover's default RAW_IMU (1-2 Hz) often arrives before the SCALED_IMU the companion asked for at 20 Hz:
+    once the rates are measured the state takes SCALED_IMU only, and forgets the slow stream's sample."""
+    state = StateEstimate()
+    state.set_home(*HOME_LL)
+    state.on_message(mavlink.MAVLink_raw_imu_message(1_000_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
+    assert state.imu_kind == "RAW_IMU"
+    state.use_imu("SCALED_IMU")
+    assert state.imu_ms is None and state.accel_body is None  # the slow stream's sample is not kept
+    state.on_message(mavlink.MAVLink_raw_imu_message(1_050_000, 0, 0, -900, 0, 0, 0, 0, 0, 0))
+    assert state.imu_ms is None  # the slow stream is ignored now
+    state.on_message(mavlink.MAVLink_scaled_imu_message(1050, 0, 0, -1010, 0, 0, 0, 0, 0, 0))
+    state.on_message(mavlink.MAVLink_global_position_int_message(1050, -350000000, 1490000000, 0, 0, 0, 0, 0, 0))
+    state.on_message(mavlink.MAVLink_attitude_message(1050, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    np.testing.assert_allclose(state.motion_sample().accel_body, np.array([0, 0, -1010]) * 9.80665e-3)
+    state.use_imu(None)  # no IMU stream measured: the first kind that arrives again
+    assert state.imu_kind is None and state.motion_sample().accel_body is None
 
 
 HOME_LL = (-35.0, 149.0)
