@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
 
+from vessel.argtypes import seed_number
 from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
@@ -82,6 +84,11 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
     demo.add_argument("--lockstep", action="store_true", help="simulator and companion in lockstep, commanding "
                                                               "from a fixed autopilot time: a reproducible run")
+    demo.add_argument("--seed", type=seed_number, default=None, metavar="N",
+                      help="the simulator's seed (hidden wave phase, sensor noise), whole number in [0, 2^32-1]; "
+                           "default a fresh one, printed in sim.log. With --lockstep the same seed gives the same run")
+    demo.add_argument("--direct", action="store_true",
+                      help="fly the scenario with R = 0 (the paper's Direct: no roll term), for a comparison pair")
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -115,11 +122,20 @@ def run_command(args: argparse.Namespace) -> int:
                          args.dry_run).run()
 
 
+def demo_scenario(path: str | None, solver: str | None, direct: bool) -> Any:
+    """The demo's one scenario (default the paper's Balanced run); ``direct``: the same with R = 0."""
+    scenario = single_scenario(path, solver)
+    if direct:
+        scenario = dataclasses.replace(scenario, name=f"{scenario.name}-direct",
+                                       controller=scenario.controller.replace(r=0.0))
+    return scenario
+
+
 def demo_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge demo`."""
     from .demo import run_demo, timestamped_folder
 
-    scenario = single_scenario(args.scenario, args.solver)
+    scenario = demo_scenario(args.scenario, args.solver, args.direct)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep)
+    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed)

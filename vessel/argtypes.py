@@ -25,3 +25,17 @@ def positive_quantity(what: str, unit: str) -> Callable[[str], float]:
 
 positive_metres = positive_quantity("a distance in metres", "m")
 positive_seconds = positive_quantity("seconds", "s")
+
+
+SEED_MAX = 2**32 - 1  # numpy's SeedSequence takes any; the simulator's seeds are 32-bit
+
+
+def seed_number(text: str) -> int:
+    """A random seed: a whole number in [0, 2^32 − 1] (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number in [0, {SEED_MAX}], got {text!r}") from None
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"{value} is outside the allowed range [0, {SEED_MAX}]")
+    return value
