@@ -66,3 +66,16 @@ def check_output_file(path: str | Path, flag: str, suffixes: Collection[str] | N
     if suffixes is not None and target.suffix.lower() not in suffixes:
         raise ConfigError(f"{flag}: {path}: unsupported file type {target.suffix or '(none)'}; allowed "
                           f"{', '.join(sorted(suffixes))}")
+
+
+def check_output_folder(path: str | Path, flag: str) -> None:
+    """Refuse an output folder that cannot be made: an existing file, or a name under a file. One-line
+    ConfigError naming ``flag``; a folder that does not exist yet is fine (it is made when the run starts)."""
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise ConfigError(f"{flag}: {path} is a file, not a folder")
+    for parent in target.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"{flag}: {path}: {parent} is a file, not a folder")
+            return

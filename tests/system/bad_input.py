@@ -58,7 +58,7 @@ class Outcome:
     stdout: str
 
 
-class CaseTimeout(Exception):
+class CaseTimeoutError(Exception):
     """A bad command line that ran on instead of being refused."""
 
 
@@ -93,6 +93,7 @@ def make_fixtures(folder: Path) -> None:
             (folder / name).mkdir()
         else:
             (folder / name).write_text(text)
+            (folder / name).chmod(0o600)  # a passphrase file others can read draws a warning line
 
 
 def snapshot(folder: Path) -> dict[str, bytes | None]:
@@ -115,7 +116,7 @@ MAINS: dict[str, Callable[[list[str]], int]] = {
 
 
 def _alarm(signum: int, frame: object) -> None:
-    raise CaseTimeout(f"still running after {CASE_TIMEOUT_S} s: the bad value was accepted")
+    raise CaseTimeoutError(f"still running after {CASE_TIMEOUT_S} s: the bad value was accepted")
 
 
 def run_in_process(command: str, readouterr: Callable[[], tuple[str, str]]) -> Outcome:
