@@ -31,7 +31,9 @@ def _speedup(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number in (0, 100], got {text!r}") from None
-    if not (math.isfinite(value) and 0 < value <= 100):
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text} is not finite; allowed (0, 100]")
+    if not 0 < value <= 100:
         raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range (0, 100]")
     return value
 

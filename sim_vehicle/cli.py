@@ -80,7 +80,9 @@ def _speedup(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value) or not 0 <= value <= 1000:
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"speedup must be a finite number in [0, 1000], got {text}")
+    if not 0 <= value <= 1000:
         raise argparse.ArgumentTypeError(
             f"speedup must be in [0, 1000] (0 = as fast as possible), got {text}"
         )

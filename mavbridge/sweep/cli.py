@@ -70,7 +70,7 @@ def _float_list(text: str, flag: str) -> list[float]:
     except ValueError:
         values = []
     if not values or not all(math.isfinite(v) and -360 <= v <= 360 for v in values):
-        raise ConfigError(f"{flag}: expected comma-separated degrees in [-360, 360], got {text!r}")
+        raise ConfigError(f"{flag}: expected comma-separated finite degrees in [-360, 360], got {text!r}")
     return values
 
 

@@ -83,7 +83,7 @@ CASES: dict[str, list[tuple[str, ...]]] = {
                              (f"{SIM} --serial /dev/null,300", "[1200, 4000000]"),
                              (f"{SIM} --serial no/such/tty", "no/such/tty")],
     "sim-vehicle --speedup": [(f"{SIM} --speedup -1", "[0, 1000]"), (f"{SIM} --speedup 2000", "[0, 1000]"),
-                              (f"{SIM} --speedup {NAN}", "[0, 1000]"), (f"{SIM} --speedup x",)],
+                              (f"{SIM} --speedup {NAN}", FINITE), (f"{SIM} --speedup x",)],
     "sim-vehicle --home": [(f"{SIM} --home 1,2,3", "LAT,LON,ALT,HEADING"), (f"{SIM} --home {NAN},0,0,0", FINITE),
                            (f"{SIM} --home 95,0,0,0", "[-89, 89]")],
     "sim-vehicle --waves": [(f"{SIM} --waves stormy", "invalid choice")],
