@@ -16,8 +16,11 @@ fails, naming the command line.
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import signal
+import subprocess
+import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -113,6 +116,19 @@ MAINS: dict[str, Callable[[list[str]], int]] = {
     "mavbridge": _mavbridge_main,
     "mission": mission.cli.main,
 }
+
+
+MODULES = {"vessel": "vessel.cli", "sim-vehicle": "sim_vehicle.cli", "mavbridge": "mavbridge.cli",
+           "mission": "mission.cli"}
+
+
+def run_as_process(command: str, folder: Path) -> Outcome:
+    """Run ``command`` as its own Python process in ``folder`` (what a user's shell does), for comparison with
+    :func:`run_in_process`."""
+    program, *argv = shlex.split(command)
+    done = subprocess.run([sys.executable, "-m", MODULES[program], *argv], cwd=folder, capture_output=True,
+                          text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(REPO)})
+    return Outcome(done.returncode, done.stderr, done.stdout)
 
 
 def _alarm(signum: int, frame: object) -> None:

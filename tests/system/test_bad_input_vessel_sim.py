@@ -15,7 +15,7 @@ import sim_vehicle.cli
 import sim_vehicle.json_backend_cli
 import vessel.cli
 
-from .bad_input import case_params, check_case, make_fixtures, untabled
+from .bad_input import case_params, check_case, make_fixtures, problems, run_as_process, run_in_process, untabled
 
 PARSERS = {"vessel": vessel.cli.build_parser(), "sim-vehicle": sim_vehicle.cli.build_parser(),
            "sim-vehicle --json-backend": sim_vehicle.json_backend_cli.build_parser()}
@@ -155,3 +155,22 @@ def test_bad_value_is_one_line_exit_2(key: str, command: str, needles: tuple[str
     monkeypatch.chdir(tmp_path)
     check_case(key, command, needles, tmp_path, lambda: tuple(capsys.readouterr()))
 
+
+
+@pytest.mark.parametrize("command", [
+    "sim-vehicle --no-tcp --no-out --duration 0.05 --sea 1.75,0,6,-90",  # issue 17: ZeroDivisionError
+    "vessel maneuver --preset straight --plot x.xyz",  # issue 17: ValueError from matplotlib
+    "vessel maneuver --left 10 --right 10 --csv adir",  # issue 17: IsADirectoryError
+    "mavbridge check --max-range nan",  # issue 17: accepted
+    "mission download --out no/such/x.plan",  # issue 17: downloaded, then a traceback
+])
+def test_in_process_is_what_a_shell_sees(command: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """The tables run commands in-process; a real process of a few of the issue's own cases prints the same
+    line with the same exit code (argparse, signals and stderr behave alike)."""
+    make_fixtures(tmp_path)
+    shell = run_as_process(command, tmp_path)
+    monkeypatch.chdir(tmp_path)
+    here = run_in_process(command, lambda: tuple(capsys.readouterr()))
+    assert (shell.code, shell.stderr) == (here.code, here.stderr)
+    assert not problems(shell, [])
