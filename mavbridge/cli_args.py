@@ -78,6 +78,8 @@ def check_connection(url: str, flag: str) -> None:
         raise ConfigError(f"{flag}: {url} is MAVSDK's form (the `mission` command's); the companion speaks "
                           f"pymavlink's: {CONNECT_FORMS}")
     prefix, colon, rest = url.partition(":")
+    if colon and prefix == "mcast":  # pymavlink's multicast: its own default group and port, or IP:PORT
+        return
     if colon and prefix in NETWORK_FORMS:
         host, _, port = rest.rpartition(":")
         if not (port.isdigit() and 1 <= int(port) <= 65535) or not (host or prefix in ("udpin", "udp")):

@@ -46,6 +46,7 @@ FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None
     "pass.txt": "correct horse battery staple\n",  # a valid signing passphrase file
     "bad.parm": "SYSID_THISMAV banana\n",  # a .parm line whose value is not a number
     "bad_config.yaml": "system_id: 300\n",  # a companion YAML with a field out of range
+    "cfg_ok.yaml": "system_id: 250\n",  # a valid companion YAML (a bad flag on top must name the flag)
 }
 
 # Flags every parser has: not a value to get wrong (help prints and exits 0 by design).

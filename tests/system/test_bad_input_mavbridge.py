@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 import mavbridge.cli
+from mavbridge.cli_args import check_connection
 
 from .bad_input import SCENARIO, SWEEP_SPEC, case_params, check_case, make_fixtures, untabled
 
@@ -42,6 +43,7 @@ def _link_cases(base: str) -> dict[str, list[tuple[str, ...]]]:
                                            (f"{base} --connect no/such/tty", "no/such/tty")],
         f"mavbridge {command} --baud": [(f"{base} --baud 300", "1200"), (f"{base} --baud fast",)],
         f"mavbridge {command} --sysid": [(f"{base} --sysid 300", "[1, 255]"), (f"{base} --sysid 0", "[1, 255]"),
+                                         (f"{base} --config cfg_ok.yaml --sysid 300", "[1, 255]"),
                                          (f"{base} --sysid one",)],
         f"mavbridge {command} --compid": [(f"{base} --compid 256", "[1, 255]"), (f"{base} --compid -1", "[1, 255]")],
         f"mavbridge {command} --output": [(f"{base} --output servo", CHOICE)],
@@ -153,3 +155,10 @@ def test_bad_value_is_one_line_exit_2(key: str, command: str, needles: tuple[str
     make_fixtures(tmp_path)
     monkeypatch.chdir(tmp_path)
     check_case(key, command, needles, tmp_path, lambda: tuple(capsys.readouterr()))
+
+
+@pytest.mark.parametrize("url", ["udpin:0.0.0.0:14551", "udp:127.0.0.1:14551", "udpin::14551", "udpout:10.0.0.2:14550",
+                                 "tcp:127.0.0.1:5760", "tcpin:0.0.0.0:5760", "mcast:", "/dev/null", "/dev/null,57600"])
+def test_good_connections_pass(url: str) -> None:
+    """The forms pymavlink opens (network, multicast, a serial device with or without a baud) are not refused."""
+    check_connection(url, "--connect")
