@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
+from vessel.argtypes import naming
 from vessel.argtypes import positive_metres as positive_metres  # re-exported for the CLIs
-from vessel.config import ConfigError
+from vessel.config import ConfigError, describe_range
 
 OUTPUTS = ("rc_override", "attitude_target")  # mirrors mavbridge.companion (kept import-light)
 REAL_TIME_SOLVER = "asrti"  # the default of run, check, demo and the service; ipopt (the paper's) only by name
@@ -53,7 +55,8 @@ def single_scenario(path: str | None, solver: str | None) -> Any:
     from .scenario import Scenario, load_scenarios
 
     if path:
-        scenarios = load_scenarios(path)
+        with naming("--scenario"):
+            scenarios = load_scenarios(path)
         if len(scenarios) != 1:
             raise ConfigError(f"--scenario: {path} defines {len(scenarios)} runs; give a single-run scenario")
         scenario = scenarios[0]
@@ -62,3 +65,58 @@ def single_scenario(path: str | None, solver: str | None) -> Any:
     if solver:
         scenario = dataclasses.replace(scenario, controller=scenario.controller.replace(solver=solver))
     return scenario
+
+
+NETWORK_FORMS = ("udpin", "udpout", "udp", "udpbcast", "tcp", "tcpin")  # pymavlink's PREFIX:HOST:PORT forms
+CONNECT_FORMS = "udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device such as /dev/ttyAMA0"
+
+
+def check_connection(url: str, flag: str) -> None:
+    """A pymavlink connection string the companion can open: PREFIX:HOST:PORT with a port in [1, 65535], or a
+    serial device that exists (``DEVICE[,BAUD]``); a one-line ConfigError naming ``flag`` otherwise."""
+    if "://" in url:
+        raise ConfigError(f"{flag}: {url} is MAVSDK's form (the `mission` command's); the companion speaks "
+                          f"pymavlink's: {CONNECT_FORMS}")
+    prefix, colon, rest = url.partition(":")
+    if colon and prefix == "mcast":  # pymavlink's multicast: its own default group and port, or IP:PORT
+        return
+    if colon and prefix in NETWORK_FORMS:
+        host, _, port = rest.rpartition(":")
+        if not (port.isdigit() and 1 <= int(port) <= 65535) or not (host or prefix in ("udpin", "udp")):
+            raise ConfigError(f"{flag}: {url}: expected {prefix}:HOST:PORT with PORT in [1, 65535]")
+        return
+    device = url if Path(url).exists() or "," not in url else url.rpartition(",")[0]
+    if not Path(device).exists():
+        raise ConfigError(f"{flag}: {url}: no such serial device; expected {CONNECT_FORMS}")
+
+
+def config_from_flags(path: str | None, flags: Mapping[str, tuple[str, Any]]) -> Any:
+    """The companion YAML (or the defaults) with the flags given on top: ``flags`` maps a CompanionConfig field
+    to (flag, value or None). A bad flag is reported as the flag ("--sysid: 300 is outside the allowed range
+    [1, 255]", NaN as not finite), a bad file as --config and the file's field; the connection string is
+    checked too (see :func:`check_connection`)."""
+    from .companion_config import CompanionConfig, load_companion_config
+
+    meta = {field.name: field.metadata for field in dataclasses.fields(CompanionConfig)}
+    given = {name: value for name, (_, value) in flags.items() if value is not None}
+    for name, value in given.items():  # each flag alone first, so that its error names the flag
+        flag = flags[name][0]
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ConfigError(f"{flag}: {value} is not finite; allowed {describe_range(meta[name])}")
+        try:
+            load_companion_config(None, **{name: value})
+        except ConfigError as exc:
+            raise ConfigError(f"{flag}: {str(exc).partition(': ')[2] or exc}") from None
+    with naming("--config"):
+        config = load_companion_config(path, **given)
+    check_connection(config.connect, "--connect" if "connect" in given else f"--config {path}: connect")
+    return config
+
+
+def link_flags(args: argparse.Namespace) -> dict[str, tuple[str, Any]]:
+    """The CompanionConfig fields of the flags `run` and `check` share, as :func:`config_from_flags` takes them."""
+    return {"connect": ("--connect", args.connect), "baud": ("--baud", args.baud),
+            "system_id": ("--sysid", args.sysid), "component_id": ("--compid", args.compid),
+            "command_timeout_s": ("--command-timeout", args.command_timeout),
+            "command_retries": ("--command-retries", args.command_retries),
+            "signing_passphrase_file": ("--signing-passphrase-file", args.signing_passphrase_file)}

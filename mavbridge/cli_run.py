@@ -17,6 +17,8 @@ from .cli_args import (
     REAL_TIME_SOLVER,
     SOLVER_HELP,
     WAVE_SOURCES,
+    config_from_flags,
+    link_flags,
     parse_north_east,
     positive_metres,
     single_scenario,
@@ -31,7 +33,9 @@ def _speedup(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number in (0, 100], got {text!r}") from None
-    if not (math.isfinite(value) and 0 < value <= 100):
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text} is not finite; allowed (0, 100]")
+    if not 0 < value <= 100:
         raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range (0, 100]")
     return value
 
@@ -95,19 +99,17 @@ def run_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge run`."""
     import time
 
-    from .companion import Companion, build_nmpc, load_companion_config
+    from .companion import Companion, build_nmpc
     from .port_guard import refuse_if_taken
     from .runlog import fresh_run_folder
     from .wave_gate import make_wave_source
 
     if args.dry_run and (args.arm or args.set_mode):
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
-    config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
-                                   component_id=args.compid, output=args.output, max_time_s=args.max_time,
-                                   waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at,
-                                   max_range_m=args.max_range,
-                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries,
-                                   signing_passphrase_file=args.signing_passphrase_file)
+    config = config_from_flags(args.config, {
+        **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
+        "waves": ("--waves", args.waves), "lockstep": ("--lockstep", args.lockstep),
+        "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range)})
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "

@@ -9,6 +9,7 @@ autopilot already has another key.
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from vessel.config import ConfigError
@@ -35,13 +36,18 @@ def add_signing_parser(sub: Any) -> None:
 
 def signing_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge signing setup`: 0 once the autopilot signs with the key, 1 if it does not."""
-    from .companion import load_companion_config
+    from .cli_args import config_from_flags
     from .link import Link, LinkError
     from .retry import RetrySettings
     from .signing import sign_link, ticks_now
 
-    config = load_companion_config(args.config, connect=args.connect, baud=args.baud,
-                                   signing_passphrase_file=args.signing_passphrase_file)
+    if not math.isfinite(args.timeout):
+        raise ConfigError(f"--timeout: {args.timeout:g} is not finite; allowed (0, 600] s")
+    if not 0 < args.timeout <= 600:
+        raise ConfigError(f"--timeout: {args.timeout:g} is outside the allowed range (0, 600] s")
+    config = config_from_flags(args.config, {
+        "connect": ("--connect", args.connect), "baud": ("--baud", args.baud),
+        "signing_passphrase_file": ("--signing-passphrase-file", args.signing_passphrase_file)})
     key = config.signing_key()
     if key is None:
         raise ConfigError("--signing-passphrase-file: needed (or signing_passphrase_file in the --config YAML)")

@@ -7,6 +7,7 @@ import asyncio
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NoReturn
 
 from vessel.argtypes import positive_metres
@@ -40,13 +41,36 @@ def _pair(text: str) -> tuple[float, float]:
     return a, b
 
 
+NETWORK_SCHEMES = ("udpin", "udpout", "tcpin", "tcpout", "udp", "tcp")  # MAVSDK's SCHEME://HOST:PORT forms
+URL_FORMS = "udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT or serial:///dev/DEVICE:BAUD"
+
+
+def _connection(text: str) -> str:
+    """A MAVSDK connection URL (argparse type). pymavlink's ``udpin:HOST:PORT`` (the companion's form) is taken
+    as MAVSDK's ``udpin://HOST:PORT``, so one string works for both commands."""
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, colon, rest = text.partition(":")
+        if not (colon and scheme in NETWORK_SCHEMES):
+            raise argparse.ArgumentTypeError(f"{text} is not a MAVSDK connection URL; expected {URL_FORMS}")
+    if scheme == "serial" and rest:
+        return text
+    host, _, port = rest.rpartition(":")
+    if scheme not in NETWORK_SCHEMES:
+        raise argparse.ArgumentTypeError(f"{text}: unknown scheme {scheme}://; expected {URL_FORMS}")
+    if not (port.isdigit() and 1 <= int(port) <= 65535) or not (host or scheme in ("udpin", "udp")):
+        raise argparse.ArgumentTypeError(f"{text}: expected {scheme}://HOST:PORT with PORT in [1, 65535]")
+    return f"{scheme}://{rest}"
+
+
 def build_parser() -> OneLineParser:
     """`mission upload|download|clear`."""
     parser = OneLineParser(prog="mission", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     common = OneLineParser(add_help=False)
-    common.add_argument("--connect", default=transfer.DEFAULT_URL,
-                        help=f"MAVSDK connection URL (default {transfer.DEFAULT_URL})")
+    common.add_argument("--connect", type=_connection, default=transfer.DEFAULT_URL,
+                        help=f"MAVSDK connection URL (default {transfer.DEFAULT_URL}; udpin:HOST:PORT, pymavlink's "
+                             "form, is taken as udpin://HOST:PORT)")
     common.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the vehicle")
     up = sub.add_parser("upload", parents=[common], help="upload a waypoint mission")
     source = up.add_mutually_exclusive_group(required=True)
@@ -85,6 +109,8 @@ async def _run(args: argparse.Namespace) -> int:
             mission = check_range(await _with_vehicle_home(args, MissionItem(lat, lon, 0.0)), args.max_range,
                                   "--latlon")
         else:
+            if Path(args.file).is_dir():
+                raise MissionError(f"{args.file} is a folder; give a .plan or .waypoints file")
             mission = check_range(read_mission_file(args.file), args.max_range, args.file)
         await transfer.upload(mission, args.connect, args.timeout)
         return 0
@@ -112,8 +138,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `mission` console script."""
     args = build_parser().parse_args(argv)
     if not (math.isfinite(args.timeout) and 0 < args.timeout <= 600):
-        print(f"mission {args.command}: error: --timeout: {args.timeout!r} is outside the allowed range "
-              f"(0, 600] s", file=sys.stderr)
+        why = "is outside the allowed range" if math.isfinite(args.timeout) else "is not finite; allowed"
+        print(f"mission {args.command}: error: --timeout: {args.timeout!r} {why} (0, 600] s", file=sys.stderr)
         return EXIT_USAGE
     try:
         return asyncio.run(_run(args))

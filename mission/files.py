@@ -215,6 +215,7 @@ def check_output_file(path: str | Path, flag: str = "--out") -> None:
         raise MissionError(f"{flag}: {path} is a folder; give a file name ending .plan or .waypoints")
     folder = target.parent
     if not folder.is_dir():
-        raise MissionError(f"{flag}: {path}: the folder {folder} does not exist")
+        why = "is a file, not a folder" if folder.exists() else "does not exist"
+        raise MissionError(f"{flag}: {path}: the folder {folder} {why}")
     if not os.access(folder, os.W_OK):
         raise MissionError(f"{flag}: {path}: the folder {folder} is not writable")

@@ -12,12 +12,14 @@ import sys
 from pathlib import Path
 from typing import NoReturn
 
+from vessel.argtypes import naming
 from vessel.config import ConfigError
 from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
 
 from . import lockstep
 from .argtypes import SEED_MAX, positive_seconds, seed_number
+from .cli_checks import check_outputs, check_params_store, check_serial, open_failure
 from .logs import fresh_log_dir
 from .params import ParamTable, is_param_name, read_parm
 from .scenario import sim_world
@@ -78,7 +80,9 @@ def _speedup(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value) or not 0 <= value <= 1000:
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"speedup must be a finite number in [0, 1000], got {text}")
+    if not 0 <= value <= 1000:
         raise argparse.ArgumentTypeError(
             f"speedup must be in [0, 1000] (0 = as fast as possible), got {text}"
         )
@@ -218,7 +222,9 @@ def _load_params(args: argparse.Namespace) -> ParamTable:
     extra: dict[str, float] = {}
     if args.params is not None:
         probe = ParamTable()
-        for name, value in read_parm(args.params).items():
+        with naming("--params"):
+            values = read_parm(args.params)
+        for name, value in values.items():
             if name in probe:
                 defaults[name] = value
             elif is_param_name(name):
@@ -235,7 +241,9 @@ def _load_params(args: argparse.Namespace) -> ParamTable:
                 f"not simulated: {', '.join(sorted(extra))}",
                 file=sys.stderr,
             )
-    return ParamTable(store=args.params_store, defaults=defaults, extra=extra)
+    check_params_store(args.params_store)
+    with naming("--params-store"):
+        return ParamTable(store=args.params_store, defaults=defaults, extra=extra)
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -309,7 +317,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     try:
         home = args.home or Home()
-        world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state)  # before writing
+        with naming("--scenario"):  # before writing
+            world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state)
+        outputs = [] if args.no_out else (args.out or [_output(o) for o in DEFAULT_OUTPUTS])
+        check_outputs(outputs)
+        if args.serial is not None:
+            check_serial(args.serial[0])
         params = _load_params(args)
         if args.signing_passphrase is not None:
             store_signing_passphrase(params, args.signing_passphrase)
@@ -325,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
             log_dir=args.log_dir,
             tcp_port=None if args.no_tcp else args.tcp,
             rc_receiver=not args.no_rc_receiver,
-            outputs=[] if args.no_out else (args.out or [_output(o) for o in DEFAULT_OUTPUTS]),
+            outputs=outputs,
             duration_s=args.duration,
             mission_store=mission_store(args.params_store),
             serial=args.serial,
@@ -341,7 +354,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sim-vehicle: error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:
-        print(f"sim-vehicle: error: cannot open a port or log file: {exc.strerror or exc}", file=sys.stderr)
+        tcp = None if args.no_tcp else ("0.0.0.0", args.tcp)
+        print(f"sim-vehicle: error: {open_failure(exc, tcp, args.serial)}", file=sys.stderr)
         return 2
 
     def stop(signum: int, frame: object) -> None:

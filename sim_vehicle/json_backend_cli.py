@@ -19,6 +19,7 @@ from typing import NoReturn
 import numpy as np
 
 from vessel import OceanCurrent, WaveField, otter_parameters
+from vessel.argtypes import naming
 from vessel.config import ConfigError
 from vessel.geo import Home
 from vessel.world import SEA_PRESETS
@@ -100,7 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent, np.ndarray]:
     """(vessel set, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s one route."""
-    world = sim_world(args.scenario, args.waves, args.sea, args.current, Home())
+    with naming("--scenario"):
+        world = sim_world(args.scenario, args.waves, args.sea, args.current, Home())
     x0 = world.plant_state()
     if args.heading is not None:
         x0[5] = math.radians(args.heading)
@@ -121,7 +123,12 @@ def _run_folder(args: argparse.Namespace, seed: int, waves: WaveField, current: 
     """sea.json and state.csv in --log-dir (a folder that already holds a run is refused, never overwritten)."""
     if args.log_dir is None:
         return None
-    args.log_dir.mkdir(parents=True, exist_ok=True)
+    if args.log_dir.exists() and not args.log_dir.is_dir():
+        raise ConfigError(f"--log-dir: {args.log_dir} is a file, not a folder")
+    try:
+        args.log_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--log-dir: {args.log_dir}: cannot create the folder ({exc.strerror or exc})") from None
     earlier = [name for name in ("state.csv", "sea.json") if (args.log_dir / name).exists()]
     if earlier:
         raise ConfigError(f"--log-dir: {args.log_dir} already holds a run ({', '.join(earlier)}); "

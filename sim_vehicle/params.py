@@ -291,7 +291,9 @@ def read_parm(path: Path) -> dict[str, float]:
     """Read a ``.parm`` file; unreadable files and bad lines raise a one-line ConfigError."""
     try:
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read parameter file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: cannot read parameter file ({exc})") from None
     return parse_parm(text.splitlines(), str(path))
 

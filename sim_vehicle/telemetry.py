@@ -43,6 +43,24 @@ SENSORS = (
 )
 RC_RECEIVER_BIT = M.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
 PREARM_BIT = M.MAV_SYS_STATUS_PREARM_CHECK
+# No fence is simulated, so the GEOFENCE bit reads as ArduPilot's does with none (FENCE_ENABLE 0): not present,
+# not enabled, healthy ("not failed if not present"). A clear health bit reads as a breach to ground stations
+# (MAVProxy says "fence breach").
+GEOFENCE_BIT = M.MAV_SYS_STATUS_GEOFENCE
+
+
+def sensor_bits(rc_present: bool, rc_healthy: bool, prearm_ok: bool) -> tuple[int, int, int]:
+    """SYS_STATUS (present, enabled, health) bitmasks: the fixed sensors, the RC receiver once RC was seen (healthy
+    while its failsafe is clear), the pre-arm check (healthy when it passes) and the absent fence's health."""
+    present = SENSORS | PREARM_BIT
+    healthy = SENSORS | GEOFENCE_BIT
+    if rc_present:
+        present |= RC_RECEIVER_BIT
+        if rc_healthy:
+            healthy |= RC_RECEIVER_BIT
+    if prearm_ok:
+        healthy |= PREARM_BIT
+    return present, present, healthy
 FRAME_CLASS_BOAT = 2
 
 
@@ -141,18 +159,12 @@ class Telemetry(SimClock):
     def sys_status(self) -> mavlink.MAVLink_message:
         """Sensor bits, load and battery."""
         v = self.vehicle
-        present = SENSORS | PREARM_BIT
-        healthy = SENSORS
-        if v.rc.receiver or v.rc.last_override_time is not None:
-            present |= RC_RECEIVER_BIT
-            if not v.failsafes.rc.triggered:
-                healthy |= RC_RECEIVER_BIT
-        if v.armed or not v.prearm_failure():
-            healthy |= PREARM_BIT
+        present, enabled, healthy = sensor_bits(v.rc.receiver or v.rc.last_override_time is not None,
+                                                not v.failsafes.rc.triggered, v.armed or not v.prearm_failure())
         b = self.battery
         return mavlink.MAVLink_sys_status_message(
             onboard_control_sensors_present=present,
-            onboard_control_sensors_enabled=present,
+            onboard_control_sensors_enabled=enabled,
             onboard_control_sensors_health=healthy,
             load=150,
             voltage_battery=b.voltage_mv,

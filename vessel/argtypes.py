@@ -1,10 +1,15 @@
-"""argparse types shared by every command line: positive finite quantities (argparse names the flag in front)."""
+"""argparse types and checks shared by every command line: positive finite quantities (argparse names the flag in
+front), output files checked before any work, and file errors that name the flag they came from."""
 
 from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from .config import ConfigError
 
 
 def positive_quantity(what: str, unit: str) -> Callable[[str], float]:
@@ -39,3 +44,52 @@ def seed_number(text: str) -> int:
     if not 0 <= value <= SEED_MAX:
         raise argparse.ArgumentTypeError(f"{value} is outside the allowed range [0, {SEED_MAX}]")
     return value
+
+
+@contextmanager
+def naming(flag: str) -> Iterator[None]:
+    """Let a ConfigError raised inside (a file's, say ``otter.yaml: hull_mass: …``) start with ``flag``, so that
+    the user sees which flag gave the file; one that already starts with a flag (``--sea: …``) is left alone."""
+    try:
+        yield
+    except ConfigError as exc:
+        text = str(exc)
+        if text.startswith("--"):
+            raise
+        raise ConfigError(f"{flag}: {text}") from None
+
+
+def plot_formats() -> frozenset[str]:
+    """File name extensions matplotlib can write (".png", ".pdf", …); imports matplotlib, so only when asked."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return frozenset(f".{name}" for name in FigureCanvasBase.get_supported_filetypes())
+
+
+def check_output_file(path: str | Path, flag: str, suffixes: Collection[str] | None = None) -> None:
+    """Refuse, before any work, an output file that cannot be written: a folder, a name under a folder that
+    does not exist (nothing is created on the way) or under a file, or (given ``suffixes``) an extension not
+    in them. A one-line ConfigError naming ``flag``."""
+    target = Path(path)
+    if target.is_dir():
+        raise ConfigError(f"{flag}: {path} is a folder; give a file name")
+    parent = target.parent
+    if not parent.is_dir():
+        why = "is a file, not a folder" if parent.exists() else "does not exist (it is not created)"
+        raise ConfigError(f"{flag}: {path}: the folder {parent} {why}")
+    if suffixes is not None and target.suffix.lower() not in suffixes:
+        raise ConfigError(f"{flag}: {path}: unsupported file type {target.suffix or '(none)'}; allowed "
+                          f"{', '.join(sorted(suffixes))}")
+
+
+def check_output_folder(path: str | Path, flag: str) -> None:
+    """Refuse an output folder that cannot be made: an existing file, or a name under a file. One-line
+    ConfigError naming ``flag``; a folder that does not exist yet is fine (it is made when the run starts)."""
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise ConfigError(f"{flag}: {path} is a file, not a folder")
+    for parent in target.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"{flag}: {path}: {parent} is a file, not a folder")
+            return

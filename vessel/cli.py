@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from . import seacli
+from .argtypes import check_output_file, naming, plot_formats
 from .config import ConfigError
 from .maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
 from .params import PARAMETER_SETS, load_parameters, otter_parameters
@@ -72,7 +73,8 @@ def _maneuver_from_args(args: argparse.Namespace) -> Maneuver:
             settings[key] = value
     if not args.preset and (args.left is None or args.right is None):
         raise ConfigError("--left and --right are required without --preset (percent of n_max, [-100, 100])")
-    params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
+    with naming("--params"):
+        params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
     waves = SEA_PRESETS[args.waves].waves()
     return Maneuver(**settings, integrator=args.integrator, params=params, waves=waves)
 
@@ -91,6 +93,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return seacli.run(args)
     try:
         maneuver = _maneuver_from_args(args)
+        if args.csv:
+            check_output_file(args.csv, "--csv")  # before the run: never compute, then fail on the name
+        if args.plot:
+            check_output_file(args.plot, "--plot", plot_formats())
         result = run_maneuver(maneuver)
     except ConfigError as exc:
         print(f"vessel {args.command}: error: {exc}", file=sys.stderr)
@@ -103,12 +109,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"maneuver: left {m.left_pct:g} %, right {m.right_pct:g} %, {m.duration_s:g} s at dt {m.dt_s:g} s "
           f"({m.integrator}), roll {m.roll_deg:g} deg, pitch {m.pitch_deg:g} deg")
     _print_figures(maneuver_figures(result))
-    if args.csv:
-        write_csv(result, args.csv)
-        print(f"csv:  {args.csv}")
-    if args.plot:
-        plot(result, args.plot)
-        print(f"plot: {args.plot}")
+    try:
+        if args.csv:
+            write_csv(result, args.csv)
+            print(f"csv:  {args.csv}")
+        if args.plot:
+            plot(result, args.plot)
+            print(f"plot: {args.plot}")
+    except OSError as exc:
+        print(f"vessel {args.command}: error: cannot write {exc.filename}: {exc.strerror}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .argtypes import check_output_file, plot_formats
 from .config import ConfigError, bounded, check_number, describe_range
 from .irregular_sea import SPECTRA, IrregularSea
 from .sea_analysis import default_segment, hm0, peak_period, welch
@@ -88,6 +89,8 @@ def _parse(text: str, flag: str, meta: Any, kind: type) -> float | int:
         value = float(text)
     except ValueError:
         raise ConfigError(f"{flag}: {text!r} is not a number; allowed {describe_range(meta)}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"{flag}: {text} is not finite; allowed {describe_range(meta)}")
     return check_number(value, flag, meta)
 
 
@@ -160,6 +163,9 @@ def run(args: argparse.Namespace) -> int:
     """The `vessel sea` command; returns the exit code."""
     try:
         sea, settings = settings_from_args(args)
+        check_output_file(args.csv, "--csv")  # before the record is drawn: never compute, then fail on the name
+        if args.plot:
+            check_output_file(args.plot, "--plot", plot_formats())
     except ConfigError as exc:
         print(f"vessel sea: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

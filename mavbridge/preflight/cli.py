@@ -9,7 +9,17 @@ from typing import Any
 from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
-from ..cli_args import OUTPUTS, REAL_TIME_SOLVER, SOLVER_HELP, count, parse_north_east, positive_metres, single_scenario
+from ..cli_args import (
+    OUTPUTS,
+    REAL_TIME_SOLVER,
+    SOLVER_HELP,
+    config_from_flags,
+    count,
+    link_flags,
+    parse_north_east,
+    positive_metres,
+    single_scenario,
+)
 from ..nmpc.config import SOLVERS
 from ..signing import add_link_arguments
 from .report import Report
@@ -48,17 +58,14 @@ def add_check_parser(sub: Any) -> None:
 
 def check_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge check`; 1 if anything FAILed, else 0."""
-    from ..companion import load_companion_config
     from ..port_guard import refuse_if_taken
     from .probe import Probe
     from .solve_time import solve_time
 
     if not 0 <= args.port <= 9:
         raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")
-    config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
-                                   component_id=args.compid, output=args.output, connect_timeout_s=args.timeout,
-                                   command_timeout_s=args.command_timeout, command_retries=args.command_retries,
-                                   signing_passphrase_file=args.signing_passphrase_file)
+    config = config_from_flags(args.config, {**link_flags(args), "output": ("--output", args.output),
+                                             "connect_timeout_s": ("--timeout", args.timeout)})
     config.signing_key()  # a bad passphrase file: one line, exit 2
     refuse_if_taken(config.connect)
     scenario = single_scenario(args.scenario, args.solver)

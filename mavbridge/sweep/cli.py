@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from vessel import ConfigError
+from vessel.argtypes import check_output_folder
 
 from ..cli_args import positive
 from ..nmpc.config import SOLVERS
@@ -69,7 +70,7 @@ def _float_list(text: str, flag: str) -> list[float]:
     except ValueError:
         values = []
     if not values or not all(math.isfinite(v) and -360 <= v <= 360 for v in values):
-        raise ConfigError(f"{flag}: expected comma-separated degrees in [-360, 360], got {text!r}")
+        raise ConfigError(f"{flag}: expected comma-separated finite degrees in [-360, 360], got {text!r}")
     return values
 
 
@@ -78,9 +79,9 @@ def _tune_target(args: argparse.Namespace) -> Target:
     if red is None and tmax is None:
         raise ConfigError("--min-reduction / --max-time: give at least one target")
     if red is not None and not (math.isfinite(red) and 0 < red < 0.95):
-        raise ConfigError(f"--min-reduction: expected a fraction in (0, 0.95), got {red:g}")
+        raise ConfigError(f"--min-reduction: expected a finite fraction in (0, 0.95), got {red:g}")
     if tmax is not None and not (math.isfinite(tmax) and tmax > 0):
-        raise ConfigError(f"--max-time: expected seconds > 0, got {tmax:g}")
+        raise ConfigError(f"--max-time: expected finite seconds > 0, got {tmax:g}")
     return Target(red, tmax)
 
 
@@ -94,8 +95,7 @@ def tune_command(args: argparse.Namespace) -> int:
     if args.solver:
         scenarios = [dataclasses.replace(scenarios[0], controller=scenarios[0].controller.replace(solver=args.solver))]
     out = Path(args.out) if args.out else Path("runs") / f"tune-{Path(args.scenario).stem}"
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out: {out} exists and is not a folder")
+    check_output_folder(out, "--out")
     previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
     try:
         with open_executor(args.executor, args.jobs) as executor:
@@ -144,8 +144,7 @@ def sweep_command(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec, allow_large=args.yes)
     heatmap = _heatmap_axes(spec, args.heatmap)
     out = Path(args.out) if args.out else Path("runs") / f"sweep-{Path(args.spec).stem}"
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out: {out} exists and is not a folder")
+    check_output_folder(out, "--out")
     previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
     try:
         with open_executor(args.executor, args.jobs) as executor:

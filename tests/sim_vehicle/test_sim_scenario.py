@@ -101,7 +101,8 @@ def test_sea_literal_yaml_preset_name(tmp_path: Path) -> None:
     ("sea: {height_m: 10, length_m: 35}\n", "sea.height_m"),  # breaks: H/λ > 1/7
 ])
 def test_one_rule_for_both_loaders(tmp_path: Path, text: str, expected: str) -> None:
-    """The simulator and mavbridge reject the same file with the same one-line message, exit 2."""
+    """The simulator and mavbridge reject the same file with the same one-line message (the simulator's names the
+    flag that gave the file first), exit 2."""
     path = tmp_path / "bad.yaml"
     path.write_text(text)
     out = _sim_cli("--scenario", str(path))
@@ -110,7 +111,7 @@ def test_one_rule_for_both_loaders(tmp_path: Path, text: str, expected: str) -> 
     with pytest.raises(ConfigError) as info:
         load_scenarios(path)
     assert expected in str(info.value)
-    assert out.stderr.strip() == f"sim-vehicle: error: {info.value}"
+    assert out.stderr.strip() == f"sim-vehicle: error: --scenario: {info.value}"
 
 
 @pytest.mark.parametrize(("flags", "expected"), [

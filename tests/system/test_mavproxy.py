@@ -26,12 +26,14 @@ class Console:
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                      text=True)
         self.lines: list[str] = []
+        self.seen: list[str] = []  # every line of the session (``lines`` is cleared on each command)
         threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
         for line in self.proc.stdout:
             self.lines.append(line.strip())
+            self.seen.append(line.strip())
 
     def expect(self, text: str, timeout: float = 30.0) -> str:
         """The first line (from now on or already seen) containing ``text``, prompts stripped."""
@@ -68,7 +70,7 @@ def test_mavproxy_lists_parameters_loads_a_waypoints_file_and_switches_modes(tmp
     write_mission_file(Mission(home, (MissionItem(-35.3624974, 149.1660562, 0.0),)), waypoints)
     with SimProcess(tmp_path / "sim", speedup=1, waves="calm", extra=["--wipe"]) as sim:
         console = Console([MAVPROXY, "--master", f"tcp:127.0.0.1:{sim.tcp_port}", "--state-basedir",
-                           str(tmp_path / "mavproxy"), "--default-modules", "param,wp,mode,cmdlong"])
+                           str(tmp_path / "mavproxy"), "--default-modules", "param,wp,mode,cmdlong,fence"])
         try:
             received = console.expect("Received ", timeout=60)  # "Received N parameters"
             assert received.endswith("parameters") and int(received.split()[1]) > 50
@@ -82,5 +84,7 @@ def test_mavproxy_lists_parameters_loads_a_waypoints_file_and_switches_modes(tmp
             console.expect("Mode GUIDED")
             console.type("mode HOLD")
             console.expect("Mode HOLD")
+            # no fence is set: SYS_STATUS says so as ArduPilot does, and MAVProxy's fence module sees no breach
+            assert not [line for line in console.seen if "fence breach" in line], console.seen[-30:]
         finally:
             console.close()
