@@ -94,6 +94,9 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge demo --scenario": [(f"{DEMO} --scenario no/such.yaml", "no/such.yaml"),
                                   (f"{DEMO} --scenario adir", "adir")],
     "mavbridge demo --waves": [(f"{DEMO} --waves truth", CHOICE)],
+    "mavbridge demo --seed": [(f"{DEMO} --seed -1", "[0, 4294967295]"),
+                              (f"{DEMO} --seed 4294967296", "[0, 4294967295]"),
+                              (f"{DEMO} --seed 1.5", "whole number"), (f"{DEMO} --seed nan", "whole number")],
     "mavbridge demo --out": [(f"{DEMO} --out afile.txt", "afile.txt"), (f"{DEMO} --out afile.txt/run", "afile.txt")],
     **_link_cases(CHECK),
     "mavbridge check --solves": [("mavbridge check --solves -1", ">= 0"), ("mavbridge check --solves many",)],
@@ -139,6 +142,7 @@ CASES: dict[str, list[tuple[str, ...]]] = {
 NO_BAD_VALUE: dict[str, str] = {
     "mavbridge run --lockstep": "a switch: no value to get wrong (simulation only, documented)",
     "mavbridge demo --lockstep": "a switch: no value to get wrong",
+    "mavbridge demo --direct": "a switch: no value to get wrong",
     "mavbridge sweep --yes": "a switch: no value to get wrong",
 }
 
