@@ -64,6 +64,9 @@ def add_run_parser(sub: Any) -> None:
                           "wall-clock deadline (reproducible runs; never on a real boat)")
     run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
                                                                   "before: comparable runs start in the same world")
+    run.add_argument("--delay-compensation", action=argparse.BooleanOptionalAction, default=None,
+                     help="predict the state over the link's measured delay before planning (default on; "
+                          "--no-delay-compensation acts on the state as received, for comparison)")
     add_link_arguments(run)
 
 
@@ -98,7 +101,7 @@ def run_command(args: argparse.Namespace) -> int:
     config = load_companion_config(args.config, connect=args.connect, baud=args.baud, system_id=args.sysid,
                                    component_id=args.compid, output=args.output, max_time_s=args.max_time,
                                    waves=args.waves, lockstep=args.lockstep, start_at_s=args.start_at,
-                                   max_range_m=args.max_range,
+                                   max_range_m=args.max_range, delay_compensation=args.delay_compensation,
                                    command_timeout_s=args.command_timeout, command_retries=args.command_retries,
                                    signing_passphrase_file=args.signing_passphrase_file)
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
