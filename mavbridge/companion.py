@@ -3,8 +3,9 @@
 Link -> state -> NMPC -> command, on the autopilot's clock (ATTITUDE.time_boot_ms), at the
 controller's period. It relies only on what a stock ArduPilot Rover sends and accepts: HEARTBEAT,
 ATTITUDE, GLOBAL_POSITION_INT, LOCAL_POSITION_NED, the mission protocol, PARAM_VALUE, COMMAND_ACK;
-SCALED_IMU / RAW_IMU (for the wave estimator, where streamed); and it sends RC_CHANNELS_OVERRIDE (MANUAL)
-or SET_ATTITUDE_TARGET (GUIDED).
+TIMESYNC (its answer to ours: the link's round trip, for delay compensation); SCALED_IMU / RAW_IMU (for
+the wave estimator, where streamed); and it sends RC_CHANNELS_OVERRIDE (MANUAL) or SET_ATTITUDE_TARGET
+(GUIDED).
 
 The loop is put together from parts: the NMPC (built outside and passed in), a ``WaveSource`` (all
 it knows about the sea; by default the estimator, gated on its confidence by a ``WaveGate``), an
@@ -212,7 +213,7 @@ class Companion:
         if target is None:
             self._finish_at_waypoint(link, now_ms)
             return
-        age_s, plan_s = self.delay.compensate(x, now_ms / 1000.0)  # plan_s: when the command will act
+        age_s, plan_s = self.delay.compensate(now_ms / 1000.0)  # plan_s: when the command will act
         phase, wave = self.supervisor.phase.name, {**self.gate.step(self.nmpc, plan_s), "state_age_s": age_s}
         deadline_s = None if self.config.lockstep else self.period_s  # lockstep: late is not a fault
         result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,

@@ -73,7 +73,7 @@ class DelayCompensator:
         self._pending.append(stamp)
         link.send("timesync", 0, stamp)
 
-    def compensate(self, x: np.ndarray, state_s: float) -> tuple[float, float]:
+    def compensate(self, state_s: float) -> tuple[float, float]:
         """(the state's age, the time to plan at) for a state stamped ``state_s`` (autopilot s)."""
         if self.lockstep or not self.clock.ready():
             self.ages_s.append(0.0)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import random
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -97,33 +98,29 @@ def test_prediction_over_one_period_is_the_nmpcs_own_model_step(wave: RegularWav
 
 
 def arrivals(comp: DelayCompensator, boot_s: float = 50.0) -> None:
-    """A second of ATTITUDE arrivals at rate 1, as real messages, through the compensator's handler."""
-    import time
-
+    """The second of arrivals (rate 1, no delay) that ended just now: stamps boot_s .. boot_s + 0.95."""
     now = time.monotonic()
     for i in range(20):
-        msg = mavlink.MAVLink_attitude_message(int((boot_s + i * 0.05) * 1000), 0, 0, 0, 0, 0, 0)
-        comp.clock.observe(now - 1.0 + i * 0.05, msg.time_boot_ms / 1000.0)
+        comp.clock.observe(now - 1.0 + i * 0.05, boot_s + i * 0.05)
 
 
 def test_compensator_modes_lockstep_off_on_and_the_prediction_limit() -> None:
-    x = np.zeros(12)
     lockstep = DelayCompensator(True, True, 1.0, None)
     arrivals(lockstep)
-    assert lockstep.compensate(x, 50.0) == (0.0, 50.0)  # time waits for the command: age zero by construction
+    assert lockstep.compensate(50.0) == (0.0, 50.0)  # time waits for the command: age zero by construction
     off = DelayCompensator(False, False, 1.0, None)
     arrivals(off)
-    age, plan = off.compensate(x, 50.5)
+    age, plan = off.compensate(50.5)
     assert age > 0.4 and plan == 50.5  # measured, not acted on
     params, current = otter_parameters("published"), OceanCurrent()
     on = DelayCompensator(True, False, 1.0, StatePredictor(params, current))
     arrivals(on)
     on.clock.observe_round_trip(0.0, 0.4)  # 0.2 s each way
-    age, plan = on.compensate(x, 50.5)
+    age, plan = on.compensate(50.5)
     assert plan == pytest.approx(50.5 + age + 0.2, abs=1e-6)
     limited = DelayCompensator(True, False, 0.3, StatePredictor(params, current))
     arrivals(limited)
-    assert limited.compensate(x, 50.0)[1] == pytest.approx(50.3)
+    assert limited.compensate(50.0)[1] == pytest.approx(50.3)
     summary = on.summary()
     assert summary["compensation"] == "on" and summary["state_age_s_median"] == pytest.approx(age, abs=1e-4)
 
