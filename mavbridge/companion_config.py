@@ -52,7 +52,8 @@ class CompanionConfig(LinkSettings):
                                        "(simulation comparisons: every run starts from the same world state)")
     delay_compensation: bool = bounded(True, doc="plan from the state predicted to when the command acts (the "
                                        "link's delay measured with TIMESYNC); false: act on the state as received")
-    max_prediction_s: float = bounded(1.0, 0.0, 5.0, "s", "delay compensation predicts at most this far ahead")
+    max_prediction_s: float = bounded(2.0, 0.0, 5.0, "s", "delay compensation predicts at most this far ahead "
+                                      "(the state's age plus the uplink's one-way delay)")
 
     def __post_init__(self) -> None:
         if self.wave_roll_sign not in (-1.0, 1.0):
