@@ -70,6 +70,9 @@ def add_run_parser(sub: Any) -> None:
                           "wall-clock deadline (reproducible runs; never on a real boat)")
     run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
                                                                   "before: comparable runs start in the same world")
+    run.add_argument("--delay-compensation", action=argparse.BooleanOptionalAction, default=None,
+                     help="predict the state over the link's measured delay before planning (default on; "
+                          "--no-delay-compensation acts on the state as received, for comparison)")
     add_link_arguments(run)
 
 
@@ -109,7 +112,8 @@ def run_command(args: argparse.Namespace) -> int:
     config = config_from_flags(args.config, {
         **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
         "waves": ("--waves", args.waves), "lockstep": ("--lockstep", args.lockstep),
-        "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range)})
+        "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
+        "delay_compensation": ("--delay-compensation", args.delay_compensation)})
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "

@@ -3,8 +3,9 @@
 Link -> state -> NMPC -> command, on the autopilot's clock (ATTITUDE.time_boot_ms), at the
 controller's period. It relies only on what a stock ArduPilot Rover sends and accepts: HEARTBEAT,
 ATTITUDE, GLOBAL_POSITION_INT, LOCAL_POSITION_NED, the mission protocol, PARAM_VALUE, COMMAND_ACK;
-SCALED_IMU / RAW_IMU (for the wave estimator, where streamed); and it sends RC_CHANNELS_OVERRIDE (MANUAL)
-or SET_ATTITUDE_TARGET (GUIDED).
+TIMESYNC (its answer to ours: the link's round trip, for delay compensation); SCALED_IMU / RAW_IMU (for
+the wave estimator, where streamed); and it sends RC_CHANNELS_OVERRIDE (MANUAL) or SET_ATTITUDE_TARGET
+(GUIDED).
 
 The loop is put together from parts: the NMPC (built outside and passed in), a ``WaveSource`` (all
 it knows about the sea; by default the estimator, gated on its confidence by a ``WaveGate``), an
@@ -29,6 +30,7 @@ from vessel import CalmWater
 from vessel.config import ConfigError, to_mapping
 
 from .companion_config import CompanionConfig, load_companion_config
+from .delay_compensation import make_compensator
 from .engage_gate import check_waypoints, far_waypoint
 from .link import Link, LinkError, mavlink
 from .loop_notices import LoopNotices, keep_up_summary
@@ -144,6 +146,7 @@ class Companion:
         self.gate = WaveGate(waves, log, hold_s=scenario.estimation.hold_s)
         self.events = LoopEvents()
         self.notices = LoopNotices(log, self.output.required_mode)
+        self.delay = make_compensator(config, nmpc)  # the state's age on the link; prediction over the delay
         self._failure: str | None = None  # set when the run ends in a failure (exit 1): systemd restarts it
         self.link: Link | None = None
         self._stop_reason: str | None = None
@@ -210,9 +213,12 @@ class Companion:
         if target is None:
             self._finish_at_waypoint(link, now_ms)
             return
-        phase, wave = self.supervisor.phase.name, self.gate.step(self.nmpc, now_ms / 1000.0)
+        age_s, plan_s = self.delay.compensate(now_ms / 1000.0)  # plan_s: when the command will act
+        phase, wave = self.supervisor.phase.name, {**self.gate.step(self.nmpc, plan_s), "state_age_s": age_s}
         deadline_s = None if self.config.lockstep else self.period_s  # lockstep: late is not a fault
-        result = self.nmpc.solve(x, now_ms / 1000.0, target, deadline_s=deadline_s)
+        result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
+                                 deadline_s=deadline_s)
+        self.delay.sent(plan_s, result.tau)
         try:
             columns = self.output.command(link, result, now_ms)
         except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
@@ -263,6 +269,7 @@ class Companion:
         hold_exclusively(link.conn)
         link.handlers += [self.state.on_message, self._on_motion, self._on_heartbeat, self.mission.on_message]
         watch_reboots(link, self)  # a reboot mid-run: release, streams again, wait for the pilot
+        self.delay.attach(link)
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
         try:
@@ -369,7 +376,7 @@ class Companion:
                 "solver": self.scenario.controller.solver, "wave_source": self.waves.name,
                 "heave_feedback": self.nmpc.config.heave_feedback,
                 **loop_metrics(self.record, self.events), "waves": self.gate.summary(self.record.solve_ms),
-                "link": dict(self.link.counts) if self.link else {}}
+                "link": dict(self.link.counts) if self.link else {}, "delay": self.delay.summary()}
 
     def _write_logs(self) -> None:
         write_csv(self.out_dir / "companion.csv", self.record.rows)

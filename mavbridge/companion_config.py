@@ -50,6 +50,10 @@ class CompanionConfig(LinkSettings):
                              "false there)")
     start_at_s: float | None = bounded(None, 0.0, 1e6, "s", "command from this autopilot time on, not before "
                                        "(simulation comparisons: every run starts from the same world state)")
+    delay_compensation: bool = bounded(True, doc="plan from the state predicted to when the command acts (the "
+                                       "link's delay measured with TIMESYNC); false: act on the state as received")
+    max_prediction_s: float = bounded(2.0, 0.0, 5.0, "s", "delay compensation predicts at most this far ahead "
+                                      "(the state's age plus the uplink's one-way delay)")
 
     def __post_init__(self) -> None:
         if self.wave_roll_sign not in (-1.0, 1.0):

@@ -3,7 +3,11 @@
 Only messages from the autopilot found by the first ArduPilot Rover/boat HEARTBEAT are passed on;
 garbage, bad CRCs and other systems or components are counted and dropped. On a UDP server port
 pymavlink writes to every address that ever sent a datagram; we send only to the autopilot's address,
-so a stray sender on the port never receives our commands.
+so a stray sender on the port never receives our commands. That address is pinned at the autopilot's
+first heartbeat, and a datagram from any other address is foreign even when it carries the autopilot's
+system and component id (anyone can write those): another address takes over only with an autopilot
+heartbeat after ADDRESS_FORGET_S without a word from the pinned one (a restarted simulator). On a
+serial link there is no address to go by; MAVLink 2 signing is the defence there.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
 SEQ_FORGET_S = 0.5  # wall seconds without a message from the autopilot after which its sequence restarts
 SEQ_WINDOW = 64  # sequence numbers remembered for spotting duplicates (they wrap at 256)
+ADDRESS_FORGET_S = 1.0  # wall seconds of silence from the autopilot's UDP address before another may take over
 
 
 class _AddressRecordingSocket:
@@ -74,6 +79,7 @@ class Link:
         self.mav = self.conn.mav
         self.target: tuple[int, int] | None = None
         self._autopilot_address: Any = None
+        self._autopilot_seen = 0.0  # wall time of the last datagram from that address
         self._udp_server = isinstance(self.conn, mavutil.mavudp) and self.conn.udp_server
         if self._udp_server:
             self.conn.port = _AddressRecordingSocket(self.conn.port)
@@ -138,7 +144,7 @@ class Link:
         source = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.target is None and self._is_autopilot_heartbeat(msg):
             self.target = source
-        if source != self.target:
+        if source != self.target or not self._from_autopilot_address(msg):
             self.counts["foreign"] += 1
             return None
         if self._out_of_order(msg):
@@ -147,11 +153,23 @@ class Link:
         self._write_tlog(msg.get_msgbuf())
         self.counts["accepted"] += 1
         self.rates[msg.get_type()] = self.rates.get(msg.get_type(), 0) + 1
-        if self._udp_server:
-            self._autopilot_address = self.conn.port.last_sender
         for handler in self.handlers:
             handler(msg)
         return msg
+
+    def _from_autopilot_address(self, msg: Any) -> bool:
+        """True unless, on a UDP server port, the datagram came from another address than the autopilot's
+        (pinned at its first heartbeat; re-pinned by an autopilot heartbeat after ADDRESS_FORGET_S of silence)."""
+        if not self._udp_server:
+            return True
+        sender, now = self.conn.port.last_sender, time.monotonic()
+        if sender != self._autopilot_address and self._is_autopilot_heartbeat(msg) and \
+                (self._autopilot_address is None or now - self._autopilot_seen >= ADDRESS_FORGET_S):
+            self._autopilot_address = sender
+        if sender != self._autopilot_address:
+            return False
+        self._autopilot_seen = now
+        return True
 
     def _out_of_order(self, msg: Any) -> bool:
         """A datagram the link duplicated (its MAVLink sequence number among the last SEQ_WINDOW seen), or a

@@ -41,6 +41,7 @@ LOG_COLUMNS = (
     "wave_slope_rad", "wave_force_n",  # the true sea at the boat (experiment: it knows the truth)
     *WAVE_COLUMNS,
     "solve_ms", "iterations", "status", "fallback", "fallback_reason", "sent",
+    "state_age_s",  # companion: autopilot time now (estimated) minus the state's time_boot_ms
 )
 ROLL = STATE_COLUMNS[STATE_NAMES.index("phi")]
 

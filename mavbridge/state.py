@@ -30,6 +30,9 @@ GRAVITY_MSS = 9.80665  # ArduPilot's milli-g scale for SCALED_IMU / RAW_IMU
 IMU_MESSAGES = ("SCALED_IMU", "RAW_IMU", "SCALED_IMU2")
 IMU_FRESH_MS = 60  # an IMU sample farther than this from ATTITUDE's time is not handed to the wave source: it
 # would be taken as the attitude's instant (0.1 s is 6° of heave phase at ω_e = 1 rad/s); a 20 Hz stream fits
+MAX_ANGLE_RAD = math.pi + 0.01  # ArduPilot's ATTITUDE angles are within ±π: a larger one is forged or corrupt
+MAX_RATE_RAD_S = 35.0  # a gyro's range (2000 °/s): faster body rates are not a boat's
+MAX_SPEED_M_S = 100.0  # NED velocity beyond this is not a boat's
 
 
 def imu_specific_force(msg: Any) -> tuple[int, np.ndarray] | None:
@@ -78,8 +81,9 @@ class StateEstimate:
             self.attitude_ms = self.position_ms = self.velocity_ms = self.imu_ms = None  # the autopilot rebooted
         if kind == "ATTITUDE":
             values = [msg.roll, msg.pitch, msg.yaw, msg.rollspeed, msg.pitchspeed, msg.yawspeed]
-            if not all(math.isfinite(v) for v in values):
-                self.rejected += 1
+            if not (all(abs(v) <= MAX_ANGLE_RAD for v in values[:3]) and all(abs(v) <= MAX_RATE_RAD_S
+                                                                                for v in values[3:])):
+                self.rejected += 1  # not finite, or not a boat's attitude (a corrupt or forged message)
                 return
             psi = values[2]
             if self._psi_unwrapped is not None:
@@ -99,7 +103,7 @@ class StateEstimate:
                 self.velocity_ned = np.array([msg.vx, msg.vy, msg.vz]) / 100.0
         elif kind == "LOCAL_POSITION_NED":
             velocity = np.array([msg.vx, msg.vy, msg.vz])
-            if not np.all(np.isfinite(velocity)):
+            if not np.all(np.abs(velocity) <= MAX_SPEED_M_S):  # NaN compares False: rejected too
                 self.rejected += 1
                 return
             self.velocity_ned = velocity

@@ -141,6 +141,7 @@ CASES: dict[str, list[tuple[str, ...]]] = {
 
 NO_BAD_VALUE: dict[str, str] = {
     "mavbridge run --lockstep": "a switch: no value to get wrong (simulation only, documented)",
+    "mavbridge run --delay-compensation": "a switch (--no-delay-compensation): no value to get wrong",
     "mavbridge demo --lockstep": "a switch: no value to get wrong",
     "mavbridge demo --direct": "a switch: no value to get wrong",
     "mavbridge sweep --yes": "a switch: no value to get wrong",

@@ -1,0 +1,151 @@
+"""Delay compensation: the clock model, the command history, the predictor against the NMPC's model, the
+compensator's three modes, and the settings' range checks."""
+
+from __future__ import annotations
+
+import random
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from mavbridge.clock_model import ClockModel
+from mavbridge.companion_config import load_companion_config
+from mavbridge.delay_compensation import DelayCompensator
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.problem import discrete_model
+from mavbridge.nmpc.wave_model import wave_parameters
+from mavbridge.predict import CommandHistory, StatePredictor
+from vessel import ConfigError, OceanCurrent, RegularWaves, otter_parameters
+
+RATE = 5.0  # autopilot seconds per wall second (a simulator at --speedup 5)
+
+
+def feed(clock: ClockModel, delay_s: float, jitter_s: float, seconds: float = 4.0, seed: int = 1,
+         boot_s: float = 100.0) -> float:
+    """Arrivals every 10 ms of wall time, stamped when sent, arriving ``delay_s`` + U(0, jitter_s) later; returns
+    the wall time of the last send."""
+    rng = random.Random(seed)
+    sent = 0.0
+    for i in range(int(seconds / 0.01)):
+        sent = i * 0.01
+        clock.observe(sent + delay_s + rng.uniform(0.0, jitter_s), boot_s + RATE * sent)
+    return sent
+
+
+def test_clock_fits_the_rate_and_the_fastest_arrival() -> None:
+    clock = ClockModel()
+    last = feed(clock, 0.08, 0.04)
+    wall = last + 0.1
+    true_now = 100.0 + RATE * wall
+    assert clock.now_s(wall) == pytest.approx(true_now - RATE * 0.08, abs=0.02)  # one-way only: delay unseen
+    assert clock.rate == pytest.approx(RATE, rel=0.01)
+    clock.observe_round_trip(10.0, 10.16)  # 80 ms each way
+    clock.observe_round_trip(11.0, 11.30)  # a slow one: the smallest is kept
+    assert clock.one_way_delay_s() == pytest.approx(clock.rate * 0.08)  # half the smallest round trip
+    assert clock.now_s(wall) == pytest.approx(true_now, abs=0.02)
+    assert clock.age_s(true_now + 1.0, wall) == 0.0  # never negative
+
+
+def test_clock_starts_again_after_a_reboot_and_ignores_a_stamp_far_ahead() -> None:
+    clock = ClockModel()
+    feed(clock, 0.0, 0.0, boot_s=500.0)
+    clock.observe_round_trip(0.0, 0.1)
+    clock.now_s(4.0)  # (the companion asks every control step; the check uses the last fit)
+    clock.observe(4.0, 1e6)  # a forged or corrupt stamp
+    assert clock.rejected == 1
+    feed(clock, 0.0, 0.0, seconds=1.0, boot_s=0.0)  # time_boot_ms back to 0: a new boot
+    assert clock.round_trip_s is None
+    assert clock.now_s(1.0) == pytest.approx(RATE * 1.0, abs=0.05)
+    with pytest.raises(ValueError, match="no time-stamped message"):
+        ClockModel().now_s(0.0)
+
+
+def test_history_gives_the_command_in_effect_on_each_piece() -> None:
+    history = CommandHistory()
+    assert [(a, b, list(t)) for a, b, t in history.segments(0.0, 1.0)] == [(0.0, 1.0, [0.0, 0.0])]
+    history.add(1.0, np.array([10.0, 1.0]))
+    history.add(1.1, np.array([20.0, 2.0]))
+    history.add(1.5, np.array([30.0, 3.0]))
+    pieces = [(a, b, list(t)) for a, b, t in history.segments(1.05, 1.6)]
+    assert pieces == [(1.05, 1.1, [10.0, 1.0]), (1.1, 1.5, [20.0, 2.0]), (1.5, 1.6, [30.0, 3.0])]
+    history.add(0.2, np.array([1.0, 0.0]))  # a new boot's clock: the old commands are forgotten
+    assert len(history.entries) == 1
+
+
+@pytest.mark.parametrize("wave", [None, RegularWaves(height_m=1.75, length_m=20.0, travel_dir_rad=0.7)],
+                         ids=["calm", "regular"])
+def test_prediction_over_one_period_is_the_nmpcs_own_model_step(wave: RegularWaves | None) -> None:
+    """The NMPC's model integrated by RK4 in its two 0.05 s substeps (the predictor's steps; the NMPC's own
+    default integrator is Euler, coarser on the stiff heave) gives the predictor's state."""
+    params, current = otter_parameters("published"), OceanCurrent()
+    cfg = NmpcConfig().replace(integrator="rk4", substeps=2)
+    step = discrete_model(params, None, current, cfg)
+    predictor = StatePredictor(params, current)
+    x = np.array([1.0, 2.0, 0.01, 0.05, -0.02, 0.3, 1.2, 0.1, 0.0, 0.02, 0.01, -0.05])
+    tau = np.array([80.0, 5.0])
+    history = CommandHistory()
+    history.add(0.0, tau)
+    expected = np.asarray(step(x, tau, 3.0, wave_parameters(wave))).ravel()
+    predicted = predictor.predict(x, 3.0, 3.0 + cfg.period_s, history, wave)
+    assert np.allclose(predicted, expected, rtol=1e-9, atol=1e-9), predicted - expected
+    assert not np.allclose(predicted, x, atol=1e-3)  # it did move the boat
+    assert np.array_equal(predictor.predict(x, 3.0, 3.0, history, wave), x)  # no time, no change
+
+
+def arrivals(comp: DelayCompensator, boot_s: float = 50.0) -> None:
+    """The second of arrivals (rate 1, no delay) that ended just now: stamps boot_s .. boot_s + 0.95."""
+    now = time.monotonic()
+    for i in range(20):
+        comp.clock.observe(now - 1.0 + i * 0.05, boot_s + i * 0.05)
+
+
+def test_compensator_modes_lockstep_off_on_and_the_prediction_limit() -> None:
+    lockstep = DelayCompensator(True, True, 1.0, None)
+    arrivals(lockstep)
+    assert lockstep.compensate(50.0) == (0.0, 50.0)  # time waits for the command: age zero by construction
+    off = DelayCompensator(False, False, 1.0, None)
+    arrivals(off)
+    age, plan = off.compensate(50.5)
+    assert age > 0.4 and plan == 50.5  # measured, not acted on
+    params, current = otter_parameters("published"), OceanCurrent()
+    on = DelayCompensator(True, False, 1.0, StatePredictor(params, current))
+    arrivals(on)
+    on.clock.observe_round_trip(0.0, 0.4)  # 0.2 s each way
+    age, plan = on.compensate(50.5)
+    assert plan == pytest.approx(50.5 + age + 0.2, abs=1e-6)
+    limited = DelayCompensator(True, False, 0.3, StatePredictor(params, current))
+    arrivals(limited)
+    assert limited.compensate(50.0)[1] == pytest.approx(50.3)
+    summary = on.summary()
+    assert summary["compensation"] == "on" and summary["state_age_s_median"] == pytest.approx(age, abs=1e-4)
+
+
+def test_only_the_answer_to_our_own_timesync_counts() -> None:
+    comp = DelayCompensator(True, False, 1.0, None)
+    comp._pending.append(123)
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=0, ts1=123))  # a request, not an answer
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=999))  # someone else's
+    assert comp.clock.round_trip_s is None
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=123))
+    assert comp.clock.round_trip_s is not None
+
+
+@pytest.mark.parametrize("field, value", [("max_prediction_s", 6.0), ("max_prediction_s", -0.1),
+                                          ("delay_compensation", "yes")])
+def test_settings_are_range_checked(field: str, value: object) -> None:
+    with pytest.raises(ConfigError, match=field):
+        load_companion_config(None, **{field: value})
+
+
+def test_bad_yaml_field_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    config = tmp_path / "companion.yaml"
+    config.write_text("max_prediction_s: 9\n")
+    done = subprocess.run([sys.executable, "-m", "mavbridge.cli", "run", "--config", str(config), "--out",
+                           str(tmp_path / "never")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and "max_prediction_s" in done.stderr and "[0, 5] s" in done.stderr
