@@ -98,10 +98,12 @@ def loop_metrics(record: RunRecorder, events: LoopEvents) -> dict[str, Any]:
 def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[bool, int, int]:
     """(a control step is due at autopilot time ``now_ms``, the next tick, periods missed since the last).
 
-    The first sample, or a clock far behind the schedule (the autopilot rebooted), starts it again.
+    Ticks are the first samples at or after whole multiples of the period on the autopilot clock, the grid
+    `sim-vehicle --lockstep` holds at too. The first sample, or a clock far behind the schedule (the
+    autopilot rebooted), starts it again at the next grid point.
     """
     if next_tick_ms is None or now_ms < next_tick_ms - 10 * period_ms:
-        next_tick_ms = now_ms
+        next_tick_ms = -(-now_ms // period_ms) * period_ms
     if now_ms < next_tick_ms:
         return False, next_tick_ms, 0
     missed = (now_ms - next_tick_ms) // period_ms

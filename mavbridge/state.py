@@ -30,6 +30,7 @@ GRAVITY_MSS = 9.80665  # ArduPilot's milli-g scale for SCALED_IMU / RAW_IMU
 IMU_MESSAGES = ("SCALED_IMU", "RAW_IMU", "SCALED_IMU2")
 IMU_FRESH_MS = 60  # an IMU sample farther than this from ATTITUDE's time is not handed to the wave source: it
 # would be taken as the attitude's instant (0.1 s is 6° of heave phase at ω_e = 1 rad/s); a 20 Hz stream fits
+IMU_SILENT_MS = 1000  # the IMU kind in use silent this long (autopilot time): another kind that arrives is taken
 MAX_ANGLE_RAD = math.pi + 0.01  # ArduPilot's ATTITUDE angles are within ±π: a larger one is forged or corrupt
 MAX_RATE_RAD_S = 35.0  # a gyro's range (2000 °/s): faster body rates are not a boat's
 MAX_SPEED_M_S = 100.0  # NED velocity beyond this is not a boat's
@@ -65,6 +66,7 @@ class StateEstimate:
     rejected: int = 0
     max_distance_m: float = 10_000.0  # positions farther from home are rejected (no fix reports 0, 0)
     _psi_unwrapped: float | None = None
+    _imu_wait_from_ms: int | None = None  # when the kind in use was last heard of (or awaited from), if never
 
     def set_home(self, lat_deg: float, lon_deg: float) -> None:
         """The origin of η (the autopilot's home)."""
@@ -79,6 +81,7 @@ class StateEstimate:
         stamp = getattr(msg, "time_boot_ms", None)
         if stamp is not None and self.attitude_ms is not None and stamp < self.attitude_ms - 5000:
             self.attitude_ms = self.position_ms = self.velocity_ms = self.imu_ms = None  # the autopilot rebooted
+            self._imu_wait_from_ms = None
         if kind == "ATTITUDE":
             values = [msg.roll, msg.pitch, msg.yaw, msg.rollspeed, msg.pitchspeed, msg.yawspeed]
             if not (all(abs(v) <= MAX_ANGLE_RAD for v in values[:3]) and all(abs(v) <= MAX_RATE_RAD_S
@@ -117,10 +120,22 @@ class StateEstimate:
         """
         if kind != self.imu_kind:
             self.imu_kind, self.imu_ms, self.accel_body = kind, None, None
+            self._imu_wait_from_ms = self.attitude_ms
+
+    def _imu_in_use_silent(self) -> bool:
+        """True once the IMU kind in use has not been heard for IMU_SILENT_MS of autopilot (ATTITUDE) time."""
+        if self.attitude_ms is None:
+            return False
+        if self.imu_ms is None and self._imu_wait_from_ms is None:
+            self._imu_wait_from_ms = self.attitude_ms  # start waiting now
+        last = self.imu_ms if self.imu_ms is not None else self._imu_wait_from_ms
+        return last is not None and self.attitude_ms - last > IMU_SILENT_MS
 
     def _on_imu(self, kind: str, msg: Any) -> None:
-        """One IMU message of the kind in use (the first kind that arrived)."""
-        if self.imu_kind not in (None, kind):
+        """One IMU message of the kind in use (the first kind that arrived, or the one ``use_imu`` named); another
+        kind only once that one has been silent for IMU_SILENT_MS (it stopped, e.g. not requested again after a
+        reboot): a slower IMU beats none."""
+        if self.imu_kind not in (None, kind) and not self._imu_in_use_silent():
             return
         reading = imu_specific_force(msg)
         if reading is None:

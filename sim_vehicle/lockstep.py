@@ -6,14 +6,14 @@ once the controller (the system whose id is SYSID_MYGCS, or the one given) has s
 one control period after the previous tick is a tick; after it, simulated time holds until a command
 from the controller arrives, or a wall-clock timeout passes (counted).
 
-The ticks follow the controller's own grid (it ticks on the first ATTITUDE at or after its next tick
-time): every command anchors the grid at the newest ATTITUDE sent before it arrived, the sample the
-controller answered. Without the anchor, a first command that arrives after the next ATTITUDE has gone
-out (a slow first step, a busy machine) puts the holds half a stream interval off the controller's
-ticks: each hold then waits for a command the controller will only send for a sample the hold keeps
-back, and every tick times out. A hold's own command anchors at the tick itself, so a steady run is
-unchanged; a command between ticks (a late one, a stand-down, a restart) moves the grid to the
-controller's.
+The ticks are on a grid both sides know without telling each other: the first ATTITUDE at or after
+each whole multiple of the period on the autopilot clock (0.1, 0.2, ... s), which is how `mavbridge run`
+schedules its steps too. A grid taken from the controller's first command instead (the first ATTITUDE
+after it arrived) is half a stream interval off whenever that command arrives after the next ATTITUDE has
+gone out (a slow first step, a busy machine, the stand-down around a mission download): every hold then
+waits for a command the controller only sends for a sample the hold keeps back (each tick timed out), or
+is released by the command for the sample before it. A command that arrives between ticks (a late one,
+a stand-down) releases nothing: the count starts again at each tick.
 
 With a start time (``--lockstep-start S``, for runs that must repeat), the ticks are held from simulated
 time S on even before the first command, so the controller's first tick is exactly at S. Before the
@@ -65,24 +65,22 @@ class Lockstep:
     start_s: float | None = None  # engage at this simulated time even before the controller's first command
     engaged: bool = False
     stats: LockstepStats = field(default_factory=LockstepStats)
-    _last_tick_s: float | None = None
+    _next_tick_s: float | None = None  # the grid point the next tick is at or after (None: the next one)
     _commands: int = 0  # commands from the controller since the last tick was released
     _missed_in_a_row: int = 0
-    _last_attitude_s: float | None = None  # the newest ATTITUDE sent (the controller's sample for its command)
 
     def on_message(self, kind: str, src_system: int) -> None:
         """Every decoded incoming message: counts the controller's commands; the first one engages."""
         if kind not in COMMAND_MESSAGES or src_system != self.controller_sysid:
             return
         self._commands += 1
-        if self._last_attitude_s is not None:
-            self._last_tick_s = self._last_attitude_s  # the controller answered that sample: its grid is there
         if not self.engaged:
             self._engage(f"system {src_system} commands")
 
     def _engage(self, why: str) -> None:
         """From now on each tick waits for the controller's command."""
         self.engaged = True
+        self._next_tick_s = None  # the next grid point from here
         self._missed_in_a_row = 0
         self.stats.engagements += 1
         log.info("lockstep engaged: %s; time now waits for a command at each tick", why)
@@ -92,13 +90,13 @@ class Lockstep:
         if self.start_s is not None and sim_t >= self.start_s - 1e-6:
             self.start_s = None  # once: a controller that never comes is released after a few timeouts
             self._engage(f"t = {sim_t:.2f} s (--lockstep-start)")
-        if attitude_sent:
-            self._last_attitude_s = sim_t
         if not (self.engaged and attitude_sent):
             return False
-        if self._last_tick_s is not None and sim_t < self._last_tick_s + self.period_s - 1e-6:
+        if self._next_tick_s is None:
+            self._next_tick_s = math.ceil(sim_t / self.period_s - 1e-6) * self.period_s
+        if sim_t < self._next_tick_s - 1e-6:
             return False
-        self._last_tick_s = sim_t
+        self._next_tick_s = (math.floor(sim_t / self.period_s + 1e-6) + 1) * self.period_s
         self._commands = 0
         self.stats.ticks += 1
         return True
@@ -121,7 +119,7 @@ class Lockstep:
         log.warning("lockstep: no command for the tick at t = %.2f s within %.2f s (wall)", sim_t, self.timeout_s)
         if self._missed_in_a_row >= MAX_MISSED_IN_A_ROW:
             self.engaged = False
-            self._last_tick_s = None
+            self._next_tick_s = None
             log.info("lockstep released: system %d silent for %d ticks; paced until it commands again",
                      self.controller_sysid, self._missed_in_a_row)
 

@@ -161,6 +161,8 @@ def test_control_steps_keep_to_the_autopilot_clock() -> None:
     assert schedule(5120, tick, 100) == (True, 5200, 0)
     assert schedule(5430, 5200, 100) == (True, 5500, 2)  # 5200 and 5300 were missed, 5400 runs late
     assert schedule(300, 5500, 100) == (True, 400, 0)  # the autopilot rebooted: its clock starts again
+    assert schedule(5050, None, 100) == (False, 5100, 0)  # the grid is whole periods of the autopilot clock
+    assert schedule(350, 5500, 100) == (False, 400, 0)  # also after a reboot (what sim-vehicle --lockstep holds at)
 
 
 # ------------------------------------------------------------------ the IMU and the estimated wave, end to end
@@ -202,6 +204,30 @@ def test_the_fastest_imu_stream_is_used_not_the_first_to_arrive() -> None:
     np.testing.assert_allclose(state.motion_sample().accel_body, np.array([0, 0, -1010]) * 9.80665e-3)
     state.use_imu(None)  # no IMU stream measured: the first kind that arrives again
     assert state.imu_kind is None and state.motion_sample().accel_body is None
+
+
+def test_a_silent_imu_stream_gives_way_to_another_kind() -> None:
+    """The pinned SCALED_IMU stops (not requested again after a reboot, a rate changed): after 1 s of autopilot
+    time without it, the RAW_IMU that still arrives is taken rather than no IMU at all."""
+    state = StateEstimate()
+    state.set_home(*HOME_LL)
+    state.on_message(mavlink.MAVLink_attitude_message(1000, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    state.use_imu("SCALED_IMU")
+    state.on_message(mavlink.MAVLink_scaled_imu_message(1000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
+    state.on_message(mavlink.MAVLink_attitude_message(1900, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    state.on_message(mavlink.MAVLink_raw_imu_message(1_900_000, 0, 0, -900, 0, 0, 0, 0, 0, 0))
+    assert state.imu_kind == "SCALED_IMU" and state.imu_ms == 1000  # 0.9 s: still the stream in use
+    state.on_message(mavlink.MAVLink_attitude_message(2100, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    state.on_message(mavlink.MAVLink_raw_imu_message(2_100_000, 0, 0, -950, 0, 0, 0, 0, 0, 0))
+    assert state.imu_kind == "RAW_IMU" and state.imu_ms == 2100  # 1.1 s silent: the other kind is taken
+    rebooted = StateEstimate()  # pinned before any IMU came, then nothing of that kind: the wait starts
+    rebooted.on_message(mavlink.MAVLink_attitude_message(500, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    rebooted.use_imu("SCALED_IMU")
+    rebooted.on_message(mavlink.MAVLink_raw_imu_message(600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
+    assert rebooted.imu_ms is None
+    rebooted.on_message(mavlink.MAVLink_attitude_message(1600, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    rebooted.on_message(mavlink.MAVLink_raw_imu_message(1_600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
+    assert rebooted.imu_kind == "RAW_IMU" and rebooted.imu_ms == 1600
 
 
 HOME_LL = (-35.0, 149.0)

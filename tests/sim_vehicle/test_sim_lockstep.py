@@ -21,7 +21,7 @@ from tests.waits import drain, wait_for, wait_sim_time
 START_S = 2.0
 
 
-def test_ticks_follow_the_controllers_grid_once_it_commands() -> None:
+def test_ticks_are_whole_periods_of_the_clock_once_the_controller_commands() -> None:
     lock = Lockstep(period_s=0.1, timeout_s=1.0, controller_sysid=255)
     assert not lock.is_tick(1.0, attitude_sent=True)  # not engaged: paced
     lock.on_message("RC_CHANNELS_OVERRIDE", 77)  # another system's command does not engage
@@ -29,7 +29,7 @@ def test_ticks_follow_the_controllers_grid_once_it_commands() -> None:
     assert not lock.engaged
     lock.on_message("RC_CHANNELS_OVERRIDE", 255)
     assert lock.engaged and lock.stats.engagements == 1
-    assert not lock.is_tick(1.05, attitude_sent=True)  # it answered the 1.0 s sample: its next tick is 1.1 s
+    assert not lock.is_tick(1.05, attitude_sent=True)  # between grid points
     assert not lock.is_tick(1.10, attitude_sent=False)  # no ATTITUDE, no tick
     assert lock.is_tick(1.10 + 1e-9, attitude_sent=True)
     assert not lock.command_arrived()
@@ -40,32 +40,35 @@ def test_ticks_follow_the_controllers_grid_once_it_commands() -> None:
 
 
 def test_a_late_first_command_still_lands_the_holds_on_the_controllers_ticks() -> None:
-    """The controller answers the 34.80 s sample, but its command arrives after the 34.85 s ATTITUDE went out:
-    the holds must fall on 34.90, 35.00, ... (its ticks), not on 34.85, 34.95, ... where no command comes."""
+    """The controller (on the same grid) answers the 34.80 s sample, but its command arrives after the 34.85 s
+    ATTITUDE went out: the holds must fall on 34.90, 35.00, ... (its ticks), not on 34.85, 34.95, ..."""
     lock = Lockstep(period_s=0.1, timeout_s=1.0, controller_sysid=255)
     assert not lock.is_tick(34.80, attitude_sent=True)
     assert not lock.is_tick(34.85, attitude_sent=True)
-    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # for the 34.80 s sample, but the 34.85 s one has gone out
-    assert not lock.is_tick(34.90, attitude_sent=True)  # the command answered 34.85 as far as the sim knows
-    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # its 34.90 s command, before the next ATTITUDE
-    assert not lock.is_tick(34.95, attitude_sent=True)
-    assert lock.is_tick(35.00, attitude_sent=True)  # on the controller's grid from here on
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # for the 34.80 s sample, arriving late
+    assert lock.is_tick(34.90, attitude_sent=True)
+    assert not lock.command_arrived()  # the late command does not release the 34.90 s hold
     lock.on_message("RC_CHANNELS_OVERRIDE", 255)
     assert lock.command_arrived()
-    assert not lock.is_tick(35.05, attitude_sent=True)
-    assert lock.is_tick(35.10, attitude_sent=True)
+    assert not lock.is_tick(34.95, attitude_sent=True)
+    assert lock.is_tick(35.00, attitude_sent=True)
 
 
-def test_a_command_between_ticks_moves_the_holds_to_it() -> None:
-    """A stand-down or a restarted controller speaks between the holds: the next hold is a period after the
-    sample it answered, so a timed-out grid half an interval off recovers at the controller's next command."""
+def test_a_command_between_ticks_releases_nothing_and_the_grid_stays() -> None:
+    """A stand-down, or a command that comes after its tick timed out, arrives between holds: it moves
+    nothing, and the next hold waits for a command of its own."""
     lock = Lockstep(period_s=0.1, timeout_s=1.0, controller_sysid=255, start_s=10.05)
-    assert lock.is_tick(10.05, attitude_sent=True)  # held at the start time, off the grid the controller keeps
-    lock.timed_out(10.05, 1.0)
-    assert not lock.is_tick(10.10, attitude_sent=True)
-    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # the controller's 10.10 s tick
+    assert lock.is_tick(10.10, attitude_sent=True)  # the start time's grid point on or after it
+    lock.timed_out(10.10, 1.0)
     assert not lock.is_tick(10.15, attitude_sent=True)
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)  # the late command for 10.10 s
+    lock.on_message("MANUAL_CONTROL", 255)
+    assert not lock.is_tick(10.15 + 1e-9, attitude_sent=True)
     assert lock.is_tick(10.20, attitude_sent=True)
+    assert not lock.command_arrived()
+    lock.on_message("RC_CHANNELS_OVERRIDE", 255)
+    assert lock.command_arrived() and not lock.is_tick(10.25, attitude_sent=True)
+    assert lock.is_tick(10.30, attitude_sent=True)
 
 
 def test_a_silent_controller_is_released_after_a_few_timeouts() -> None:
@@ -77,6 +80,8 @@ def test_a_silent_controller_is_released_after_a_few_timeouts() -> None:
     assert not lock.engaged and lock.stats.timeouts == MAX_MISSED_IN_A_ROW
     assert not lock.is_tick(3.5, attitude_sent=True)  # paced again (the start time counts once)
     assert "3 timed out" in lock.stats.summary()
+
+
 
 
 def test_aligned_streams_fall_on_multiples_of_their_interval() -> None:
