@@ -68,22 +68,30 @@ def single_scenario(path: str | None, solver: str | None) -> Any:
 
 
 NETWORK_FORMS = ("udpin", "udpout", "udp", "udpbcast", "tcp", "tcpin")  # pymavlink's PREFIX:HOST:PORT forms
+OTHER_FORMS = ("mcast", "uds", "unix", "ws", "wss", "wsserver", "csv")  # pymavlink's other PREFIX: forms: its own
 CONNECT_FORMS = "udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device such as /dev/ttyAMA0"
 
 
 def check_connection(url: str, flag: str) -> None:
-    """A pymavlink connection string the companion can open: PREFIX:HOST:PORT with a port in [1, 65535], or a
-    serial device that exists (``DEVICE[,BAUD]``); a one-line ConfigError naming ``flag`` otherwise."""
+    """A pymavlink connection string the companion can open: [PREFIX:]HOST:PORT with a port in [1, 65535] (a bare
+    HOST:PORT listens on UDP, as pymavlink takes it), pymavlink's other PREFIX: forms (left to it), or a serial
+    device that exists (``DEVICE[,BAUD]``); a one-line ConfigError naming ``flag`` otherwise."""
     if "://" in url:
         raise ConfigError(f"{flag}: {url} is MAVSDK's form (the `mission` command's); the companion speaks "
                           f"pymavlink's: {CONNECT_FORMS}")
     prefix, colon, rest = url.partition(":")
-    if colon and prefix == "mcast":  # pymavlink's multicast: its own default group and port, or IP:PORT
+    if colon and prefix in OTHER_FORMS:  # multicast, Unix sockets, websockets: pymavlink checks them itself
         return
     if colon and prefix in NETWORK_FORMS:
         host, _, port = rest.rpartition(":")
         if not (port.isdigit() and 1 <= int(port) <= 65535) or not (host or prefix in ("udpin", "udp")):
             raise ConfigError(f"{flag}: {url}: expected {prefix}:HOST:PORT with PORT in [1, 65535]")
+        return
+    if colon and "/" not in prefix and not Path(url).exists():  # pymavlink opens a bare HOST:PORT as udpin
+        host, _, port = url.rpartition(":")
+        if not (port.isdigit() and 1 <= int(port) <= 65535) or not host:
+            raise ConfigError(f"{flag}: {url}: expected HOST:PORT (listening UDP, as udpin:HOST:PORT) with PORT "
+                              f"in [1, 65535], or {CONNECT_FORMS}")
         return
     device = url if Path(url).exists() or "," not in url else url.rpartition(",")[0]
     if not Path(device).exists():

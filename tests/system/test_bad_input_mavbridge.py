@@ -13,6 +13,7 @@ import pytest
 
 import mavbridge.cli
 from mavbridge.cli_args import check_connection
+from vessel.config import ConfigError
 
 from .bad_input import SCENARIO, SWEEP_SPEC, case_params, check_case, make_fixtures, untabled
 
@@ -163,7 +164,17 @@ def test_bad_value_is_one_line_exit_2(key: str, command: str, needles: tuple[str
 
 
 @pytest.mark.parametrize("url", ["udpin:0.0.0.0:14551", "udp:127.0.0.1:14551", "udpin::14551", "udpout:10.0.0.2:14550",
-                                 "tcp:127.0.0.1:5760", "tcpin:0.0.0.0:5760", "mcast:", "/dev/null", "/dev/null,57600"])
+                                 "tcp:127.0.0.1:5760", "tcpin:0.0.0.0:5760", "mcast:", "/dev/null", "/dev/null,57600",
+                                 "127.0.0.1:14550", "0.0.0.0:14550", "localhost:14550", "uds:/tmp/ap.sock",
+                                 "wsserver:0.0.0.0:5760"])
 def test_good_connections_pass(url: str) -> None:
-    """The forms pymavlink opens (network, multicast, a serial device with or without a baud) are not refused."""
+    """The forms pymavlink opens (network, a bare HOST:PORT as MAVProxy users write it, multicast, Unix and web
+    sockets, a serial device with or without a baud) are not refused."""
     check_connection(url, "--connect")
+
+
+@pytest.mark.parametrize("url", ["127.0.0.1:99999", "127.0.0.1:port", ":14550"])
+def test_a_bare_host_port_with_a_bad_port_names_the_form(url: str) -> None:
+    """A bare HOST:PORT is pymavlink's listening UDP: a bad one is not called a missing serial device."""
+    with pytest.raises(ConfigError, match=r"--connect: .*expected HOST:PORT .*\[1, 65535\]"):
+        check_connection(url, "--connect")
