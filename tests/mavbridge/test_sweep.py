@@ -187,7 +187,7 @@ def test_tune_finds_weights_that_meet_the_target_and_reruns_them(tmp_path: Path,
     scenario.write_text(SHORT_WAVY, encoding="utf-8")
     out = tmp_path / "tune"
     code = main(["tune", str(scenario), "--min-reduction", "0.15", "--jobs", "2", "--out", str(out),
-                 "--headings", "90,60", "--solver", "rti"])  # rti: the procedure, at half asrti's CPU
+                 "--headings", "90,60"])
     text = capsys.readouterr().out
     assert code == 0, text
     chosen = next(line for line in text.splitlines() if line.startswith("Chosen:"))
