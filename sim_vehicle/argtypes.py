@@ -5,18 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-SEED_MAX = 2**32 - 1  # as the irregular seas' seeds
-
-
-def seed_number(text: str) -> int:
-    """A sea seed: a whole number in [0, 2^32 − 1]."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {text!r}") from None
-    if not 0 <= value <= SEED_MAX:
-        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {value}")
-    return value
+from vessel.argtypes import SEED_MAX, seed_number  # noqa: F401  (the one seed rule, re-exported)
 
 
 def finite_number(text: str) -> float:

@@ -32,7 +32,7 @@ positive_metres = positive_quantity("a distance in metres", "m")
 positive_seconds = positive_quantity("seconds", "s")
 
 
-SEED_MAX = 2**32 - 1  # numpy's SeedSequence takes any; the simulator's seeds are 32-bit
+SEED_MAX = 2**32 - 1  # the simulator's and the irregular seas' seeds are 32-bit
 
 
 def seed_number(text: str) -> int:
@@ -40,9 +40,9 @@ def seed_number(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number in [0, {SEED_MAX}], got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {text!r}") from None
     if not 0 <= value <= SEED_MAX:
-        raise argparse.ArgumentTypeError(f"{value} is outside the allowed range [0, {SEED_MAX}]")
+        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, {SEED_MAX}], got {value}")
     return value
 
 

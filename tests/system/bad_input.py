@@ -196,3 +196,23 @@ def check_case(key: str, command: str, needles: Sequence[str], folder: Path,
         changed = sorted(name for name in set(after) | set(before) if after.get(name, 0) != before.get(name, 0))
         found.append(f"the working folder changed: {', '.join(changed)}")
     assert not found, f"{command}: {'; '.join(found)}\n  stderr: {outcome.stderr!r}"
+
+
+def table_tests(parsers: Mapping[str, argparse.ArgumentParser], cases: Mapping[str, Sequence[Sequence[str]]],
+                no_bad_value: Mapping[str, str]) -> tuple[Callable[..., None], Callable[..., None]]:
+    """The two tests of a table module: every flag has a case (or a reason), and every case is refused cleanly.
+    A module binds them to ``test_*`` names so that pytest collects them there."""
+
+    def every_flag_has_a_case() -> None:
+        missing, stale = untabled(parsers, cases, no_bad_value)
+        assert not missing, f"flags without a bad-input case or a reason in NO_BAD_VALUE: {sorted(missing)}"
+        assert not stale, f"table entries that name no flag: {sorted(stale)}"
+
+    @pytest.mark.parametrize(("key", "command", "needles"), case_params(cases))
+    def bad_value_is_one_line_exit_2(key: str, command: str, needles: tuple[str, ...], tmp_path: Path,
+                                     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+        make_fixtures(tmp_path)
+        monkeypatch.chdir(tmp_path)
+        check_case(key, command, needles, tmp_path, lambda: tuple(capsys.readouterr()))
+
+    return every_flag_has_a_case, bad_value_is_one_line_exit_2

@@ -7,13 +7,9 @@ A flag added to the parser without a case here (or a reason in ``NO_BAD_VALUE``)
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import pytest
-
 import mission.cli
 
-from .bad_input import case_params, check_case, make_fixtures, untabled
+from .bad_input import table_tests
 
 PARSERS = {"mission": mission.cli.build_parser()}
 
@@ -58,18 +54,7 @@ CASES: dict[str, list[tuple[str, ...]]] = {
 NO_BAD_VALUE: dict[str, str] = {}
 
 
-def test_every_flag_has_a_case() -> None:
-    missing, stale = untabled(PARSERS, CASES, NO_BAD_VALUE)
-    assert not missing, f"flags without a bad-input case or a reason in NO_BAD_VALUE: {sorted(missing)}"
-    assert not stale, f"table entries that name no flag: {sorted(stale)}"
-
-
-@pytest.mark.parametrize(("key", "command", "needles"), case_params(CASES))
-def test_bad_value_is_one_line_exit_2(key: str, command: str, needles: tuple[str, ...], tmp_path: Path,
-                                      monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    make_fixtures(tmp_path)
-    monkeypatch.chdir(tmp_path)
-    check_case(key, command, needles, tmp_path, lambda: tuple(capsys.readouterr()))
+test_every_flag_has_a_case, test_bad_value_is_one_line_exit_2 = table_tests(PARSERS, CASES, NO_BAD_VALUE)
 
 
 def test_pymavlink_form_is_mavsdk_form() -> None:

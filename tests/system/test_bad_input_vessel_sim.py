@@ -15,7 +15,7 @@ import sim_vehicle.cli
 import sim_vehicle.json_backend_cli
 import vessel.cli
 
-from .bad_input import case_params, check_case, make_fixtures, problems, run_as_process, run_in_process, untabled
+from .bad_input import make_fixtures, problems, run_as_process, run_in_process, table_tests
 
 PARSERS = {"vessel": vessel.cli.build_parser(), "sim-vehicle": sim_vehicle.cli.build_parser(),
            "sim-vehicle --json-backend": sim_vehicle.json_backend_cli.build_parser()}
@@ -142,18 +142,7 @@ NO_BAD_VALUE: dict[str, str] = {
 }
 
 
-def test_every_flag_has_a_case() -> None:
-    missing, stale = untabled(PARSERS, CASES, NO_BAD_VALUE)
-    assert not missing, f"flags without a bad-input case or a reason in NO_BAD_VALUE: {sorted(missing)}"
-    assert not stale, f"table entries that name no flag: {sorted(stale)}"
-
-
-@pytest.mark.parametrize(("key", "command", "needles"), case_params(CASES))
-def test_bad_value_is_one_line_exit_2(key: str, command: str, needles: tuple[str, ...], tmp_path: Path,
-                                      monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    make_fixtures(tmp_path)
-    monkeypatch.chdir(tmp_path)
-    check_case(key, command, needles, tmp_path, lambda: tuple(capsys.readouterr()))
+test_every_flag_has_a_case, test_bad_value_is_one_line_exit_2 = table_tests(PARSERS, CASES, NO_BAD_VALUE)
 
 
 
