@@ -124,16 +124,18 @@ class Lockstep:
                      self.controller_sysid, self._missed_in_a_row)
 
 
-def _seconds_in(lo: float, hi: float, flag: str) -> Callable[[str], float]:
-    """An argparse type: seconds in [lo, hi], else one line naming the flag and the range."""
+def _seconds_in(lo: float, hi: float) -> Callable[[str], float]:
+    """An argparse type: seconds in [lo, hi], else the range (argparse puts the flag's name in front)."""
 
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{flag}: expected seconds in [{lo:g}, {hi:g}], got {text!r}") from None
-        if not (math.isfinite(value) and lo <= value <= hi):
-            raise argparse.ArgumentTypeError(f"{flag}: {text} s is outside [{lo:g}, {hi:g}] s")
+            raise argparse.ArgumentTypeError(f"expected seconds in [{lo:g}, {hi:g}], got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{text} is not finite: seconds in [{lo:g}, {hi:g}] are allowed")
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{text} s is outside [{lo:g}, {hi:g}] s")
         return value
 
     return parse
@@ -143,16 +145,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """--lockstep [PERIOD_S] and --lockstep-timeout S (simulation only: a real autopilot never waits)."""
     p.add_argument(
         "--lockstep", nargs="?", const=DEFAULT_PERIOD_S, default=None, metavar="PERIOD_S",
-        type=_seconds_in(0.01, 10.0, "--lockstep"),
+        type=_seconds_in(0.01, 10.0),
         help="once SYSID_MYGCS commands, hold simulated time at each control tick (the first ATTITUDE at "
              f"least PERIOD_S after the last, default {DEFAULT_PERIOD_S:g} s) until its command arrives",
     )
     p.add_argument(
-        "--lockstep-timeout", type=_seconds_in(0.01, 60.0, "--lockstep-timeout"), default=DEFAULT_TIMEOUT_S,
+        "--lockstep-timeout", type=_seconds_in(0.01, 60.0), default=DEFAULT_TIMEOUT_S,
         metavar="S", help=f"wall seconds a lockstep tick waits for its command (default {DEFAULT_TIMEOUT_S:g})",
     )
     p.add_argument(
-        "--lockstep-start", type=_seconds_in(0.0, 1e6, "--lockstep-start"), default=None, metavar="S",
+        "--lockstep-start", type=_seconds_in(0.0, 1e6), default=None, metavar="S",
         help="hold from simulated time S on even before the first command (the controller's first tick, e.g. "
              "`mavbridge run --start-at S`, then sees exactly time S, however long its startup took)",
     )

@@ -159,7 +159,8 @@ def run_in_process(command: str, readouterr: Callable[[], tuple[str, str]]) -> O
 
 
 def problems(outcome: Outcome, needles: Sequence[str]) -> list[str]:
-    """Everything wrong with a bad-input outcome (empty when it is one clear line with exit code 2)."""
+    """Everything wrong with a bad-input outcome (empty when it is one clear line with exit code 2); a needle
+    that is a flag must be named once as the subject of the line, not twice (``argument --x: --x: …``)."""
     found = []
     lines = outcome.stderr.splitlines()
     if outcome.code != 2:
@@ -173,6 +174,8 @@ def problems(outcome: Outcome, needles: Sequence[str]) -> list[str]:
     _, _, message = text.partition("error: ")
     if message[:1] in ("'", '"'):
         found.append("Python quotes around the message")
+    found += [f"{needle!r} named twice" for needle in needles
+              if needle.startswith("-") and message.count(f"{needle}:") > 1]
     return found
 
 
