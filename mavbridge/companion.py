@@ -33,7 +33,7 @@ from .companion_config import CompanionConfig, load_companion_config
 from .delay_compensation import make_compensator
 from .engage_gate import check_waypoints, far_waypoint
 from .link import Link, LinkError, mavlink
-from .loop_notices import LoopNotices, keep_up_summary
+from .loop_notices import LoopNotices
 from .mission_tracker import MissionTracker
 from .nmpc import RollAwareNmpc
 from .nmpc.model_state import resolve_heave_feedback
@@ -41,6 +41,8 @@ from .output_paths import MODE_HOLD, make_output
 from .port_guard import hold_exclusively, refuse_if_taken
 from .preflight.rules import Context
 from .reboot import watch_reboots
+from .rover_modes import mode_name
+from .run_summary import summary_lines
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, WaveSource
@@ -185,7 +187,9 @@ class Companion:
         """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
         self.events.arrived_at_ms = now_ms
         self.supervisor.arrived()
-        self.log(f"waypoint reached at autopilot time t = {now_ms / 1000:.1f} s")
+        since = f", {(now_ms - self.events.engaged_at_ms) / 1000:.1f} s after engaging" \
+            if self.events.engaged_at_ms is not None else ""
+        self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s (autopilot time){since}")
         self.output.neutral(link, self.state)
         if self.config.on_arrival == "hold" and self.output.sends:
             self.supervisor.expected_mode = MODE_HOLD
@@ -319,8 +323,8 @@ class Companion:
                      f"({prepared.status})")
         self.supervisor.self_commanded = self.set_mode or self.arm
         if self.set_mode:
-            self.supervisor.expected_mode = self.output.required_mode
-            _log_result(self.log, f"mode {self.output.required_mode}", link.set_mode(self.output.required_mode))
+            mode = self.supervisor.expected_mode = self.output.required_mode
+            _log_result(self.log, f"mode {mode_name(mode)}", link.set_mode(mode))
         if self.arm:
             _log_result(self.log, "arming", link.arm())
 
@@ -384,15 +388,7 @@ class Companion:
         write_csv(self.out_dir / "companion.csv", self.record.rows)
         m = self.metrics()
         (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
-        figures = (("avg roll", "avg_roll_deg", "deg"), ("max roll", "max_roll_deg", "deg"), ("solve median",
-                   "solve_ms_median", "ms"), ("time to waypoint (since engaging)", "time_to_waypoint_s", "s"))
-        said = ", ".join(f"{name} {m[key]} {unit}" for name, key, unit in figures if m[key] is not None)
-        self.log(f"{said or 'no control step'}; logs in {self.out_dir}")
-        w = m["waves"]
-        if (behind := keep_up_summary(m["skipped_ticks"], len(self.record.rows))) is not None:
-            self.log(behind)
-        confident = "never confident" if w["time_to_confident_s"] is None else \
-            f"first confident after {w['time_to_confident_s']} s"
-        self.log(f"waves ({w['source']}): roll term on {w['roll_term_fraction']} of the steps, {confident}"
-                 + (f", estimator {w['estimator_ms_median']} ms per step (median)"
-                    if w["estimator_ms_median"] is not None else ""))
+        first, *rest = summary_lines(m)
+        self.log(f"{first}; logs in {self.out_dir}")
+        for line in rest:
+            self.log(line)

@@ -26,8 +26,8 @@ import yaml
 
 from vessel.geo import Home
 
-from .loop_notices import keep_up_summary
 from .plots import plot_path, plot_timeseries
+from .run_summary import summary_lines
 from .runlog import fresh_run_folder
 from .scenario import Scenario
 
@@ -182,10 +182,10 @@ def _report(scenario: Scenario, out: Path, interrupted: DemoInterruptedError | N
     with contextlib.suppress(Exception):  # the figures are a bonus; the metrics are the result
         _plot(scenario, out, metrics)
     arrived = metrics.get("time_to_waypoint_s")
-    print(f"demo: average roll {metrics['avg_roll_deg']} deg, max roll {metrics['max_roll_deg']} deg, "
-          f"time to waypoint {f'{arrived} s' if arrived is not None else 'not reached'}; run folder {out}")
-    if (behind := keep_up_summary(metrics.get("skipped_ticks", 0), metrics.get("steps", 0))) is not None:
-        print(f"demo: {behind}")
+    first, *rest = summary_lines(metrics)
+    print(f"demo: {first}; run folder {out}")
+    for line in rest:
+        print(f"demo: {line}")
     if interrupted:
         print(stopped, file=sys.stderr)
         code = 128 + interrupted.signum

@@ -12,16 +12,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from .link import mavlink
+from .rover_modes import mode_name
 
-MODE_NAMES = {mavlink.ROVER_MODE_MANUAL: "MANUAL", mavlink.ROVER_MODE_GUIDED: "GUIDED",
-              mavlink.ROVER_MODE_HOLD: "HOLD"}
 INTERVAL_S = 10.0  # wall seconds between two lines of one kind
-
-
-def mode_name(mode: int) -> str:
-    """A Rover mode by name (its number when we have no name for it)."""
-    return MODE_NAMES.get(mode, f"mode {mode}")
 
 
 @dataclass

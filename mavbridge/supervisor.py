@@ -13,6 +13,8 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+from .rover_modes import mode_name
+
 
 class Phase(enum.Enum):
     """The companion's phases; TAKEN_OVER, ARRIVED and STOPPED are final."""
@@ -55,7 +57,7 @@ class Supervisor:
             return self.phase
         if self.phase in (Phase.ENGAGED, Phase.LINK_LOST) and not self.dry_run:
             if changed_by_other or mode != self.required_mode:
-                return self._finish(Phase.TAKEN_OVER, f"mode changed to {mode} by someone else")
+                return self._finish(Phase.TAKEN_OVER, f"mode changed to {mode_name(mode)} by someone else")
             if not armed:
                 return self._finish(Phase.TAKEN_OVER, "vehicle disarmed")
         if not self._ready():
