@@ -1,4 +1,5 @@
-"""The companion's MAVLink link: one autopilot, heartbeats, requests with retries, a .tlog of both ways.
+"""The companion's MAVLink link: one autopilot, heartbeats, requests with retries, a .tlog of both ways
+(stamped on the autopilot's clock, ``mavbridge.tlog``).
 
 Only messages from the autopilot found by the first ArduPilot Rover/boat HEARTBEAT are passed on;
 garbage, bad CRCs and other systems or components are counted and dropped. On a UDP server port
@@ -14,7 +15,6 @@ from __future__ import annotations
 
 import os
 import select
-import struct
 import time
 from collections import deque
 from collections.abc import Callable
@@ -26,6 +26,7 @@ from pymavlink import mavutil
 
 from .retry import IN_PROGRESS_FACTOR, RetryPolicy, RetrySettings, ask, give_up_line
 from .signing import LinkSettings, sign_link
+from .tlog import AutopilotClockTlog
 
 mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
@@ -91,7 +92,7 @@ class Link:
             sign_link(self.conn, key)
         self.log = log  # give-up lines (one per abandoned request)
         try:
-            self._tlog = open(tlog_path, "ab") if tlog_path else None
+            self._tlog = AutopilotClockTlog(tlog_path) if tlog_path else None
         except OSError as exc:
             self.conn.close()
             raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
@@ -107,8 +108,8 @@ class Link:
 
     # -- logging ----------------------------------------------------------------------------------
     def _write_tlog(self, data: bytes) -> None:
-        if self._tlog is not None and data:
-            self._tlog.write(struct.pack(">Q", int(time.time() * 1e6)) + bytes(data))
+        if self._tlog is not None:
+            self._tlog.write(data)
 
     def _log_sent(self, msg: Any, *args: Any, **kwargs: Any) -> None:
         self._write_tlog(msg.get_msgbuf())
@@ -150,6 +151,8 @@ class Link:
         if self._out_of_order(msg):
             self.counts["stale"] += 1
             return None
+        if self._tlog is not None:
+            self._tlog.heard(msg)  # its time_boot_ms is the tlog's clock (on the autopilot's time)
         self._write_tlog(msg.get_msgbuf())
         self.counts["accepted"] += 1
         self.rates[msg.get_type()] = self.rates.get(msg.get_type(), 0) + 1

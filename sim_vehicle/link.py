@@ -18,7 +18,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 MAX_BACKLOG_BYTES = 1 << 20  # a TCP client that stops reading is dropped past this much unsent data
 RECV_BYTES = 65536
 
-TlogHook = Callable[[bytes], None]
+TlogHook = Callable[[bytes, bool], None]  # (frame, outgoing)
 
 
 def make_codec(sysid: int, compid: int) -> mavlink.MAVLink:
@@ -56,7 +56,7 @@ class Channel:
             out.append(msg)
             self.rx_messages += 1
             if self.tlog is not None:
-                self.tlog(bytes(msg.get_msgbuf()))
+                self.tlog(bytes(msg.get_msgbuf()), False)
         return out
 
     def encode(self, msg: mavlink.MAVLink_message) -> bytes | None:
@@ -67,7 +67,7 @@ class Channel:
             return None
         self.codec.seq = (self.codec.seq + 1) % 256
         if self.tlog is not None:
-            self.tlog(frame)
+            self.tlog(frame, True)
         return frame
 
     def send(self, msg: mavlink.MAVLink_message) -> None:

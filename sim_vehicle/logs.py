@@ -39,16 +39,44 @@ CSV_COLUMNS = (
 )
 
 
+def said(frame: bytes) -> bytes:
+    """What a frame says, whatever channel it went out on: the frame without its sequence number, checksum
+    and signature (each channel numbers and signs its own frames), i.e. length, flags, ids and payload."""
+    if frame[:1] == b"\xfd" and len(frame) >= 10:  # MAVLink 2: seq at byte 4, payload after the 10-byte header
+        return frame[1:4] + frame[5:10 + frame[1]]
+    if frame[:1] == b"\xfe" and len(frame) >= 6:  # MAVLink 1: seq at byte 2, payload after the 6-byte header
+        return frame[1:2] + frame[3:6 + frame[1]]
+    return frame
+
+
 class TlogWriter:
-    """MAVProxy-style telemetry log: each frame preceded by its time as a big-endian uint64 in µs."""
+    """MAVProxy-style telemetry log: each frame preceded by its time as a big-endian uint64 in µs.
+
+    Every frame received is logged. A message sent is logged once, however many channels carry it: the
+    vehicle's telemetry goes to each output (two UDP outputs and a TCP client each get their own copy of the
+    same ATTITUDE whenever their streams fall due together), and a lockstep hold repeats its tick's ATTITUDE
+    to the controller (``Simulator._repeat_tick``); logging each copy filled the log with identical rows at
+    one time_boot_ms. Copies are told apart by what they say (``said``) at the same stamp.
+    """
 
     def __init__(self, path: Path, clock_us: Callable[[], int]) -> None:
         self._file: IO[bytes] = path.open("wb")
         self._clock_us = clock_us
+        self._stamp_us: int | None = None  # the stamp of the messages in _sent
+        self._sent: set[bytes] = set()  # what was sent (and logged) at that stamp
 
-    def write(self, frame: bytes) -> None:
-        """Append one raw frame with the current (simulated Unix) time."""
-        self._file.write(struct.pack(">Q", self._clock_us()) + frame)
+    def write(self, frame: bytes, outgoing: bool = False) -> None:
+        """Append one raw frame with the current (simulated Unix) time; an outgoing copy of a message already
+        logged at this time is left out."""
+        stamp = self._clock_us()
+        if outgoing:
+            if stamp != self._stamp_us:
+                self._stamp_us, self._sent = stamp, set()
+            content = said(frame)
+            if content in self._sent:
+                return
+            self._sent.add(content)
+        self._file.write(struct.pack(">Q", stamp) + frame)
 
     def close(self) -> None:
         """Flush and close."""

@@ -33,6 +33,7 @@ from mavbridge.scenario import Scenario
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import HOLD as MODE_HOLD
 from tests.system.lockstep import LOCKSTEP, SIM_LOCKSTEP, assert_lockstep_run
+from tests.system.tlogs import assert_each_attitude_once, assert_tlogs_line_up
 from tests.waits import WaitTimeoutError, await_message, drain, latest_sim_seconds, set_mode
 
 HOME = "--home=-35.363261,149.165230,584,90"
@@ -348,7 +349,8 @@ def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
 
     Calm water: in the paper's waves a drifting boat surges back and forth at up to ~1 m/s by itself.
     """
-    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+    # two outputs, as in the demo (ground station and companion): the simulator's tlog once logged each copy
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=2) as sim:
         out = tmp_path / "shadow"
         cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{sim.udp_ports[0]}",
                "--solver", "asrti", "--dry-run", "--waypoint", "85,75", "--max-time", "10", "--out", str(out)]
@@ -371,3 +373,7 @@ def test_dry_run_computes_and_logs_but_sends_nothing(tmp_path: Path) -> None:
     assert {int(r["throttle_pwm_us"]) for r in rows} != {1500}  # it did compute throttle commands
     assert heartbeat.base_mode & 128 == 0  # never armed
     assert math.hypot(position.vx, position.vy) < 30  # cm/s: only the published model's slow drift
+    # the logs of the run (issue 17 item 12): both on the autopilot's clock at speedup 5, each ATTITUDE once
+    assert_each_attitude_once(sim.log_dir / "sim_vehicle.tlog")
+    assert_each_attitude_once(out / "companion.tlog")
+    assert_tlogs_line_up(sim.log_dir / "sim_vehicle.tlog", out / "companion.tlog", min_common=400)
