@@ -160,3 +160,17 @@ def test_compiled_linearisation_is_cached_by_model_hash(tmp_path: Path, monkeypa
     x[5], x[6] = math.pi / 2, 1.0
     first = nmpc.solve(x, 0.0, (85.0, 75.0))
     assert nmpc.solve(first.states[1], 0.1, (85.0, 75.0)).success
+
+
+def test_a_qp_cut_at_its_iteration_cap_is_named_so_and_its_step_is_taken() -> None:
+    """The status that fills most rows of companion.csv says what happened (issue 17 item 12d): HPIPM stopped a
+    QP at rti_qp_iter_max, by design in real time; the step is still a success, not a failure."""
+    cfg = NmpcConfig(horizon=6, solver="rti", rti_codegen="off", rti_iterations=2, rti_max_iterations=2,
+                     rti_qp_iter_max=1)
+    nmpc = RollAwareNmpc(cfg, otter_parameters(), WAVES)
+    x = np.zeros(12)
+    x[5], x[6] = math.pi / 2, 1.0
+    first = nmpc.solve(x, 0.0, (85.0, 75.0))
+    step = nmpc.solve(first.states[1], 0.1, (85.0, 75.0))
+    assert step.status in ("RTI (1 of 2 QPs at the iteration cap)", "RTI (2 of 2 QPs at the iteration cap)")
+    assert step.success and step.fallback is None and np.all(np.isfinite(step.tau))
