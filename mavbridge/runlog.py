@@ -20,14 +20,11 @@ from typing import Any
 import numpy as np
 
 from vessel import NX_RIGID, STATE_NAMES
+from vessel import STATE_COLUMNS as VESSEL_COLUMNS
 from vessel.config import ConfigError
 from vessel.folders import fresh_folder
 
-# Column name stem and SI unit of each rigid-body state, keyed by vessel's state name.
-_STATE_LOG = {"north": "north_m", "east": "east_m", "down": "down_m", "phi": "roll_rad", "theta": "pitch_rad",
-              "psi": "yaw_rad", "u": "u_m_s", "v": "v_m_s", "w": "w_m_s", "p": "p_rad_s", "q": "q_rad_s",
-              "r": "r_rad_s"}
-STATE_COLUMNS = tuple(_STATE_LOG[name] for name in STATE_NAMES[:NX_RIGID])
+STATE_COLUMNS = VESSEL_COLUMNS[:NX_RIGID]  # the rigid-body states, the unit in each name (vessel's names)
 # The per-step wave knowledge (mavbridge.seasource.WaveEstimate.row()).
 WAVE_COLUMNS = ("wave_height_m", "wave_period_s", "wave_length_m", "wave_dir_deg", "wave_phase_rad",
                 "wave_confidence")

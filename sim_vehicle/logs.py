@@ -10,30 +10,18 @@ from typing import IO
 
 import numpy as np
 
+from vessel import STATE_COLUMNS
 from vessel.folders import fresh_folder
 
 CSV_COLUMNS = (
     "t_s",
-    "north_m",
-    "east_m",
-    "down_m",
-    "roll_rad",
-    "pitch_rad",
-    "yaw_rad",
-    "u_m_s",
-    "v_m_s",
-    "w_m_s",
-    "p_rad_s",
-    "q_rad_s",
-    "r_rad_s",
-    "n1_rad_s",
-    "n2_rad_s",
+    *STATE_COLUMNS,  # north_m ... r_rad_s, then the actual shaft speeds n1_rad_s, n2_rad_s
     "n1_cmd_rad_s",
     "n2_cmd_rad_s",
     "wave_elevation_m",
     "wave_slope_rad",
-    "mode",
-    "armed",
+    "mode",  # Rover's mode number (HEARTBEAT.custom_mode), no unit
+    "armed",  # 1 armed, 0 disarmed
     "wave_slope_n_rad",
     "wave_slope_e_rad",
 )

@@ -12,7 +12,7 @@ from .allocation import (
     tau_to_shaft_speeds,
 )
 from .config import ConfigError
-from .dynamics import NX_PLANT, NX_RIGID, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
+from .dynamics import NX_PLANT, NX_RIGID, STATE_COLUMNS, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
 from .irregular import IrregularWaves, hull_averaging_factor, synthesise
 from .irregular_sea import IrregularSea, parse_sea_spec
 from .params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
@@ -26,6 +26,7 @@ __all__ = [
     "NX_PLANT",
     "NX_RIGID",
     "SEA_PRESETS",
+    "STATE_COLUMNS",
     "STATE_NAMES",
     "CalmWater",
     "ConfigError",

@@ -56,7 +56,8 @@ def build_parser() -> OneLineParser:
     group.add_argument("--params", metavar="FILE", help="YAML parameter file (base set + overrides)")
     man.add_argument("--waves", choices=tuple(SEA_PRESETS), default="calm",
                      help="named sea (vessel.world presets): calm, or paper, the paper's waves from the East")
-    man.add_argument("--csv", metavar="PATH", help="write t,x,y,z,phi,theta,psi,u,v,w,p,q,r,n1,n2")
+    man.add_argument("--csv", metavar="PATH",
+                     help="write t_s and the states, units in the names (north_m, roll_rad, ...)")
     man.add_argument("--plot", metavar="PATH", help="write a PNG of the track and time series")
     seacli.add_parser(sub)
     return parser

@@ -34,6 +34,10 @@ from .waves import CalmWater, WaveField, surface_relative_attitude
 NX_PLANT = 14
 NX_RIGID = 12
 STATE_NAMES = ("north", "east", "down", "phi", "theta", "psi", "u", "v", "w", "p", "q", "r", "n1", "n2")
+# The same states as every CSV names them, with their SI unit: NED position (m), Euler angles (rad), body
+# velocities (m/s) and rates (rad/s), shaft speeds (rad/s).
+STATE_COLUMNS = ("north_m", "east_m", "down_m", "roll_rad", "pitch_rad", "yaw_rad", "u_m_s", "v_m_s", "w_m_s",
+                 "p_rad_s", "q_rad_s", "r_rad_s", "n1_rad_s", "n2_rad_s")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import ConfigError
-from .dynamics import NX_PLANT, STATE_NAMES
+from .dynamics import NX_PLANT, STATE_COLUMNS, STATE_NAMES
 from .params import OtterParameters, otter_parameters
 from .plant import Plant
 from .waves import CalmWater, WaveField
@@ -190,12 +190,13 @@ def maneuver_figures(result: ManeuverResult) -> dict[str, float]:
 
 
 def write_csv(result: ManeuverResult, path: str | Path) -> None:
-    """CSV with t and every state (SI units, radians, NED position, body velocities, shaft speeds)."""
+    """CSV with t_s and every state, the unit in each column's name (``STATE_COLUMNS``: NED position, Euler
+    angles, body velocities and rates, shaft speeds; SI units, radians)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as stream:
         writer = csv.writer(stream)
-        writer.writerow(["t", "x", "y", "z", "phi", "theta", "psi", "u", "v", "w", "p", "q", "r", "n1", "n2"])
+        writer.writerow(["t_s", *STATE_COLUMNS])
         for t, x in zip(result.t, result.x, strict=True):
             writer.writerow([f"{t:.6g}", *(f"{value:.9g}" for value in x)])
 

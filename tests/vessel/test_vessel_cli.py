@@ -25,7 +25,8 @@ def test_maneuver_writes_csv_plot_and_figures(tmp_path: Path) -> None:
     assert "yaw_rate_rad_s" in out.stdout and "turning_radius_m" in out.stdout
     with (tmp_path / "run.csv").open() as stream:
         rows = list(csv.reader(stream))
-    assert rows[0] == ["t", "x", "y", "z", "phi", "theta", "psi", "u", "v", "w", "p", "q", "r", "n1", "n2"]
+    assert rows[0] == ["t_s", "north_m", "east_m", "down_m", "roll_rad", "pitch_rad", "yaw_rad", "u_m_s", "v_m_s",
+                       "w_m_s", "p_rad_s", "q_rad_s", "r_rad_s", "n1_rad_s", "n2_rad_s"]
     assert len(rows) == 1 + 201  # one row per step from t = 0
     assert float(rows[1][0]) == 0.0 and float(rows[-1][0]) == pytest.approx(2.0)
     assert float(rows[-1][13]) > float(rows[-1][14]) > 0  # left shaft faster than right
