@@ -373,8 +373,8 @@ class Companion:
             engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:
                 self.supervisor.stop("max_time_s reached")
-        reason = f" ({self.supervisor.reason})" if self.supervisor.reason else ""
-        self.log(f"run ended: {self.supervisor.phase.value}{reason}")
+        said, why = self.supervisor.phase.value, self.supervisor.reason
+        self.log(f"run ended: {said}" + (f" ({why})" if why and why != said else ""))
 
     def metrics(self) -> dict[str, Any]:
         """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""

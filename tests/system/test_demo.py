@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.system.tlogs import assert_each_attitude_once, assert_tlogs_line_up
+
 pytestmark = pytest.mark.slow
 
 
@@ -18,8 +20,15 @@ def test_demo_reaches_the_waypoint_and_leaves_a_run_folder(tmp_path: Path) -> No
                           capture_output=True, text=True, timeout=400)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "upload accepted by the vehicle" in done.stdout  # the waypoint went up with MAVSDK
-    summary = [line for line in done.stdout.splitlines() if line.startswith("demo: average roll")]
+    lines = done.stdout.splitlines()
+    summary = [line for line in lines if line.startswith("demo: average roll")]
     assert summary and "not reached" not in summary[0]
+    # issue 17 item 11: both clocks named, nothing printed as None; item 12: the two tlogs on one clock
+    assert "(since engaging at t = " in summary[0] and ", autopilot time)" in summary[0], summary[0]
+    assert any(line.startswith("waypoint reached at t = ") and "(autopilot time)" in line for line in lines)
+    assert not [line for line in lines if line.startswith("demo: ") and "None" in line]
+    assert_each_attitude_once(out / "sim" / "sim_vehicle.tlog")
+    assert_tlogs_line_up(out / "sim" / "sim_vehicle.tlog", out / "companion" / "companion.tlog", min_common=1000)
     metrics = json.loads((out / "companion" / "metrics.json").read_text())
     assert metrics["phase"] == "ARRIVED" and metrics["wave_source"] == "estimated"  # the default: estimated
     # Balanced on a confident wave keeps the average roll under 4°; without one it flies Direct (about 4.1° here).
