@@ -1,13 +1,26 @@
-"""The reference solver: IPOPT on the SX-expanded multiple-shooting NLP, warm-started (notes' variant b)."""
+"""The reference solver: IPOPT on the SX-expanded multiple-shooting NLP, warm-started (notes' variant b).
+
+Building an IPOPT instance (``nlpsol`` with SX expansion) takes seconds and destroying one most of a
+second, which dominated short closed-loop runs (a sweep worker runs hundreds in one process). An
+instance keeps nothing between calls but its last call's statistics, so a closed backend hands its
+instance back to a per-process pool of idle instances (``_IDLE``, by problem structure and options)
+and the next backend of that structure takes it: never two live backends on one instance.
+"""
 
 from __future__ import annotations
+
+import threading
 
 import casadi as ca
 import numpy as np
 
 from .backend import SolveOutcome
 from .config import NmpcConfig
-from .functions import ProblemFunctions
+from .functions import ProblemFunctions, build_key
+
+IDLE_PER_KEY = 4  # idle instances kept per structure (a process rarely has more controllers at once)
+_IDLE: dict[tuple, list[ca.Function]] = {}
+_IDLE_LOCK = threading.Lock()
 
 SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 ITERATION_LIMIT = "Maximum_Iterations_Exceeded"
@@ -40,7 +53,10 @@ class IpoptBackend:
     def __init__(self, functions: ProblemFunctions, cfg: NmpcConfig) -> None:
         self.layout = functions.layout
         self.n_g = functions.nlp["g"].numel()
-        self.solver: ca.Function | None = ca.nlpsol("nmpc_ipopt", "ipopt", dict(functions.nlp), ipopt_options(cfg))
+        options = ipopt_options(cfg)
+        self._pool_key = _pool_key(functions, options)
+        self.solver: ca.Function | None = _take_idle(self._pool_key) or ca.nlpsol(
+            "nmpc_ipopt", "ipopt", dict(functions.nlp), options)
 
     def prepare(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray) -> SolveOutcome:
         """The cold solve: IPOPT from the guess without multipliers."""
@@ -53,8 +69,13 @@ class IpoptBackend:
         """Nothing is kept between solves but the caller's guess."""
 
     def close(self) -> None:
-        """Drop the solver instance (a later solve is refused)."""
-        self.solver = None
+        """Hand the solver instance back to the idle pool (a later solve here is refused)."""
+        solver, self.solver = self.solver, None
+        if solver is not None and self._pool_key is not None:
+            with _IDLE_LOCK:
+                idle = _IDLE.setdefault(self._pool_key, [])
+                if len(idle) < IDLE_PER_KEY:
+                    idle.append(solver)
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
               lam_w0: np.ndarray | None, lam_g0: np.ndarray | None) -> SolveOutcome:
@@ -81,3 +102,29 @@ class IpoptBackend:
         return SolveOutcome(w=w, lam_w=np.asarray(sol["lam_x"]).ravel(), lam_g=np.asarray(sol["lam_g"]).ravel(),
                             usable=usable, status=status, iterations=iterations,
                             violation=violation)
+
+
+def _pool_key(functions: ProblemFunctions, options: dict) -> tuple | None:
+    """The idle pool's key: the problem structure and the options; None (no pooling) if unhashable."""
+    key = (build_key(functions.params, functions.fixed_waves, functions.current, functions.cfg),
+           tuple(sorted(options.items())))
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
+def _take_idle(key: tuple | None) -> ca.Function | None:
+    """An idle instance of this structure, now exclusively the caller's, or None."""
+    if key is None:
+        return None
+    with _IDLE_LOCK:
+        idle = _IDLE.get(key)
+        return idle.pop() if idle else None
+
+
+def idle_instances() -> int:
+    """How many idle IPOPT instances this process keeps (for tests and diagnostics)."""
+    with _IDLE_LOCK:
+        return sum(len(idle) for idle in _IDLE.values())

@@ -156,3 +156,28 @@ def test_parameter_layout_names_every_block() -> None:
         PARAMS.index("weights")
     with pytest.raises(ValueError, match="'waypoint' needs 2"):
         PARAMS.pack(x0=x0, t=0.0, waypoint=[1.0], u_prev=[0, 0], weights=np.zeros(5), wave=np.zeros(7))
+
+
+def test_a_closed_controllers_ipopt_serves_the_next_one_and_only_it() -> None:
+    """The IPOPT instance of a closed controller is reused by the next controller of that structure
+    (building one takes seconds), never by two live ones, and the reused instance plans the same."""
+    from mavbridge.nmpc import ipopt
+
+    cfg = NmpcConfig(horizon=6, solver="ipopt")
+    first = RollAwareNmpc(cfg, otter_parameters(), WAVES)
+    taus_first = _fly(first, 3)
+    instance = first._backend.solver
+    first.close()
+    key = first._backend._pool_key
+    assert any(solver is instance for solver in ipopt._IDLE[key])
+    second, third = RollAwareNmpc(cfg, otter_parameters(), WAVES), RollAwareNmpc(cfg, otter_parameters(), WAVES)
+    try:
+        assert second._backend.solver is instance  # taken from the idle pool ...
+        assert third._backend.solver is not instance  # ... by one controller only
+        assert not any(solver is instance for solver in ipopt._IDLE[key])
+        np.testing.assert_array_equal(np.array(_fly(second, 3)), np.array(taus_first))
+    finally:
+        second.close()
+        third.close()
+    assert any(solver is instance for solver in ipopt._IDLE[key])
+    assert len(ipopt._IDLE[key]) <= ipopt.IDLE_PER_KEY
