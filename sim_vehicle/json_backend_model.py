@@ -9,7 +9,8 @@ the normal simulator's. A frame-rate change hands state and time over to a plant
 step (built once per rate, kept for reuse). Motor outputs map to shaft-speed commands with the
 simulator's own ``output_to_shaft_speed``.
 
-The reply values come from one CasADi function of (x, t): the ideal IMU of ``vessel.imu`` (specific
+The reply values come from one CasADi function of (x, t), compiled like the plant when it is large
+(an irregular sea, ``vessel.jit``): the ideal IMU of ``vessel.imu`` (specific
 force and body rates, FRD), NED position, NED velocity R(η)·[u, v, w] and the attitude quaternion.
 """
 
@@ -23,6 +24,7 @@ import numpy as np
 from vessel import NX_PLANT, OceanCurrent, Plant, WaveField
 from vessel.dynamics import rotation_body_to_ned
 from vessel.imu import imu_function
+from vessel.jit import compiled, worth_compiling
 from vessel.params import OtterParameters
 
 from .json_backend_protocol import quaternion_from_euler
@@ -69,6 +71,8 @@ class JsonPhysics:
         self._plants: dict[float, tuple[Plant, int]] = {}
         self._plant: Plant | None = None
         self._sensors = sensor_function(params, waves, current, surface_heave)
+        if worth_compiling(self._sensors):  # an irregular sea: as large as the plant step, so compiled like it
+            self._sensors = compiled(self._sensors)
         self._sx = np.zeros(NX_PLANT)
         self._st = np.zeros(1)
         self._sout = np.zeros(16)
