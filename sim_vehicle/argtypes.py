@@ -25,3 +25,14 @@ def positive_seconds(text: str) -> float:
     if value <= 0:
         raise argparse.ArgumentTypeError(f"duration must be > 0 s, got {text}")
     return value
+
+
+def sea_state_number(text: str) -> int:
+    """A NATO sea state number in [0, 8] (the paper's Table I)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {text!r}") from None
+    if not 0 <= value <= 8:
+        raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {value}")
+    return value

@@ -18,7 +18,7 @@ from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
 
 from . import lockstep
-from .argtypes import SEED_MAX, positive_seconds, seed_number
+from .argtypes import SEED_MAX, positive_seconds, sea_state_number, seed_number
 from .cli_checks import check_outputs, check_params_store, check_serial, open_failure
 from .logs import fresh_log_dir
 from .params import ParamTable, is_param_name, read_parm
@@ -97,21 +97,6 @@ def _home(text: str) -> object:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-
-
-
-
-def _sea_state(text: str) -> int:
-    """A NATO sea state number in [0, 8]."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {text!r}") from None
-    if not 0 <= value <= 8:
-        raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {value}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also documents every option)."""
     p = _Parser(prog="sim-vehicle", description="SITL Otter boat that speaks MAVLink like ArduPilot Rover.")
@@ -156,9 +141,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--sea",
         metavar="H,LENGTH,PERIOD,DIR",
-        help="regular waves instead of --waves: height m, wavelength m, period s, travel direction deg",
+        help="regular waves instead of --waves: height m, wavelength m, period s, travel direction deg; or an "
+             "irregular sea jonswap:HS,TP,DIR[,GAMMA[,SPREADING]] / pm:HS,TP,DIR (m, s, deg)",
     )
-    p.add_argument("--sea-state", type=_sea_state, metavar="N",
+    p.add_argument("--sea-state", type=sea_state_number, metavar="N",
                    help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
     p.add_argument("--seed", type=seed_number, metavar="N",
                    help="seed of the sea's hidden phase origin and the sensor noise, integer in "

@@ -22,9 +22,10 @@ from vessel import OceanCurrent, WaveField, otter_parameters
 from vessel.argtypes import naming
 from vessel.config import ConfigError
 from vessel.geo import Home
+from vessel.irregular import IrregularWaves
 from vessel.world import SEA_PRESETS
 
-from .argtypes import finite_number, positive_seconds, seed_number
+from .argtypes import finite_number, positive_seconds, sea_state_number, seed_number
 from .json_backend import JsonBackend, open_socket, serve
 from .json_backend_log import JsonStateCsv, write_sea_record
 from .json_backend_model import JsonPhysics
@@ -32,6 +33,7 @@ from .scenario import seeded_waves, sim_world
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9002
+PREPARED_RATE_HZ = 400  # deploy/otter-json-sitl.parm's SIM_RATE_HZ: its plant is built before the first frame
 
 log = logging.getLogger("sim_vehicle")
 
@@ -58,18 +60,12 @@ def parse_endpoint(text: str) -> tuple[str, int]:
     return host or DEFAULT_HOST, port
 
 
-
-
-
-
 def _heading(text: str) -> float:
     """An initial heading in [-360, 360] deg."""
     value = finite_number(text)
     if not -360.0 <= value <= 360.0:
         raise argparse.ArgumentTypeError(f"heading must be in [-360, 360] deg, got {text}")
     return value
-
-
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -84,7 +80,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--waves", choices=tuple(SEA_PRESETS), default=None,
                    help="sea state: calm (default), or the paper's 1.75 m / 35 m / 6 s waves")
     p.add_argument("--sea", metavar="H,LENGTH,PERIOD,DIR",
-                   help="regular waves: height m, wavelength m, period s, travel direction deg")
+                   help="regular waves: height m, wavelength m, period s, travel direction deg; or an irregular "
+                        "sea jonswap:HS,TP,DIR[,GAMMA[,SPREADING]] / pm:HS,TP,DIR (m, s, deg)")
+    p.add_argument("--sea-state", type=sea_state_number, metavar="N",
+                   help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
+    p.add_argument("--heave", choices=("surface", "paper"), default=None,
+                   help="surface: the hull heaves with the sea; paper: the paper's model (default: surface in an "
+                        "irregular sea, paper in a regular one, as the simulator with its ideal sensors)")
     p.add_argument("--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg")
     p.add_argument("--scenario", type=Path, metavar="FILE",
                    help="scenario YAML: vessel parameter set, sea and start pose; --waves/--sea/--current override")
@@ -100,13 +102,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent, np.ndarray]:
-    """(vessel set, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s one route."""
+    """(vessel set, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s one route.
+
+    An irregular sea is averaged over the waterplane of the world's vessel, as the simulator's
+    (``sim_vehicle.physics.Physics.create``).
+    """
     with naming("--scenario"):
-        world = sim_world(args.scenario, args.waves, args.sea, args.current, Home())
+        world = sim_world(args.scenario, args.waves, args.sea, args.current, Home(), args.sea_state)
     x0 = world.plant_state()
     if args.heading is not None:
         x0[5] = math.radians(args.heading)
-    return world.vessel, world.sea.waves(), world.sea.current(), x0
+    return world.vessel, world.sea.waves(world.params()), world.sea.current(), x0
+
+
+def surface_heave(args: argparse.Namespace, waves: WaveField) -> bool:
+    """--heave, else the simulator's default for ideal sensors: the hull heaves with an irregular sea only."""
+    if args.heave is not None:
+        return bool(args.heave == "surface")
+    return isinstance(waves, IrregularWaves)
 
 
 def _bind(host: str, port: int) -> socket.socket:
@@ -149,8 +162,13 @@ def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
     except (ConfigError, OSError):
         sock.close()
         raise
-    physics = JsonPhysics(otter_parameters(vessel), waves, current, x0)
-    log.info("json-backend: listening on UDP %s:%d, sea seed %d", host, port, seed)
+    heave = surface_heave(args, waves)
+    if isinstance(waves, IrregularWaves):
+        log.info("json-backend: compiling the irregular sea's plant for %d Hz frames (1-4 s)", PREPARED_RATE_HZ)
+    physics = JsonPhysics(otter_parameters(vessel), waves, current, x0, heave)
+    physics.prepare(1.0 / PREPARED_RATE_HZ)
+    log.info("json-backend: listening on UDP %s:%d, sea seed %d, heave %s", host, port, seed,
+             "surface" if heave else "paper")
     return JsonBackend(physics, state_csv), sock
 
 

@@ -1,10 +1,11 @@
 """The JSON backend's run folder: the true-state CSV (the normal simulator's columns) and the sea record.
 
 ``state.csv`` has the state columns of ``sim_vehicle.logs`` (time, the 14 states, shaft commands, sea
-surface under the boat) — the firmware owns mode and arming, so those two are replaced by what the
-backend does know: the run number (1, 2, ... after each firmware restart), the frame count and the two
-thruster pulses. At most one row per PHYSICS_DT_S of simulated time (the normal simulator's rate), so a
-400 Hz firmware does not quadruple the file. ``sea.json`` records the sea, its seed and phase.
+surface under the boat: elevation and slope, along the travel direction and towards North and East) — the
+firmware owns mode and arming, so those two are replaced by what the backend does know: the run number
+(1, 2, ... after each firmware restart), the frame count and the two thruster pulses. At most one row per
+PHYSICS_DT_S of simulated time (the normal simulator's rate), so a 400 Hz firmware does not quadruple the
+file. ``sea.json`` records the sea, its seed and phase.
 """
 
 from __future__ import annotations
@@ -23,13 +24,16 @@ from .logs import CSV_COLUMNS
 from .physics import PHYSICS_DT_S
 
 STATE_COLUMNS = CSV_COLUMNS[: CSV_COLUMNS.index("mode")]
-JSON_CSV_COLUMNS = (*STATE_COLUMNS, "run", "frame_count", "servo1_us", "servo3_us")
+JSON_CSV_COLUMNS = (*STATE_COLUMNS, "wave_slope_n_rad", "wave_slope_e_rad", "run", "frame_count", "servo1_us",
+                    "servo3_us")
 
 
-def wave_under(waves: WaveField, north: float, east: float, t: float) -> tuple[float, float]:
-    """Elevation (m, up) and slope along the travel direction (rad; 0 if the field has none) at a point."""
+def wave_under(waves: WaveField, north: float, east: float, t: float) -> tuple[float, float, float, float]:
+    """Elevation (m, up), slope along the travel direction (rad; 0 if the field has none) and the slope angles
+    towards North and East (rad, ``WaveField.slope_angles``) at a point."""
     slope = waves.slope_along_travel(north, east, t) if hasattr(waves, "slope_along_travel") else 0.0
-    return float(waves.elevation(north, east, t)), float(slope)
+    slope_n, slope_e = waves.slope_angles(north, east, t)
+    return float(waves.elevation(north, east, t)), float(slope), float(slope_n), float(slope_e)
 
 
 class JsonStateCsv:
@@ -56,7 +60,7 @@ class JsonStateCsv:
         self._next_t = t + PHYSICS_DT_S - 1e-9
         wave = wave_under(self._waves, float(x[0]), float(x[1]), t)
         row = [f"{t:.6f}", *(repr(float(v)) for v in x), repr(n_cmd[0]), repr(n_cmd[1]),
-               repr(wave[0]), repr(wave[1]), self._run, frame_count, pwm[0], pwm[1]]
+               *(repr(w) for w in wave), self._run, frame_count, pwm[0], pwm[1]]
         self._writer.writerow(row)
 
     def flush(self) -> None:

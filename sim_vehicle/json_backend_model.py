@@ -2,13 +2,15 @@
 
 Each new servo frame advances the plant by 1/frame_rate. The plant is exactly the one
 ``sim_vehicle.physics.Physics`` builds (RK4, same parameters, sea, current and start state), with its
-step set to the frame period; frames longer than the simulator's own step (PHYSICS_DT_S) are split
+step set to the frame period, and the same heave model (``surface_heave``: the hull heaves with the sea,
+the simulator's default in irregular seas); frames longer than the simulator's own step (PHYSICS_DT_S) are split
 into equal sub-steps no longer than it, so a low SIM_RATE_HZ cannot make the integration coarser than
 the normal simulator's. A frame-rate change hands state and time over to a plant built for the new
 step (built once per rate, kept for reuse). Motor outputs map to shaft-speed commands with the
 simulator's own ``output_to_shaft_speed``.
 
-The reply values come from one CasADi function of (x, t): the ideal IMU of ``vessel.imu`` (specific
+The reply values come from one CasADi function of (x, t), compiled like the plant when it is large
+(an irregular sea, ``vessel.jit``): the ideal IMU of ``vessel.imu`` (specific
 force and body rates, FRD), NED position, NED velocity R(η)·[u, v, w] and the attitude quaternion.
 """
 
@@ -22,6 +24,7 @@ import numpy as np
 from vessel import NX_PLANT, OceanCurrent, Plant, WaveField
 from vessel.dynamics import rotation_body_to_ned
 from vessel.imu import imu_function
+from vessel.jit import compiled, worth_compiling
 from vessel.params import OtterParameters
 
 from .json_backend_protocol import quaternion_from_euler
@@ -31,9 +34,13 @@ from .physics import PHYSICS_DT_S
 MAX_PLANTS = 8  # distinct frame rates kept built; a firmware changes SIM_RATE_HZ rarely
 
 
-def sensor_function(params: OtterParameters, waves: WaveField, current: OceanCurrent) -> ca.Function:
-    """(x[14], t) -> [gyro 3 rad/s, accel_body 3 m/s² (FRD), position 3 m NED, velocity 3 m/s NED, q 4]."""
-    imu = imu_function(params, waves, current)
+def sensor_function(params: OtterParameters, waves: WaveField, current: OceanCurrent,
+                    surface_heave: bool = False) -> ca.Function:
+    """(x[14], t) -> [gyro 3 rad/s, accel_body 3 m/s² (FRD), position 3 m NED, velocity 3 m/s NED, q 4].
+
+    ``surface_heave`` must be the plant's: it changes ẇ, so the specific force.
+    """
+    imu = imu_function(params, waves, current, surface_heave)
     x = ca.SX.sym("x", NX_PLANT)
     t = ca.SX.sym("t")
     reading = imu(x, t)
@@ -53,8 +60,9 @@ class JsonPhysics:
     """The Otter in its sea, advanced frame by frame; holds the state between frames."""
 
     def __init__(self, params: OtterParameters, waves: WaveField, current: OceanCurrent,
-                 x0: np.ndarray) -> None:
+                 x0: np.ndarray, surface_heave: bool = False) -> None:
         self.params = params
+        self.surface_heave = surface_heave  # heave restoring on z + ζ (the hull rides the sea); off: the paper's
         self.waves = waves
         self.current = current
         self.x0 = np.array(x0, float)
@@ -62,7 +70,9 @@ class JsonPhysics:
         self.n_max, self.n_min = float(limits.n_max), float(limits.n_min)
         self._plants: dict[float, tuple[Plant, int]] = {}
         self._plant: Plant | None = None
-        self._sensors = sensor_function(params, waves, current)
+        self._sensors = sensor_function(params, waves, current, surface_heave)
+        if worth_compiling(self._sensors):  # an irregular sea: as large as the plant step, so compiled like it
+            self._sensors = compiled(self._sensors)
         self._sx = np.zeros(NX_PLANT)
         self._st = np.zeros(1)
         self._sout = np.zeros(16)
@@ -90,12 +100,17 @@ class JsonPhysics:
         """Physics time in s since the (re)start."""
         return self._t
 
+    def prepare(self, frame_dt: float) -> None:
+        """Build (and, in an irregular sea, compile) the plant for this frame period before the first frame."""
+        self._plant_for(frame_dt)
+
     def _plant_for(self, frame_dt: float) -> tuple[Plant, int]:
         """The plant (and sub-step count) for this frame period, built on first use."""
         entry = self._plants.get(frame_dt)
         if entry is None:
             k = substeps_for(frame_dt)
-            plant = Plant(self.params, self.waves, self.current, dt=frame_dt / k, integrator="rk4", x0=self.x0)
+            plant = Plant(self.params, self.waves, self.current, dt=frame_dt / k, integrator="rk4", x0=self.x0,
+                          surface_heave=self.surface_heave)
             if len(self._plants) >= MAX_PLANTS:
                 stale = next(d for d, (p, _) in self._plants.items() if p is not self._plant)
                 del self._plants[stale]

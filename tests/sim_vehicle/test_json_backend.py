@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sim_vehicle.json_backend import JsonBackend
-from sim_vehicle.json_backend_cli import build_parser, build_world, seeded_waves
+from sim_vehicle.json_backend_cli import build_parser, build_world, seeded_waves, surface_heave
 from sim_vehicle.json_backend_log import write_sea_record
 from sim_vehicle.json_backend_model import JsonPhysics, substeps_for
 from sim_vehicle.json_backend_protocol import encode_servo_packet, motor_output_to_pwm, pwm_to_motor_output
@@ -19,7 +19,9 @@ from sim_vehicle.physics import PHYSICS_DT_S, Physics, ned_velocity
 from tests.sim_vehicle.test_json_backend_firmware import parse_reply
 from vessel import CalmWater, OceanCurrent, otter_parameters
 from vessel.dynamics import rotation_body_to_ned
-from vessel.sea_state import Start
+from vessel.irregular import IrregularWaves
+from vessel.irregular_sea import IrregularSea
+from vessel.sea_state import SeaState, Start
 from vessel.world import World, sea_preset
 
 HEADING_DEG = 30.0
@@ -47,9 +49,17 @@ def _run_backend(backend: JsonBackend, left: float, right: float, rate: int, sec
     return replies
 
 
-def _run_simulator(sea: str, left: float, right: float, seconds: float) -> np.ndarray:
+# A small irregular sea (20 components: the plant stays on CasADi's VM, no compile) for the equality tests.
+IRREGULAR = SeaState(spectrum=IrregularSea(hs_m=1.75, tp_s=6.0, n_components=20, seed=4))
+
+
+def _world(sea: str) -> World:
+    return World(sea=IRREGULAR if sea == "jonswap" else sea_preset(sea), start=Start(heading_deg=HEADING_DEG))
+
+
+def _run_simulator(sea: str, left: float, right: float, seconds: float, heave: bool = False) -> np.ndarray:
     """The normal simulator's plant path: Physics.create, shaft_commands from motor outputs, 100 Hz steps."""
-    physics = Physics.create(World(sea=sea_preset(sea), start=Start(heading_deg=HEADING_DEG)))
+    physics = Physics.create(_world(sea), surface_heave=heave)
     n_cmd = physics.shaft_commands((left, right))
     physics.plant.advance(n_cmd, round(seconds / PHYSICS_DT_S))
     return physics.plant.state
@@ -63,8 +73,31 @@ def test_open_loop_equals_the_simulator_at_its_own_step(sea: str, left: float, r
     _run_backend(backend, left, right, 100, 60.0)
     expected = _run_simulator(sea, left, right, 60.0)
     assert backend.physics.time == pytest.approx(60.0, abs=1e-9)
+    print(f"{sea} {left:.0%}/{right:.0%}: max |backend - simulator| after 60 s "
+          f"{np.max(np.abs(backend.physics.state - expected)):.1e}")
     np.testing.assert_allclose(backend.physics.state, expected, rtol=0, atol=1e-9)
     assert np.hypot(expected[6], expected[7]) > 0.1  # the boat is really moving
+
+
+@pytest.mark.parametrize("left, right", [(0.7, 0.7), (0.7, 0.3)], ids=["straight", "turn"])
+def test_open_loop_equals_the_simulator_in_an_irregular_sea_with_surface_heave(left: float, right: float) -> None:
+    """The hull-averaged irregular sea and the heave riding it, as the simulator builds them: 1e-9 after 60 s."""
+    world = _world("jonswap")
+    waves = world.sea.waves(world.params())
+    backend = JsonBackend(JsonPhysics(world.params(), waves, OceanCurrent(), world.plant_state(), surface_heave=True))
+    pwm = [motor_output_to_pwm(left), 0, motor_output_to_pwm(right)]
+    heave_m, accel_z = [], []
+    for count in range(6000):
+        reply = parse_reply(backend.handle(encode_servo_packet(100, count, pwm)) or b"")
+        heave_m.append(backend.physics.state[2])
+        accel_z.append(reply.accel_body[2])
+    expected = _run_simulator("jonswap", left, right, 60.0, heave=True)
+    print(f"jonswap {left:.0%}/{right:.0%}, surface heave: max |backend - simulator| after 60 s "
+          f"{np.max(np.abs(backend.physics.state - expected)):.1e}; heave std {np.std(heave_m):.3f} m")
+    np.testing.assert_allclose(backend.physics.state, expected, rtol=0, atol=1e-9)
+    paper_heave = _run_simulator("jonswap", left, right, 60.0, heave=False)
+    assert abs(paper_heave[2] - expected[2]) > 0.01  # the heave model matters here, so the test can fail
+    assert np.std(heave_m) > 0.1 and np.std(accel_z) > 0.3  # it rides the sea, and the accelerometer feels it
 
 
 @pytest.mark.parametrize("sea", ["calm", "paper"])
@@ -74,7 +107,11 @@ def test_400_hz_frames_agree_with_the_simulator_within_one_percent(sea: str, lef
     backend = _backend(sea)
     _run_backend(backend, left, right, 400, 60.0)
     x, expected = backend.physics.state, _run_simulator(sea, left, right, 60.0)
-    assert np.hypot(x[6], x[7]) == pytest.approx(np.hypot(expected[6], expected[7]), rel=0.01)
+    speed, speed_sim = np.hypot(x[6], x[7]), np.hypot(expected[6], expected[7])
+    turn = f", turn rate {x[11] / expected[11] - 1:+.1e}" if left != right else ""
+    print(f"{sea} {left:.0%}/{right:.0%} at 400 Hz against the simulator's 100 Hz after 60 s: relative error in "
+          f"speed {speed / speed_sim - 1:+.1e}{turn}")
+    assert speed == pytest.approx(speed_sim, rel=0.01)
     if left != right:
         assert abs(expected[11]) > 0.05
         assert x[11] == pytest.approx(expected[11], rel=0.01)
@@ -193,3 +230,35 @@ def test_world_from_a_scenario_and_flags_as_the_simulator_reads_it() -> None:
     _, waves, _, x0 = build_world(args)
     assert waves == CalmWater() and x0[5] == pytest.approx(math.radians(-45.0))
     assert args.json_backend == ("0.0.0.0", 9100)
+
+
+def test_a_lower_frame_count_that_is_not_zero_restarts_the_run() -> None:
+    """Frames 0-199, then 50 (a firmware restarted mid-count): the run starts again from the initial state."""
+    backend, fresh = _backend("paper"), _backend("paper")
+    pwm = [motor_output_to_pwm(0.8), 0, motor_output_to_pwm(0.2)]
+    for count in range(200):
+        backend.handle(encode_servo_packet(400, count, pwm))
+    restarted = parse_reply(backend.handle(encode_servo_packet(400, 50, pwm)) or b"")
+    first = parse_reply(fresh.handle(encode_servo_packet(400, 0, pwm)) or b"")
+    assert backend.stats.resets == 1 and backend.stats.skipped == 0
+    assert restarted.raw == first.raw and restarted.timestamp == pytest.approx(1 / 400, abs=1e-12)
+    assert parse_reply(backend.handle(encode_servo_packet(400, 51, pwm)) or b"").raw == \
+        parse_reply(fresh.handle(encode_servo_packet(400, 1, pwm)) or b"").raw
+
+
+def test_heave_and_sea_state_flags() -> None:
+    """An irregular sea heaves the hull by default, a regular one does not; --heave overrides; --sea-state N
+    is the simulator's NATO sea; the sea is averaged over the world's own hull."""
+    def world(*flags: str) -> tuple[object, bool]:
+        args = build_parser().parse_args(["--json-backend", "9002", *flags])
+        _, waves, _, _ = build_world(args)
+        return waves, surface_heave(args, waves)
+
+    waves, heave = world("--sea", "jonswap:1.75,6,-90")
+    assert isinstance(waves, IrregularWaves) and heave
+    assert world("--sea", "jonswap:1.75,6,-90", "--heave", "paper")[1] is False
+    assert world("--waves", "paper")[1] is False and world("--waves", "paper", "--heave", "surface")[1] is True
+    waves, heave = world("--sea-state", "4")
+    assert isinstance(waves, IrregularWaves) and heave
+    expected = IrregularSea(sea_state=4).wave_field(otter_parameters())
+    np.testing.assert_array_equal(waves.amplitude_m, expected.amplitude_m)

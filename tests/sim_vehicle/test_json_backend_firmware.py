@@ -306,6 +306,9 @@ def test_run_folder_has_state_csv_and_sea_seed(backend: tuple[Backend, FirmwareD
     assert sea["waves"]["type"] == "RegularWaves" and 0 < sea["waves"]["phase_rad"] < 2 * math.pi
     lines = (proc.log_dir / "state.csv").read_text().splitlines()
     assert lines[0].startswith("t_s,north_m,east_m,down_m,roll_rad")
+    assert ",wave_elevation_m,wave_slope_rad,wave_slope_n_rad,wave_slope_e_rad,run," in lines[0]
+    slope_e = [float(row.split(",")[20]) for row in lines[1:]]
+    assert max(map(abs, slope_e)) > 0.05  # the paper's waves travel West: the true slope is towards East
     assert 100 <= len(lines) - 1 <= 101  # 1 s at 400 Hz, one row per 10 ms
 
 

@@ -1,7 +1,8 @@
 """A phase nobody is told: the simulator's sea gets its phase origin from ``--seed``, written only to its run folder.
 
 Crest timing is read from the true-state CSV (``wave_elevation_m`` under the boat at each simulated
-time); what goes over MAVLink is compared between seeds by message types and field names.
+time); what goes over MAVLink is compared between seeds by message types and field names, the parameter
+table, and the values of every message that carries no motion.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -77,32 +79,60 @@ def test_sea_phase_boot_keeps_the_paper_sea(tmp_path: Path) -> None:
     assert np.allclose(z, 0.875 * np.sin(omega * t + k * east), atol=1e-6)  # travelling West: s = −E
 
 
-def _fields_seen(seed: int, workdir: Path) -> dict[str, frozenset[str]]:
-    """Message types and field names a ground station receives over ~3 simulated seconds, all streams on."""
+# Messages that carry no motion (at rest, thrusters stopped): their values, not only their fields, must not
+# depend on the seed. Time stamps are left out (the two runs sample at different wall instants).
+STATIC_TYPES = ("HEARTBEAT", "SYS_STATUS", "BATTERY_STATUS", "MISSION_CURRENT", "STATUSTEXT", "SERVO_OUTPUT_RAW",
+                "RC_CHANNELS", "RC_CHANNELS_SCALED")
+
+
+def _static_values(msg: Any) -> tuple[tuple[str, object], ...]:
+    """A message's field values without its time stamps, hashable."""
+    return tuple(sorted((k, repr(v)) for k, v in msg.to_dict().items() if "time" not in k and k != "mavpackettype"))
+
+
+def _seen(seed: int, workdir: Path) -> tuple[dict[str, frozenset[str]], dict[str, float], set[tuple[str, tuple]]]:
+    """Over ~3 simulated seconds with all streams on and the parameter list requested: message types and their
+    field names, the whole parameter table, and the distinct values of the motion-free messages."""
     fields: dict[str, frozenset[str]] = {}
+    params: dict[str, float] = {}
+    static: set[tuple[str, tuple]] = set()
+    param_count = -1
     with SimProcess(workdir, speedup=10, waves="paper", sensors="realistic", sea_phase="hidden",
                     extra=["--seed", str(seed)]) as sim:
         conn = sim.connect()
         conn.mav.request_data_stream_send(1, 1, 0, 10, 1)
         assert command(conn, SET_MESSAGE_INTERVAL, 26, 100000) == 0  # SCALED_IMU (on request only)
+        conn.mav.param_request_list_send(1, 1)
         start = wait_for(conn, "ATTITUDE", 10).time_boot_ms
         deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
+        done = False
+        while not done:
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"3 simulated s of ATTITUDE and {param_count} parameters did not arrive in 30 s "
+                                   f"({len(params)} parameters so far)")
             msg = conn.recv_match(blocking=True, timeout=0.5)
             if msg is None or msg.get_type() == "BAD_DATA":
                 continue
-            fields[msg.get_type()] = frozenset(msg.get_fieldnames())
-            if msg.get_type() == "ATTITUDE" and msg.time_boot_ms - start > 3000:
-                break
-        else:
-            raise TimeoutError("3 simulated seconds of ATTITUDE did not arrive in 30 s")
-    return fields
+            kind = msg.get_type()
+            fields[kind] = frozenset(msg.get_fieldnames())
+            if kind == "PARAM_VALUE":
+                params[msg.param_id] = msg.param_value
+                param_count = msg.param_count
+            elif kind in STATIC_TYPES:
+                static.add((kind, _static_values(msg)))
+            done = kind == "ATTITUDE" and msg.time_boot_ms - start > 3000 and len(params) == param_count
+    return fields, params, static
 
 
-def test_mavlink_field_sets_do_not_depend_on_the_seed(tmp_path: Path) -> None:
-    """Two seeds: the same message types with the same fields (the sea shows only through the motion)."""
-    a = _fields_seen(1, tmp_path / "a")
-    b = _fields_seen(2, tmp_path / "b")
+def test_mavlink_does_not_depend_on_the_seed(tmp_path: Path) -> None:
+    """Two seeds: the same message types with the same fields, the same parameter table (no seed in it) and
+    the same values in every message that carries no motion (the sea shows only through the motion)."""
+    fields_a, params_a, static_a = _seen(1, tmp_path / "a")
+    fields_b, params_b, static_b = _seen(2, tmp_path / "b")
     assert {"ATTITUDE", "GPS_RAW_INT", "GLOBAL_POSITION_INT", "LOCAL_POSITION_NED", "RAW_IMU",
-            "SCALED_IMU2", "SCALED_IMU"} <= set(a)
-    assert a == b
+            "SCALED_IMU2", "SCALED_IMU", "PARAM_VALUE", "STATUSTEXT", "HEARTBEAT"} <= set(fields_a)
+    assert fields_a == fields_b
+    assert len(params_a) > 50 and "SIM_AHRS_NOISE" in params_a
+    assert params_a == params_b
+    assert {kind for kind, _ in static_a} == set(STATIC_TYPES)
+    assert static_a == static_b, static_a ^ static_b

@@ -34,6 +34,7 @@ def mean_spectrum(records: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 def test_mean_hm0_is_within_3_percent_of_hs(records: list[np.ndarray]) -> None:
     values = [hm0(r) for r in records]
+    print(f"mean Hm0 {np.mean(values):.4f} m ({100 * (np.mean(values) / HS - 1):+.2f} % of {HS} m)")
     assert np.mean(values) == pytest.approx(HS, rel=0.03)
     assert np.std(values) > 0  # seeds do differ
 
@@ -43,8 +44,10 @@ def test_peak_period_is_within_one_frequency_bin(records: list[np.ndarray],
     omega, density = mean_spectrum
     bin_width = omega[1]
     assert bin_width == pytest.approx(2 * math.pi / (default_segment(T.size) * DT))
-    assert abs(2 * math.pi / peak_period(omega, density) - WP) <= bin_width
     per_seed = [2 * math.pi / peak_period(*welch(r, DT)) for r in records]
+    print(f"peak of the mean spectrum {2 * math.pi / peak_period(omega, density) - WP:+.4f} rad/s off ωp, "
+          f"per-seed mean {np.mean(per_seed) - WP:+.4f} rad/s; one bin {bin_width:.4f} rad/s")
+    assert abs(2 * math.pi / peak_period(omega, density) - WP) <= bin_width
     assert abs(np.mean(per_seed) - WP) <= bin_width
 
 
@@ -58,6 +61,7 @@ def test_spectrum_matches_the_target_within_10_percent_near_the_peak(
         band = (omega >= lo * WP) & (omega < (lo + 0.1) * WP)
         assert band.sum() >= 3
         ratios.append(density[band].sum() / target[band].sum())
+    print("record/target energy per 0.1 ωp band, 0.7-1.5 ωp:", np.round(ratios, 3))
     assert np.all(np.abs(np.array(ratios) - 1) < 0.10), np.round(ratios, 3)
 
 
@@ -66,6 +70,7 @@ def test_record_does_not_repeat_at_two_pi_over_the_bin_width(records: list[np.nd
     sea = IrregularSea(hs_m=HS, tp_s=TP, gamma=GAMMA, seed=0)
     drawn = sea.wave_field()
     edges = np.linspace(0.5 * WP, 4.0 * WP, drawn.n_components + 1)
+    assert np.all((drawn.frequency_rad_s >= edges[:-1]) & (drawn.frequency_rad_s < edges[1:]))  # the sea's bins
     d_omega = edges[1] - edges[0]
     lag = round(2 * math.pi / d_omega / DT)
     window = slice(lag - 50, lag + 51)  # ± 5 s around the repeat period
@@ -73,5 +78,7 @@ def test_record_does_not_repeat_at_two_pi_over_the_bin_width(records: list[np.nd
     centred = IrregularWaves(drawn.amplitude_m, 0.5 * (edges[1:] + edges[:-1]), drawn.wavenumber_rad_m,
                              drawn.direction_rad, drawn.phase_rad)
     control = autocorrelation(centred.elevation(0.0, 0.0, T))
+    print(f"autocorrelation within ±5 s of 2π/Δω = {lag * DT:.1f} s: max |R| {np.abs(mean_acf[window]).max():.3f} "
+          f"(centred bins: {control[window].max():.3f})")
     assert control[window].max() > 0.5  # the test can fail: the pitfall is visible with centred bins
     assert np.abs(mean_acf[window]).max() < 0.15

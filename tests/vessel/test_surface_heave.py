@@ -62,6 +62,7 @@ def _ratio_and_phase_deg(rec: dict[str, np.ndarray], boat: np.ndarray, sea: np.n
 
 def test_heave_follows_the_elevation(following: dict[str, np.ndarray]) -> None:
     ratio, phase = _ratio_and_phase_deg(following, -following["z"], following["zeta"])  # z down, ζ up
+    print(f"heave/elevation: amplitude ratio {ratio:.4f}, phase {phase:+.2f} deg")
     assert abs(ratio - 1) < 0.10, f"heave/elevation amplitude ratio {ratio:.3f}"
     assert abs(phase) < 15, f"heave lags the elevation by {phase:.1f} deg"
 
@@ -69,6 +70,7 @@ def test_heave_follows_the_elevation(following: dict[str, np.ndarray]) -> None:
 @pytest.mark.parametrize(("boat", "sea"), [("phi", "phi_sea"), ("theta", "theta_sea")])
 def test_roll_and_pitch_still_follow_the_slope(following: dict[str, np.ndarray], boat: str, sea: str) -> None:
     ratio, phase = _ratio_and_phase_deg(following, following[boat], following[sea])
+    print(f"{boat}/{sea}: amplitude ratio {ratio:.4f}, phase {phase:+.2f} deg")
     assert abs(ratio - 1) < 0.10, f"{boat}/{sea} amplitude ratio {ratio:.3f}"
     assert abs(phase) < 15, f"{boat} off the slope by {phase:.1f} deg"
 
@@ -76,4 +78,5 @@ def test_roll_and_pitch_still_follow_the_slope(following: dict[str, np.ndarray],
 def test_without_the_option_heave_ignores_the_sea() -> None:
     rec = _run(surface_heave=False)
     ratio, _ = _ratio_and_phase_deg(rec, -rec["z"], rec["zeta"])
+    print(f"paper heave/elevation: amplitude ratio {ratio:.4f}")
     assert ratio < 0.05, f"paper model: heave/elevation ratio {ratio:.3f} (expected almost none)"
