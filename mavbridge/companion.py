@@ -45,7 +45,7 @@ from .rover_modes import mode_name
 from .run_summary import summary_lines
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
-from .seasource import SCENARIO_TRUTH, WaveSource
+from .seasource import SCENARIO_TRUTH, WaveSource, sea_spread
 from .state import StateEstimate
 from .streams import imu_rate, measure_rates, request_streams
 from .supervisor import Phase, Supervisor
@@ -120,6 +120,8 @@ def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, f
         nmpc.set_wave(estimate.field() if estimate is not None else None)
     except (ConfigError, ValueError):  # a wave the model refuses (breaking, not finite): no roll term, no crash
         nmpc.set_wave(None)
+        estimate = None
+    nmpc.set_sea_spread(sea_spread(waves, estimate is not None))
     return estimate.row() if estimate is not None else {}
 
 

@@ -11,6 +11,7 @@ the safe input (gentle forward surge, zero yaw moment). The answer is never NaN.
 
 from __future__ import annotations
 
+import math
 import time
 import weakref
 from dataclasses import dataclass, field
@@ -26,6 +27,7 @@ from .functions import ProblemFunctions, problem_functions
 from .layout import NU, NX, PARAMS, Layout
 from .model_state import on_mean_surface
 from .problem import input_bounds, pack_parameters
+from .sea_spread import slope_factor
 from .wave_model import CALM_PARAMETERS, wave_parameters
 
 
@@ -131,6 +133,7 @@ class RollAwareNmpc:
         self._wave = CALM_PARAMETERS.copy() if self._functions.fixed_waves is not None else wave_parameters(
             self.waves)
         self._wave_known = True
+        self._slope_factor = np.zeros(3)  # Cholesky factor of the unexplained slope covariance (set_sea_spread)
         self._backend: NmpcBackend = make_backend(self._functions, self.config)
         self._closed = False
         # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
@@ -191,6 +194,16 @@ class RollAwareNmpc:
         self._wave_known = waves is not None
         self.waves = waves or CalmWater()
 
+    def set_sea_spread(self, covariance_ned: np.ndarray | None) -> None:
+        """The NED covariance (2×2, rad²) of the hull's roll-producing slope that the wave model does not
+        explain, or None (zero): later solves add its expected roll R·E[φ²] at each predicted heading.
+
+        An irregular sea's unpredictable part cannot be planned against wave by wave, but its expected
+        roll still depends on the heading (beam seas roll the hull, head seas barely): this term is what
+        lets the roll weight act on it. It is independent of ``set_wave`` and applies with R > 0 only.
+        """
+        self._slope_factor = slope_factor(covariance_ned)
+
     @property
     def takes_waves(self) -> bool:
         """True when ``set_wave`` works: built with a regular wave or calm water, not a fixed field."""
@@ -198,12 +211,13 @@ class RollAwareNmpc:
 
     @property
     def roll_term_active(self) -> bool:
-        """True when solves weight roll: R > 0 and a wave (or calm water) is known."""
-        return self._wave_known and self.config.r > 0
+        """True when solves weight roll: R > 0 and a wave (or calm water) or the sea's spread is known."""
+        return (self._wave_known or bool(np.any(self._slope_factor))) and self.config.r > 0
 
     def _parameters(self, x0: np.ndarray, t: float, waypoint: np.ndarray) -> np.ndarray:
         weights = self.config.weights
-        p = pack_parameters(x0, t, waypoint, self._u_applied, weights, self._wave)
+        p = pack_parameters(x0, t, waypoint, self._u_applied, weights, self._wave,
+                            math.sqrt(self.config.r) * self._slope_factor)
         if not self._wave_known:
             p[PARAMS.index("weights", "r")] = 0.0
         return p

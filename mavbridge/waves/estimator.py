@@ -19,19 +19,20 @@ Confidence (0..1) is the product of: the lock (with heave, the earth-frame solut
 ``steadiness``; without, ω_e steady, the phasors barely rotating, the trackers agreeing), the time since
 the last start, gap, turn or heading jump (``settle_s``), the slope's signal-to-noise and size, the
 one-wave consistency (slope in quadrature with heave), and in the Doppler case the line's standard error.
-``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for logs) and
-``diagnostics`` gives ω_e and the wave's axis even without a solution.
+``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for logs), ``diagnostics``
+gives ω_e and the axis without a solution, ``spread`` the sea's slope statistics (``spread`` module).
 
-What it cannot see: a boat at rest without heave (no Doppler, no k); following seas at speeds near the
-wave's phase speed (ω_e → 0); waves shorter than a few hull lengths (the hull does not follow them);
-near the roll resonance the "roll = slope" picture is off. Bad input (NaN, frozen attitude, a heading
-jump, a missing IMU stream) lowers the confidence; nothing here raises or returns NaN.
+Blind to: a boat at rest without heave (no Doppler, no k); following seas near the wave's phase speed
+(ω_e → 0); waves shorter than a few hull lengths; near the roll resonance "roll = slope" is off. Bad
+input (NaN, frozen attitude, heading jump, no IMU) lowers the confidence; nothing raises or gives NaN.
 """
 
 from __future__ import annotations
 
 import cmath
 import math
+
+import numpy as np
 
 from mavbridge.seasource import MotionSample, WaveEstimate
 
@@ -47,7 +48,8 @@ from .filters import (
 from .filters import finite as _finite
 from .filters import smooth_step as _smooth_step
 from .settings import EstimatorSettings
-from .solve import WaveSolution, phase_offset, principal_axis, solve_slope_only, solve_with_heave
+from .solve import WaveSolution, phase_offset, plausible, principal_axis, solve_slope_only, solve_with_heave
+from .spread import SlopeSpread
 from .steadiness import SolutionSteadiness
 
 GRAVITY = 9.81
@@ -74,28 +76,22 @@ class WaveEstimator:
         self._doppler = DopplerLine(s.doppler_memory_s, s.doppler_spread_mps)
         self._steady, self._steady_t = SolutionSteadiness(), -math.inf
         self._t: float | None = None
-        self._dt = 0.05
-        self._theta = 0.0
-        self._omega_lo = s.omega_init_rad_s
-        self._dw = 0.0
-        self._dw_inst = 0.0
-        self._w_mean = self._w_fast = s.omega_init_rad_s
-        self._w_var = 0.01
+        self._dt, self._theta, self._w_var = 0.05, 0.0, 0.01
+        self._omega_lo = self._w_mean = self._w_fast = s.omega_init_rad_s
+        self._dw = self._dw_inst = 0.0
         self._cov = [1e-6, 0.0, 1e-6]
         self._axis = (1.0, 0.0)
-        self._vel = (0.0, 0.0)
+        self._vel, self._pos = (0.0, 0.0), (0.0, 0.0)
         self._vel_two = ((0.0, 0.0), (0.0, 0.0))
-        self._pos = (0.0, 0.0)
         self._last_att: tuple[float, ...] | None = None
         self._frozen_s = 0.0
         self._quiet_since = 0.0
-        self._last_acc_t = -math.inf
-        self._last_z_t = -math.inf
-        self._last_att_t = -math.inf
+        self._last_acc_t = self._last_z_t = self._last_att_t = -math.inf
         self._psi_prev: float | None = None
         self._turn_rate = 0.0  # low-passed over turn_filter_s: slow course changes
         self._turn_fast = 0.0  # low-passed over 1 s: sharp turns
         self._doppler_t = -math.inf
+        self._spread = SlopeSpread()  # the sea's slope statistics (the expected-roll term)
 
     def observe(self, sample: MotionSample) -> None:
         """Take one motion sample (any rate, in time order); bad samples only lower the confidence."""
@@ -115,6 +111,7 @@ class WaveEstimator:
         self._last_att_t = t
         self._update_heading(att[2], dt)
         roll, pitch, slope_n, slope_e = self._slopes(att, dt)
+        self._spread.update(roll / self.s.roll_gain, pitch / self.s.pitch_gain, att[2], dt)
         self._advance_oscillator(slope_n, slope_e, dt)
         prev = (self._fit["sn"].X, self._fit["se"].X)
         rotor = cmath.exp(1j * self._theta)
@@ -129,6 +126,7 @@ class WaveEstimator:
         """First sample, or after a long silence: keep the fits, restart the settling clock."""
         self._t = t
         self._quiet_since = t
+        self._spread.restart()
         self._steady.reset()
         self._last_att = None
         self._psi_prev = None
@@ -325,7 +323,7 @@ class WaveEstimator:
         if elev is not None and 2 * abs(elev[0]) >= self.s.min_height_m:
             v = self._vel_two[1]  # averaged like ω_e (two 2 s stages): ω = ω_e + k·(V·d) pairs them
             sol = solve_with_heave(sn, se, elev[0], omega_e, v[0], v[1], self._theta)
-            if sol is not None and self._plausible(sol):
+            if sol is not None and plausible(sol, self.s.wavelength_min_m, self.s.wavelength_max_m):
                 extras.update(mode=1.0, heave_source=elev[1])
                 return sol, extras
         fit = self._doppler.fit()
@@ -336,13 +334,8 @@ class WaveEstimator:
         chi = math.atan2(u[1], u[0]) + (0.0 if kappa > 0 else math.pi)
         sol = solve_slope_only(sn, se, chi, abs(kappa), omega, self._theta)
         extras.update(mode=2.0, doppler_rel_err=rel)
-        return (sol if sol is not None and self._plausible(sol) else None), extras
-
-    def _plausible(self, sol: WaveSolution) -> bool:
-        """Wavelength within the configured range, a positive true frequency, all finite."""
-        s = self.s
-        ok = all(math.isfinite(v) for v in (sol.amplitude_m, sol.wavenumber, sol.omega, sol.phase_now))
-        return ok and sol.omega > 0 and s.wavelength_min_m <= 2 * math.pi / sol.wavenumber <= s.wavelength_max_m
+        ok = sol is not None and plausible(sol, self.s.wavelength_min_m, self.s.wavelength_max_m)
+        return (sol if ok else None), extras
 
     def _confidence(self, sol: WaveSolution, extras: dict[str, float]) -> float:
         """Product of lock (with heave: the solution's steadiness), settling, slope SNR and one-wave consistency."""
@@ -387,6 +380,13 @@ class WaveEstimator:
         if est is None or est.confidence < self.s.min_confidence:
             return None
         return est
+
+    def spread(self, explained: bool) -> np.ndarray | None:
+        """NED covariance (2×2, rad²) of the slope the hull follows that the wave model does not explain,
+        None while unknown: all of it, or with a confident estimate in use (``explained``) the share the
+        sinusoid fits leave (an irregular sea's remainder; near zero in a regular sea)."""
+        c = self._spread.covariance(self.s.min_slope_rad)
+        return c * (1.0 - self._fit_quality()) if c is not None and explained else c
 
     def encounter_frequency(self) -> float:
         """The tracked (averaged) encounter frequency ω_e in rad/s."""
