@@ -3,8 +3,11 @@
 Once per control step ``step`` asks the source for the wave at autopilot time t; a confident answer
 goes to the NMPC (``set_wave(field)``: the roll term on), no answer means ``set_wave(None)`` (calm
 prediction, R = 0: the Direct behaviour). Each change between the two is logged once, with the time
-and the estimate. The log row is the source's ``latest`` fit even when it is not confident (the
-estimator's own figures), else the confident estimate's. The estimator's cost (every ``observe`` since
+and the estimate. The source's measured sea statistics (``WaveEstimator.spread``: the NED slope
+covariance its wave does not explain) go to ``set_sea_spread``, the expected-roll term; while they act
+without a confident wave (an irregular sea) that is said once too, and counted. The log row is the
+source's ``latest`` fit even when it is not confident (the estimator's own figures), else the confident
+estimate's. The estimator's cost (every ``observe`` since
 the last step plus the step's ``estimate``) is timed per control step, so it counts in the step time.
 """
 
@@ -98,6 +101,11 @@ class WaveGate:
                 self.log(f"waves ({self.source.name}): estimate outside the wave model ({exc}); no roll term")
             self._rejected += 1
             return None
+
+    @property
+    def statistics_only(self) -> bool:
+        """True while the roll term acts on the sea's statistics alone (no confident wave)."""
+        return self._spread_on
 
     def _spread(self, nmpc: Any, explained: bool, t_s: float) -> None:
         """The sea's unexplained slope statistics to the NMPC (the expected-roll term); says when the roll

@@ -248,8 +248,9 @@ class WaveEstimator:
     def spread(self, explained: bool) -> np.ndarray | None:
         """NED covariance (2×2, rad²) of the slope the hull follows that the wave model does not explain,
         None while unknown: all of it, or with a confident estimate in use (``explained``) the share the
-        sinusoid fits leave (an irregular sea's remainder; near zero in a regular sea)."""
-        c = self._spread.covariance(self.s.min_slope_rad)
+        sinusoid fits leave (an irregular sea's remainder; near zero in a regular sea). None too while the
+        attitude stream is bad (NaN, frozen) or silent: a blind boat flies Direct."""
+        c = self._spread.covariance(self.s.min_slope_rad) if (self._t or 0.0) - self._last_att_t <= 0.5 else None
         return c * (1.0 - self._fit_quality()) if c is not None and explained else c
 
     def encounter_frequency(self) -> float:
