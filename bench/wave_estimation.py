@@ -20,7 +20,10 @@ calibrated once (``mavbridge.waves.calibration``, heading 45°, another phase) u
 ``--closed-loop``: the roll reduction of Balanced against Direct, both flown on the estimate, in the
 in-process runner (``scenarios/estimated.yaml``: heave, hidden phase from each seed, default sensors),
 beside the same runs on the truth (the true regular wave: it is a single component, so fit = field).
-Only the paper's regular sea: JONSWAP / NATO SS3 / SS4 need the irregular ``sea:`` of branch simsea.
+``--closed-loop --sea jonswap|ss3|ss4``: the same in irregular long-crested seas
+(``scenarios/jonswap_estimated.yaml``: JONSWAP Hs 1.75 m, Tp 6 s, γ 3.3, or NATO sea state 3 / 4 with
+Table I's values), each seed drawing its own sea; the truth is then the full 200-component field built
+into the NMPC's model, the estimate a regular wave when confident plus the sea's slope statistics.
 Cost: ``observe`` twice (20 Hz) plus ``estimate`` once (10 Hz) per 0.1 s control step, median and p99.
 """
 
@@ -199,24 +202,51 @@ def cost(seconds: float = 120.0) -> tuple[float, float]:
     return float(np.median(ms)), float(np.percentile(ms, 99))
 
 
-def closed_loop_table(seeds: int, watch_s: float | None = None) -> None:
-    """Balanced vs Direct on the estimate and on the truth, per seed, in the paper's sea; ``watch_s`` overrides
-    the scenario's time the estimator watches the drifting boat before the run (0: a cold start)."""
+SEAS = {"paper": "estimated.yaml", "jonswap": "jonswap_estimated.yaml", "ss3": "jonswap_estimated.yaml",
+        "ss4": "jonswap_estimated.yaml"}
+
+
+def _sea_runs(sea: str, seed: int, runs: dict) -> dict:
+    """The scenario's runs with this seed's sea (irregular: its own components; NATO states from Table I)."""
+    import dataclasses
+
+    out = {}
+    for name, sc in runs.items():
+        spectrum = sc.world.sea.spectrum
+        if spectrum is not None:
+            state = {"ss3": 3, "ss4": 4}.get(sea)
+            changes: dict = {"seed": seed}
+            if state is not None:
+                changes.update(sea_state=state, hs_m=None, tp_s=None)
+            world = dataclasses.replace(sc.world, sea=dataclasses.replace(
+                sc.world.sea, spectrum=dataclasses.replace(spectrum, **changes)))
+            sc = dataclasses.replace(sc, world=world)
+        out[name] = sc
+    return out
+
+
+def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "paper", sources: str = "estimated,truth"
+                      ) -> None:
+    """Balanced vs Direct on the estimate and on the truth, per seed, in ``sea``; ``watch_s`` overrides the
+    scenario's time the estimator watches the drifting boat before the run (0: a cold start)."""
     import dataclasses
     from pathlib import Path
 
     from mavbridge.experiment import run_scenario
     from mavbridge.scenario import load_scenarios
 
-    runs = {sc.name: sc for sc in load_scenarios(Path(__file__).resolve().parents[1] / "scenarios" / "estimated.yaml")}
-    watch = runs["balanced"].estimation.watch_s if watch_s is None else watch_s
-    print(f"# closed loop, paper sea, heave, hidden phase, default sensors, {seeds} seeds (scenarios/estimated.yaml), "
+    path = Path(__file__).resolve().parents[1] / "scenarios" / SEAS[sea]
+    base = {sc.name: sc for sc in load_scenarios(path)}
+    watch = base["balanced"].estimation.watch_s if watch_s is None else watch_s
+    print(f"# closed loop, {sea} sea, heave, hidden phase, default sensors, {seeds} seeds (scenarios/{SEAS[sea]}), "
           f"estimator watching {watch:g} s before the run")
-    print("| seed | source | direct avg roll ° | balanced avg roll ° | cut % | balanced t_wpt s | confident % |")
-    print("|---|---|---|---|---|---|---|")
-    cuts: dict[str, list[float]] = {"estimated": [], "truth": []}
+    print("| seed | source | direct avg roll ° | balanced avg roll ° | cut % | balanced t_wpt s | confident % "
+          "| statistics only % |")
+    print("|---|---|---|---|---|---|---|---|")
+    cuts: dict[str, list[float]] = {source: [] for source in sources.split(",")}
     for seed in range(1, seeds + 1):
-        for source in ("estimated", "truth"):
+        runs = _sea_runs(sea, seed, base)
+        for source in cuts:
             m = {}
             for name in ("direct", "balanced"):
                 sc = runs[name]
@@ -227,9 +257,11 @@ def closed_loop_table(seeds: int, watch_s: float | None = None) -> None:
             cuts[source].append(cut)
             arrival = m["balanced"]["time_to_waypoint_s"]
             conf = m["balanced"].get("confident_fraction")
+            stats = m["balanced"].get("sea_statistics_fraction")
             print(f"| {seed} | {source} | {m['direct']['avg_roll_deg']:.2f} | {m['balanced']['avg_roll_deg']:.2f} "
                   f"| {cut:+.0f} | {'N/A' if arrival is None else f'{arrival:.1f}'} "
-                  f"| {'–' if conf is None else f'{100 * conf:.0f}'} |", flush=True)
+                  f"| {'–' if conf is None else f'{100 * conf:.0f}'} "
+                  f"| {'–' if stats is None else f'{100 * stats:.0f}'} |", flush=True)
     for source, values in cuts.items():
         print(f"# mean cut on the {source}: {statistics.mean(values):+.1f} % over {len(values)} seeds")
 
@@ -246,6 +278,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--plant", action="store_true", help="the table from vessel.Plant instead of kinematics")
     parser.add_argument("--no-calibration", action="store_true", help="with --plant: no hull-response calibration")
     parser.add_argument("--closed-loop", action="store_true", help="Balanced vs Direct on the estimate and truth")
+    parser.add_argument("--sea", choices=tuple(SEAS), default="paper", help="with --closed-loop: the sea")
+    parser.add_argument("--sources", choices=("estimated,truth", "estimated", "truth"), default="estimated,truth",
+                        help="with --closed-loop: which wave sources to fly on")
     parser.add_argument("--watch", type=float, default=None, metavar="S",
                         help="with --closed-loop: seconds the estimator watches the drifting boat first (default: "
                              "the scenario's, 60; 0: a cold start)")
@@ -269,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
     sensors = SensorParams.ideal() if args.ideal_sensors else SensorParams()
     if args.closed_loop:
-        closed_loop_table(args.seeds, args.watch)
+        closed_loop_table(args.seeds, args.watch, args.sea, args.sources)
         return 0
     if args.plant and not args.cost_only:
         plant_table(args)

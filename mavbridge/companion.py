@@ -27,11 +27,14 @@ from typing import Any
 import yaml
 
 from vessel import CalmWater
-from vessel.config import ConfigError, to_mapping
+from vessel.config import to_mapping
 
+from .command_channel import CommandChannel
 from .companion_config import CompanionConfig, load_companion_config
 from .delay_compensation import make_compensator
-from .engage_gate import check_waypoints, far_waypoint
+from .engage_gate import far_waypoint
+from .flight_start import log_result as _log_result
+from .flight_start import start_flight, wave_step
 from .link import Link, LinkError, mavlink
 from .loop_notices import LoopNotices
 from .mission_tracker import MissionTracker
@@ -41,13 +44,11 @@ from .output_paths import MODE_HOLD, make_output
 from .port_guard import hold_exclusively, refuse_if_taken
 from .preflight.rules import Context
 from .reboot import watch_reboots
-from .rover_modes import mode_name
 from .run_summary import summary_lines
 from .runlog import RunRecorder, run_metrics, write_csv
 from .scenario import Scenario
 from .seasource import SCENARIO_TRUTH, WaveSource
 from .state import StateEstimate
-from .streams import imu_rate, measure_rates, request_streams
 from .supervisor import Phase, Supervisor
 from .wave_gate import WaveGate
 
@@ -81,13 +82,6 @@ class LoopEvents:
     rates_hz: dict[str, float] = field(default_factory=dict)
 
 
-def _log_result(log: Callable[[str], None], what: str, result: int | None) -> None:
-    """Warn when a command was not accepted."""
-    if result != mavlink.MAV_RESULT_ACCEPTED:
-        reason = "no answer" if result is None else mavlink.enums["MAV_RESULT"][result].name
-        log(f"warning: {what} not accepted ({reason})")
-
-
 def loop_metrics(record: RunRecorder, events: LoopEvents) -> dict[str, Any]:
     """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters."""
     arrived = (events.arrived_at_ms - events.engaged_at_ms) / 1000.0 \
@@ -112,17 +106,6 @@ def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[boo
     return True, next_tick_ms + (missed + 1) * period_ms, missed
 
 
-def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, float]:
-    """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
-    returns the estimate's log columns."""
-    estimate = waves.estimate(t_s)
-    try:
-        nmpc.set_wave(estimate.field() if estimate is not None else None)
-    except (ConfigError, ValueError):  # a wave the model refuses (breaking, not finite): no roll term, no crash
-        nmpc.set_wave(None)
-    return estimate.row() if estimate is not None else {}
-
-
 def write_run_config(out_dir: Path, config: CompanionConfig, scenario: Scenario, wave_source: str) -> None:
     """config.yaml of the run folder: the companion settings, the scenario, and where the waves came from."""
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -143,6 +126,7 @@ class Companion:
         self.period_ms = round(self.period_s * 1000)
         ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m)
         self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log)
+        self.commands = CommandChannel(self.output, log)
         self.supervisor = Supervisor(self.output.required_mode, config.link_timeout_s, dry_run)
         self.state = StateEstimate(max_distance_m=config.max_distance_m)
         self.mission = MissionTracker(scenario.waypoint.acceptance_radius_m, waypoint_ne, log)
@@ -154,8 +138,6 @@ class Companion:
         self._failure: str | None = None  # set when the run ends in a failure (exit 1): systemd restarts it
         self.link: Link | None = None
         self._stop_reason: str | None = None
-        self._commanding = False
-        self._last_command_wall = 0.0
         self._in_loop = False
         self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
 
@@ -174,15 +156,6 @@ class Companion:
         if msg.get_type() == "ATTITUDE" and self.state.ready():
             self.gate.observe(self.state.motion_sample())
 
-    def _release(self, link: Link) -> None:
-        self.output.release(link)
-        self._commanding = False
-
-    def _stand_down(self, link: Link) -> None:
-        """Neutral, then release: the boat is never left to a last command."""
-        self.output.neutral(link, self.state)
-        self._release(link)
-
     def _finish_at_waypoint(self, link: Link, now_ms: int) -> None:
         """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
         self.events.arrived_at_ms = now_ms
@@ -194,16 +167,16 @@ class Companion:
         if self.config.on_arrival == "hold" and self.output.sends:
             self.supervisor.expected_mode = MODE_HOLD
             _log_result(self.log, "HOLD at the waypoint", link.set_mode(MODE_HOLD))
-        self._release(link)
+        self.commands.release(link)
 
     def _control_step(self, link: Link, now_ms: int) -> None:
         if not self.supervisor.may_command():
-            if self._commanding:
-                self._release(link)
+            if self.commands.commanding:
+                self.commands.release(link)
             return
         if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
             self.events.stale += 1
-            if self._commanding:
+            if self.commands.commanding:
                 self.output.neutral(link, self.state)  # never leave the last command running on old data
             return
         x = self.state.vector()
@@ -225,20 +198,12 @@ class Companion:
         result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
                                  deadline_s=deadline_s)
         self.delay.sent(plan_s, result.tau)
-        try:
-            columns = self.output.command(link, result, now_ms)
-        except ValueError as exc:  # a non-finite plan: stop in place rather than send NaN
-            self.log(f"warning: {exc}; holding heading with zero thrust")
+        columns = self.commands.send(link, result, now_ms, self.state)
+        if columns is None:  # not finite: neutral was sent instead
             if result.success:  # a failed solve is counted by the recorder already
                 self.record.failures += 1
-            self.output.neutral(link, self.state)
-            # the neutral command is a command: released on a mode change or at the end, refreshed each step
-            self._commanding = self.output.sends
-            self._last_command_wall = time.monotonic()
             self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave)
             return
-        self._commanding = self.output.sends
-        self._last_command_wall = time.monotonic()
         self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
         self.notices.progress(now_ms / 1000.0, math.hypot(target[0] - x[0], target[1] - x[1]), float(x[3]),
                               result.wall_time_s * 1e3)
@@ -248,8 +213,8 @@ class Companion:
         self.log(f"mavbridge run: error: {reason}")
         self._failure = reason
         self.supervisor.stop(reason)
-        if self._commanding:
-            self._stand_down(link)
+        if self.commands.commanding:
+            self.commands.stand_down(link, self.state)
 
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
@@ -279,7 +244,7 @@ class Companion:
         previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         code = 0
         try:
-            self._prepare(link)
+            start_flight(self, link)
             self._fly(link)
         except LinkError as exc:
             self.supervisor.stop(str(exc))
@@ -289,64 +254,32 @@ class Companion:
                 self.log(f"mavbridge run: error: {exc}")
                 code = 1
         finally:
-            if self._commanding:
-                self._stand_down(link)
+            if self.commands.commanding:
+                self.commands.stand_down(link, self.state)
             for s, handler in previous.items():
                 signal.signal(s, handler)
             self._write_logs()
             link.close()
         return 1 if self._failure else code
 
-    def _prepare(self, link: Link) -> None:
-        """Autopilot, output path, streams, mission, rates, the cold solve; then mode and arming if asked."""
-        sysid, compid = link.wait_autopilot(self.config.connect_timeout_s)
-        self.log(f"autopilot {sysid}/{compid} on {self.config.connect}; we are {self.config.system_id}/"
-                 f"{self.config.component_id}; output {self.config.output}" +
-                 ("" if self.output.sends else " (dry run)"))
-        self.output.prepare(link)
-        request_streams(link, self.period_s, self.log)
-        self.mission.load(link, self.state.set_home)
-        rates = self.events.rates_hz = measure_rates(link, lambda: self.state.attitude_ms)
-        self.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
-        boat = (float(self.state.vector()[0]), float(self.state.vector()[1])) if self.state.ready() else None
-        check_waypoints(self.mission.waypoints, self.config.max_range_m, boat)  # before arming or any mode change
-        imu, imu_hz = imu_rate(rates)
-        self.state.use_imu(imu)  # the fastest IMU stream, not the first to arrive
-        if self.waves.name != SCENARIO_TRUTH:
-            self.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
-                     "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
-        if self.state.ready() and self.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
-            t_s = (self.state.attitude_ms or 0) / 1000.0
-            wave_step(self.waves, self.nmpc, t_s)
-            prepared = self.nmpc.prepare(self.state.vector(), t_s, self.mission.waypoints[0])
-            self.log(f"solver {self.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
-                     f"({prepared.status})")
-        self.supervisor.self_commanded = self.set_mode or self.arm
-        if self.set_mode:
-            mode = self.supervisor.expected_mode = self.output.required_mode
-            _log_result(self.log, f"mode {mode_name(mode)}", link.set_mode(mode))
-        if self.arm:
-            _log_result(self.log, "arming", link.arm())
-
     def _service_link(self, link: Link) -> bool:
         """Read the link, follow the mission and the supervisor; False once the run must end."""
         link.heartbeat_if_due()
         link.recv(0.05)
         link.drain()  # act on the newest state, never on a backlog
-        if self.mission.changed and self._commanding:
-            self._stand_down(link)  # the download blocks for seconds: never leave the last command running
+        if self.mission.changed and self.commands.commanding:
+            self.commands.stand_down(link, self.state)  # the download blocks for seconds: never leave it running
         self.mission.reload_if_changed(link, self.state.set_home)
         phase_before = self.supervisor.phase
         if self.supervisor.tick(time.monotonic()) != phase_before:
             self.log(f"phase: {self.supervisor.phase.value}")
-        if self.supervisor.phase == Phase.TAKEN_OVER and self._commanding:
-            self._release(link)  # the sticks are the pilot's
+        if self.supervisor.phase == Phase.TAKEN_OVER and self.commands.commanding:
+            self.commands.release(link)  # the sticks are the pilot's
         if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
             self._fail(link, f"link lost for more than {self.config.max_link_outage_s:g} s")
             return False
-        if self._commanding and not self.config.lockstep and time.monotonic() - self._last_command_wall > \
-                3 * self.period_s:  # (in lockstep the boat's time waits for us: a late step is not stale)
-            self._stand_down(link)  # no fresh step for three periods (no ATTITUDE): stop pushing
+        if not self.config.lockstep and self.commands.stale(self.period_s):  # (lockstep: the boat's time waits)
+            self.commands.stand_down(link, self.state)  # no fresh step for three periods (no ATTITUDE): stop
         return True
 
     def _fly(self, link: Link) -> None:

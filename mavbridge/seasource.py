@@ -43,6 +43,21 @@ class MotionSample:
     accel_body: np.ndarray | None = None
 
 
+def sea_spread(source: object, explained: bool) -> np.ndarray | None:
+    """The source's NED slope covariance (2×2, rad²) not explained by its wave, if it measures one
+    (``WaveEstimator.spread``; ``explained``: its confident wave is in use), else None."""
+    spread = getattr(source, "spread", None)
+    return spread(explained) if spread is not None else None
+
+
+def spread_line(covariance_ned: np.ndarray) -> str:
+    """One line of a slope covariance: RMS slope (°) and the principal (roll-producing) axis (° NED, mod 180)."""
+    c = np.asarray(covariance_ned, float)
+    axis = 0.5 * math.atan2(2 * c[0, 1], c[0, 0] - c[1, 1])
+    rms = math.sqrt(max(c[0, 0] + c[1, 1], 0.0))
+    return f"slope RMS {math.degrees(rms):.1f} deg along {math.degrees(axis) % 180:.0f} deg"
+
+
 @dataclass(frozen=True)
 class WaveEstimate:
     """The dominant regular wave: true (not encounter) period, NED travel direction, phase on the autopilot clock."""

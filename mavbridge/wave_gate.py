@@ -3,8 +3,11 @@
 Once per control step ``step`` asks the source for the wave at autopilot time t; a confident answer
 goes to the NMPC (``set_wave(field)``: the roll term on), no answer means ``set_wave(None)`` (calm
 prediction, R = 0: the Direct behaviour). Each change between the two is logged once, with the time
-and the estimate. The log row is the source's ``latest`` fit even when it is not confident (the
-estimator's own figures), else the confident estimate's. The estimator's cost (every ``observe`` since
+and the estimate. The source's measured sea statistics (``WaveEstimator.spread``: the NED slope
+covariance its wave does not explain) go to ``set_sea_spread``, the expected-roll term; while they act
+without a confident wave (an irregular sea) that is said once too, and counted. The log row is the
+source's ``latest`` fit even when it is not confident (the estimator's own figures), else the confident
+estimate's. The estimator's cost (every ``observe`` since
 the last step plus the step's ``estimate``) is timed per control step, so it counts in the step time.
 """
 
@@ -20,7 +23,7 @@ import numpy as np
 
 from vessel.config import ConfigError
 
-from .seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource
+from .seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
 
 
 def describe(est: WaveEstimate) -> str:
@@ -53,6 +56,8 @@ class WaveGate:
     samples: int = 0  # motion samples observed
     imu_samples: int = 0  # of them, with an IMU specific force (the heave the estimator sees)
     _observe_s: float = 0.0
+    spread_steps: int = 0  # steps planned on the sea's statistics alone (no confident wave)
+    _spread_on: bool = False
     _rejected: int = 0  # confident estimates the wave model refused
     _hold: EstimateHold = field(init=False)
 
@@ -77,6 +82,7 @@ class WaveGate:
         if wave is None:
             est = None
         nmpc.set_wave(wave)
+        self._spread(nmpc, wave is not None, t_s)
         self._note(est, t_s)
         shown = est if est is not None else _latest(self.source, t_s)
         if shown is not None:
@@ -95,6 +101,28 @@ class WaveGate:
                 self.log(f"waves ({self.source.name}): estimate outside the wave model ({exc}); no roll term")
             self._rejected += 1
             return None
+
+    @property
+    def statistics_only(self) -> bool:
+        """True while the roll term acts on the sea's statistics alone (no confident wave)."""
+        return self._spread_on
+
+    def _spread(self, nmpc: Any, explained: bool, t_s: float) -> None:
+        """The sea's unexplained slope statistics to the NMPC (the expected-roll term); says when the roll
+        term starts or stops acting on them alone (no confident wave)."""
+        spread = sea_spread(self.source, explained)
+        try:
+            nmpc.set_sea_spread(spread)
+        except ValueError:  # not a covariance (cannot happen with the estimator's): no term, no crash
+            spread = None
+            nmpc.set_sea_spread(None)
+        alone = spread is not None and not explained
+        self.spread_steps += int(alone)
+        if alone != self._spread_on and (alone or self._spread_on):
+            self.log(f"waves ({self.source.name}) at t = {t_s:.1f} s: " + (
+                f"sea statistics known ({spread_line(spread)}): the roll term acts on the expected roll"
+                if alone and spread is not None else "the roll term no longer acts on the sea's statistics alone"))
+        self._spread_on = alone
 
     def _note(self, est: WaveEstimate | None, t_s: float) -> None:
         """Count the step; log the first state and every change of confidence once."""
@@ -125,6 +153,7 @@ class WaveGate:
             "time_to_confident_s": None if self.first_confident_s is None or self.first_step_s is None
             else round(self.first_confident_s - self.first_step_s, 3),
             "roll_term_fraction": round(self.roll_steps / self.steps, 4) if self.steps else None,
+            "sea_statistics_fraction": round(self.spread_steps / self.steps, 4) if self.steps else None,
             "confidence_changes": self.changes,
             "imu_sample_share": round(self.imu_samples / self.samples, 4) if self.samples else None,
             "final": {k: round(v, 4) for k, v in self.last.row().items()} if self.last is not None else None,

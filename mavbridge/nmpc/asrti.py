@@ -115,7 +115,8 @@ class AdvancedStep:
             info["background"] = "unused"
             return None, info
         info["background"] = "used"
-        changed = any(not np.array_equal(PARAMS.get(p, b), PARAMS.get(p_next, b)) for b in ("weights", "wave"))
+        changed = any(not np.array_equal(PARAMS.get(p, b), PARAMS.get(p_next, b))
+                      for b in ("weights", "wave", "roll_spread"))
         info["background_problem"] = "changed" if changed else "same"
         return w, info
 

@@ -24,7 +24,7 @@ import numpy as np
 from .codegen import compiled_library, load
 from .config import NmpcConfig
 from .gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
-from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, WEIGHT_NAMES
+from .layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES
 from .native_lib import BoxQp, CompiledFunction, ptr
 
 NZU = NZ + NU
@@ -37,19 +37,19 @@ def _stage_function(step: ca.Function, cfg: NmpcConfig) -> tuple[ca.Function, ca
     z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
     on = ca.SX.sym("on")  # 0 for stage 0: no cost on the fixed initial state
     waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
-    wave = ca.SX.sym("wave", len(WAVE_NAMES))
+    wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
     zu = ca.vertcat(z, u)
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
     res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights),
-                     on * _state_residuals(z[0:NX], waypoint, weights, cfg))
+                     on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
     J = ca.jacobian(res, zu)
     reg = HESSIAN_REG * ca.SX.eye(NZU)
-    stage = ca.Function("nrti_stage", [z, u, t, on, waypoint, weights, wave],
+    stage = ca.Function("nrti_stage", [z, u, t, on, waypoint, weights, wave, spread],
                         [f_aug, ca.densify(ca.jacobian(f_aug, zu)), ca.densify(2 * (J.T @ J) + reg),
                          ca.densify(2 * (J.T @ res))])
-    r_end = _state_residuals(z[0:NX], waypoint, weights, cfg)
+    r_end = _state_residuals(z[0:NX], waypoint, weights, cfg, spread)
     J_end = ca.jacobian(r_end, zu)  # zero u columns: the terminal block padded to the stage size
-    terminal = ca.Function("nrti_terminal", [z, u, waypoint, weights],
+    terminal = ca.Function("nrti_terminal", [z, u, waypoint, weights, spread],
                            [ca.densify(2 * (J_end.T @ J_end) + reg), ca.densify(2 * (J_end.T @ r_end))])
     return stage, terminal
 
@@ -68,8 +68,8 @@ def block_linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     times = par.t + ca.DM(np.arange(P) * cfg.period_s).T
     flags = ca.DM([[0.0] + [1.0] * (P - 1)])
     F, AB, Hs, gs = stage.map(P)(Z, U, times, flags, ca.repmat(par.waypoint, 1, P), ca.repmat(par.weights, 1, P),
-                                 ca.repmat(par.wave, 1, P))
-    H_end, g_end = terminal(z_end, ca.DM.zeros(NU), par.waypoint, par.weights)
+                                 ca.repmat(par.wave, 1, P), ca.repmat(par.roll_spread, 1, P))
+    H_end, g_end = terminal(z_end, ca.DM.zeros(NU), par.waypoint, par.weights, par.roll_spread)
     gap = F - ca.horzcat(Z[:, 1:], z_end)
     return ca.Function("nrti_blocks", [w, p], [AB, ca.horzcat(Hs, H_end), ca.horzcat(gs, g_end), gap],
                        ["w", "p"], ["AB", "H", "g", "gap"])

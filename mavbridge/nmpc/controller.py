@@ -23,10 +23,10 @@ from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, Regula
 from .backend import NmpcBackend, SolveOutcome
 from .config import NmpcConfig
 from .functions import ProblemFunctions, problem_functions
-from .layout import NU, NX, PARAMS, Layout
+from .layout import NU, NX, Layout
 from .model_state import on_mean_surface
-from .problem import input_bounds, pack_parameters
-from .wave_model import CALM_PARAMETERS, wave_parameters
+from .problem import input_bounds
+from .run_parameters import SeaKnowledge
 
 
 @dataclass(frozen=True)
@@ -128,9 +128,7 @@ class RollAwareNmpc:
         self._functions = problem_functions(self.params, self.waves, self.current, self.config)
         self._step = self._functions.step
         self.layout = self._functions.layout
-        self._wave = CALM_PARAMETERS.copy() if self._functions.fixed_waves is not None else wave_parameters(
-            self.waves)
-        self._wave_known = True
+        self._sea = SeaKnowledge(self.config, self._functions.fixed_waves, self.waves)
         self._backend: NmpcBackend = make_backend(self._functions, self.config)
         self._closed = False
         # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
@@ -183,13 +181,18 @@ class RollAwareNmpc:
         is 0 for those solves (the Direct behaviour); ``NmpcResult.roll_term_active`` says which applied.
         A background (asrti) solve already running keeps the wave it was started with.
         """
-        if self._functions.fixed_waves is not None:
-            raise ValueError(f"set_wave: this controller was built with a fixed "
-                             f"{type(self._functions.fixed_waves).__name__}; only RegularWaves or CalmWater "
-                             f"controllers take a run-time wave")
-        self._wave = wave_parameters(waves)
-        self._wave_known = waves is not None
+        self._sea.set_wave(waves)
         self.waves = waves or CalmWater()
+
+    def set_sea_spread(self, covariance_ned: np.ndarray | None) -> None:
+        """The NED covariance (2×2, rad²) of the hull's roll-producing slope that the wave model does not
+        explain, or None (zero): later solves add its expected roll R·E[φ²] at each predicted heading.
+
+        An irregular sea's unpredictable part cannot be planned against wave by wave, but its expected
+        roll still depends on the heading (beam seas roll the hull, head seas barely): this term is what
+        lets the roll weight act on it. It is independent of ``set_wave`` and applies with R > 0 only.
+        """
+        self._sea.set_spread(covariance_ned)
 
     @property
     def takes_waves(self) -> bool:
@@ -198,15 +201,11 @@ class RollAwareNmpc:
 
     @property
     def roll_term_active(self) -> bool:
-        """True when solves weight roll: R > 0 and a wave (or calm water) is known."""
-        return self._wave_known and self.config.r > 0
+        """True when solves weight roll: R > 0 and a wave (or calm water) or the sea's spread is known."""
+        return self._sea.roll_term_active
 
     def _parameters(self, x0: np.ndarray, t: float, waypoint: np.ndarray) -> np.ndarray:
-        weights = self.config.weights
-        p = pack_parameters(x0, t, waypoint, self._u_applied, weights, self._wave)
-        if not self._wave_known:
-            p[PARAMS.index("weights", "r")] = 0.0
-        return p
+        return self._sea.pack(x0, t, waypoint, self._u_applied)
 
     # --- solving --------------------------------------------------------------------------------------
 
@@ -216,7 +215,7 @@ class RollAwareNmpc:
         return self._u_applied.copy()
 
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
-        return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._wave)
+        return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._sea.wave)
 
     def _model_inputs(self, x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
         """Checked inputs; the heave taken out of x0 when ``heave_feedback`` is ``none`` (see model_state)."""

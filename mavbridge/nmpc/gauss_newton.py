@@ -15,8 +15,8 @@ import casadi as ca
 import numpy as np
 
 from .config import NmpcConfig
-from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, WEIGHT_NAMES, members
-from .problem import distance, heading_error
+from .layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES, members
+from .problem import distance, expected_roll_residuals, heading_error
 
 NZ = NX + NU
 SMOOTH_EPS = 1e-4
@@ -28,13 +28,14 @@ def _smooth_max0(z: ca.SX) -> ca.SX:
     return 0.5 * (z + ca.sqrt(z**2 + SMOOTH_EPS))
 
 
-def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca.SX:
-    """√Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u): their squares sum to the state cost."""
+def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig, roll_spread: ca.SX) -> ca.SX:
+    """√Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u), Lᵀy: their squares sum to the state cost."""
     w = members("weights", weights)
     q, r, s = w["q"], w["r"], w["s"]
     return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * x[3],
                       ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
-                      np.sqrt(cfg.min_speed_weight) * _smooth_max0(cfg.min_speed_mps - x[6]))
+                      np.sqrt(cfg.min_speed_weight) * _smooth_max0(cfg.min_speed_mps - x[6]),
+                      expected_roll_residuals(x, roll_spread))
 
 
 def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> list[ca.SX]:
@@ -50,7 +51,7 @@ def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     w = ca.SX.sym("w", n)
     p = ca.SX.sym("p", NP)
     par = PARAMS.unpack(p)
-    t0, waypoint, weights, wave = par.t, par.waypoint, par.weights, par.wave
+    t0, waypoint, weights, wave, spread = par.t, par.waypoint, par.weights, par.wave, par.roll_spread
 
     def z_at(k: int) -> ca.SX:
         return w[k * (NZ + NU):k * (NZ + NU) + NZ]
@@ -63,7 +64,7 @@ def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
         z, u, z_next = z_at(k), u_at(k), z_at(k + 1)
         gaps.append(ca.vertcat(step(z[0:NX], u, t0 + k * cfg.period_s, wave), u) - z_next)
         residuals += [*_input_change_residuals(u, z[NX:NZ], weights),
-                      _state_residuals(z_next[0:NX], waypoint, weights, cfg)]
+                      _state_residuals(z_next[0:NX], waypoint, weights, cfg, spread)]
     res = ca.vertcat(*residuals)
     gap = ca.vertcat(*gaps)
     J = ca.jacobian(res, w)
@@ -84,23 +85,24 @@ def linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
     on = ca.SX.sym("on")  # 0 for stage 0: the cost has no term on the fixed initial state
     waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
-    wave = ca.SX.sym("wave", len(WAVE_NAMES))
+    wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
     res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights),
-                     on * _state_residuals(z[0:NX], waypoint, weights, cfg))
+                     on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
     zu = ca.vertcat(z, u)
     J = ca.jacobian(res, zu)
-    stage = ca.Function("rti_stage", [z, u, t, on, waypoint, weights, wave],
+    stage = ca.Function("rti_stage", [z, u, t, on, waypoint, weights, wave, spread],
                         [f_aug, ca.jacobian(f_aug, zu), 2 * (J.T @ J), 2 * (J.T @ res)])
-    r_end = _state_residuals(z[0:NX], waypoint, weights, cfg)
+    r_end = _state_residuals(z[0:NX], waypoint, weights, cfg, spread)
     J_end = ca.jacobian(r_end, z)
-    terminal = ca.Function("rti_terminal", [z, waypoint, weights], [2 * (J_end.T @ J_end), 2 * (J_end.T @ r_end)])
+    terminal = ca.Function("rti_terminal", [z, waypoint, weights, spread],
+                           [2 * (J_end.T @ J_end), 2 * (J_end.T @ r_end)])
 
     n = P * (NZ + NU) + NZ
     w = ca.MX.sym("w", n)
     p = ca.MX.sym("p", NP)
     par = PARAMS.unpack(p)
-    t0, wp, wts, wv = par.t, par.waypoint, par.weights, par.wave
+    t0, wp, wts, wv, spread_p = par.t, par.waypoint, par.weights, par.wave, par.roll_spread
     W = ca.reshape(w[0:P * (NZ + NU)], NZ + NU, P)
     Z, U = W[0:NZ, :], W[NZ:, :]
     z_end = w[P * (NZ + NU):]
@@ -108,8 +110,8 @@ def linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     times = t0 + ca.DM(np.arange(P) * cfg.period_s).T
     flags = ca.DM([[0.0] + [1.0] * (P - 1)])
     F, AB, Hs, gs = stage.map(P)(Z, U, times, flags, ca.repmat(wp, 1, P), ca.repmat(wts, 1, P),
-                                 ca.repmat(wv, 1, P))
-    H_end, g_end = terminal(z_end, wp, wts)
+                                 ca.repmat(wv, 1, P), ca.repmat(spread_p, 1, P))
+    H_end, g_end = terminal(z_end, wp, wts, spread_p)
     gap = ca.vec(F - Z_next)
     AB_blocks = ca.horzsplit(AB, list(range(0, P * (NZ + NU) + 1, NZ + NU)))
     shift = np.zeros((NZ * P, n))  # the −I blocks of x_{k+1} in the gap rows

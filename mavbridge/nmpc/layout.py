@@ -10,6 +10,8 @@ Parameter vector p (one built solver serves any run, time, tuning and regular wa
     u_prev (2)     input applied in the previous period (τ_X N, τ_N N·m)
     weights (5)    Q, R, S, W11, W22
     wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
+    roll_spread (3) √R × the lower Cholesky factor L of the NED slope covariance the wave model does not
+                   explain (l_nn, l_en, l_ee): the expected roll cost R·E[φ²] = ‖Lᵀy‖², y the body y axis
 """
 
 from __future__ import annotations
@@ -29,11 +31,14 @@ WAVE_NAMES = ("height_m", "wavenumber_rad_per_m", "frequency_rad_per_s", "cos_tr
               "phase_rad", "roll_sign")
 
 
-MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES}
+ROLL_SPREAD_NAMES = ("l_nn", "l_en", "l_ee")
+
+
+MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES, "roll_spread": ROLL_SPREAD_NAMES}
 
 
 def members(block: str, values: Any) -> dict[str, Any]:
-    """The elements of the ``weights`` or ``wave`` block (numbers or symbols) by name."""
+    """The elements of the ``weights``, ``wave`` or ``roll_spread`` block (numbers or symbols) by name."""
     return {name: values[i] for i, name in enumerate(MEMBERS[block])}
 
 
@@ -47,6 +52,7 @@ class ParameterBlocks:
     u_prev: Any
     weights: Any
     wave: Any
+    roll_spread: Any
 
 
 @dataclass(frozen=True)
@@ -54,7 +60,8 @@ class ParameterLayout:
     """Where each named block lives in the parameter vector p (order fixed, sizes in ``blocks``)."""
 
     blocks: tuple[tuple[str, int], ...] = (("x0", NX), ("t", 1), ("waypoint", 2), ("u_prev", NU),
-                                           ("weights", len(WEIGHT_NAMES)), ("wave", len(WAVE_NAMES)))
+                                           ("weights", len(WEIGHT_NAMES)), ("wave", len(WAVE_NAMES)),
+                                           ("roll_spread", len(ROLL_SPREAD_NAMES)))
 
     @functools.cached_property
     def _slices(self) -> dict[str, slice]:

@@ -8,7 +8,9 @@ tuning and regular wave.
 Cost (paper eq. 9, stage costs on the predicted states 1..P, input changes on the P inputs):
     J = Σ_{i=1..P} [Q·e_ψ,i² + R·φ_i² + S·d_i + w_min·max(0, u_min − u_i)²] + Σ_{k=0..P−1} ΔU_kᵀ W ΔU_k
 with e_ψ = wrap(atan2(Δeast, Δnorth) − ψ), d = sqrt(Δnorth² + Δeast² + 1e-6), ΔU_k = U_k − U_{k−1}
-(U_{−1} = the input applied in the previous period).
+(U_{−1} = the input applied in the previous period). A sea the wave model does not explain (an
+irregular sea's unpredictable part) adds its expected roll to R·φ_i²: ‖Lᵀy_i‖², y_i = (−sin ψ_i, cos ψ_i)
+the body y axis in NED and L the ``roll_spread`` block (zero: no term, the paper's cost).
 """
 
 from __future__ import annotations
@@ -86,28 +88,37 @@ def discrete_model(params: OtterParameters, waves: WaveField | None, current: Oc
     return ca.Function("nmpc_step", [x, u, t, wave], [xk], ["x", "u", "t", "wave"], ["x_next"])
 
 
-_BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave"))
+_BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"))
+NO_SPREAD = np.zeros(3)
 
 
 def pack_parameters(x0: np.ndarray, t: float, waypoint: np.ndarray, u_prev: np.ndarray,
-                    weights: tuple[float, ...], wave: np.ndarray = CALM_PARAMETERS) -> np.ndarray:
+                    weights: tuple[float, ...], wave: np.ndarray = CALM_PARAMETERS,
+                    roll_spread: np.ndarray = NO_SPREAD) -> np.ndarray:
     """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``.
 
     The per-step fast path of ``PARAMS.pack`` (slices computed once; numpy rejects wrong block sizes).
     """
     p = np.empty(NP)
-    for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave), strict=True):
+    for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave, roll_spread), strict=True):
         p[where] = value
     return p
 
 
-def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig) -> ca.SX:
-    """Q·e_ψ² + R·φ² + S·d + soft minimum-speed penalty for one predicted state."""
+def expected_roll_residuals(x: ca.SX, roll_spread: ca.SX) -> ca.SX:
+    """Lᵀy, y = (−sin ψ, cos ψ) the body y axis in NED: ‖Lᵀy‖² = R·E[φ²] of the unexplained sea."""
+    y_n, y_e = -ca.sin(x[5]), ca.cos(x[5])
+    return ca.vertcat(roll_spread[0] * y_n + roll_spread[1] * y_e, roll_spread[2] * y_e)
+
+
+def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig, roll_spread: ca.SX) -> ca.SX:
+    """Q·e_ψ² + R·φ² + S·d + soft minimum-speed penalty + expected roll for one predicted state."""
     w = members("weights", weights)
     q, r, s = w["q"], w["r"], w["s"]
     e = heading_error(x, waypoint)
     shortfall = ca.fmax(0, cfg.min_speed_mps - x[6])
-    return q * e**2 + r * x[3] ** 2 + s * distance(x, waypoint) + cfg.min_speed_weight * shortfall**2
+    return (q * e**2 + r * x[3] ** 2 + s * distance(x, waypoint) + cfg.min_speed_weight * shortfall**2
+            + ca.sumsqr(expected_roll_residuals(x, roll_spread)))
 
 
 def input_change_cost(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> ca.SX:
@@ -130,7 +141,8 @@ def build_nlp(step: ca.Function, cfg: NmpcConfig) -> tuple[dict, Layout]:
         xk, uk = w[layout.x_index(k)], w[layout.u_index(k)]
         x_next = w[layout.x_index(k + 1)]
         g.append(step(xk, uk, par.t + k * cfg.period_s, par.wave) - x_next)
-        f += input_change_cost(uk, u_before, par.weights) + state_cost(x_next, par.waypoint, par.weights, cfg)
+        f += (input_change_cost(uk, u_before, par.weights)
+              + state_cost(x_next, par.waypoint, par.weights, cfg, par.roll_spread))
         u_before = uk
     return {"x": w, "p": p, "f": f, "g": ca.vertcat(*g)}, layout
 

@@ -19,13 +19,12 @@ Confidence (0..1) is the product of: the lock (with heave, the earth-frame solut
 ``steadiness``; without, ω_e steady, the phasors barely rotating, the trackers agreeing), the time since
 the last start, gap, turn or heading jump (``settle_s``), the slope's signal-to-noise and size, the
 one-wave consistency (slope in quadrature with heave), and in the Doppler case the line's standard error.
-``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for logs) and
-``diagnostics`` gives ω_e and the wave's axis even without a solution.
+``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for logs), ``diagnostics``
+gives ω_e and the axis without a solution, ``spread`` the sea's slope statistics (``spread`` module).
 
-What it cannot see: a boat at rest without heave (no Doppler, no k); following seas at speeds near the
-wave's phase speed (ω_e → 0); waves shorter than a few hull lengths (the hull does not follow them);
-near the roll resonance the "roll = slope" picture is off. Bad input (NaN, frozen attitude, a heading
-jump, a missing IMU stream) lowers the confidence; nothing here raises or returns NaN.
+Blind to: a boat at rest without heave (no Doppler, no k); following seas near the wave's phase speed
+(ω_e → 0); waves shorter than a few hull lengths; near the roll resonance "roll = slope" is off. Bad
+input (NaN, frozen attitude, heading jump, no IMU) lowers the confidence; nothing raises or gives NaN.
 """
 
 from __future__ import annotations
@@ -33,25 +32,28 @@ from __future__ import annotations
 import cmath
 import math
 
+import numpy as np
+
 from mavbridge.seasource import MotionSample, WaveEstimate
 
 from .doppler import DopplerLine
 from .filters import (
-    FrequencyTracker,
     MeanRemover,
     SinusoidFit,
-    ZeroCrossingTracker,
     lag_correction,
     lpf_gain,
 )
 from .filters import finite as _finite
 from .filters import smooth_step as _smooth_step
+from .heave import HEAVE_GPS, HEAVE_IMU, HEAVE_NONE, HeaveFits
+from .motion_watch import MotionWatch
+from .oscillator import EncounterOscillator
 from .settings import EstimatorSettings
-from .solve import WaveSolution, phase_offset, principal_axis, solve_slope_only, solve_with_heave
+from .solve import WaveSolution, phase_offset, plausible, solve_slope_only, solve_with_heave
+from .spread import SlopeSpread
 from .steadiness import SolutionSteadiness
 
-GRAVITY = 9.81
-HEAVE_NONE, HEAVE_IMU, HEAVE_GPS = 0.0, 1.0, 2.0  # extras['heave_source']
+__all__ = ["HEAVE_GPS", "HEAVE_IMU", "HEAVE_NONE", "WaveEstimator"]
 
 
 class WaveEstimator:
@@ -62,40 +64,20 @@ class WaveEstimator:
     def __init__(self, settings: EstimatorSettings | None = None) -> None:
         self.s = settings or EstimatorSettings()
         s = self.s
-        self._hp = {key: MeanRemover(s.mean_tau_s) for key in ("roll", "pitch", "acc", "z")}
-        self._tracker: FrequencyTracker | ZeroCrossingTracker
-        if s.tracker == "belleter":
-            self._tracker = FrequencyTracker(s.omega_init_rad_s, s.tracker_filter_rad_s, s.tracker_gain,
-                                             s.omega_min_rad_s, s.omega_max_rad_s)
-        else:
-            self._tracker = ZeroCrossingTracker(s.omega_init_rad_s, s.omega_min_rad_s, s.omega_max_rad_s)
-        self._fit = {key: SinusoidFit(s.fit_tau_s) for key in ("sn", "se", "roll", "pitch", "acc", "z")}
+        self._hp = {key: MeanRemover(s.mean_tau_s) for key in ("roll", "pitch")}
+        self._osc = EncounterOscillator(s)
+        self._fit = {key: SinusoidFit(s.fit_tau_s) for key in ("sn", "se", "roll", "pitch")}
+        self._heave = HeaveFits(s)
         self._heading = (1.0, 0.0)  # low-passed (cos ψ, sin ψ)
         self._doppler = DopplerLine(s.doppler_memory_s, s.doppler_spread_mps)
         self._steady, self._steady_t = SolutionSteadiness(), -math.inf
         self._t: float | None = None
         self._dt = 0.05
-        self._theta = 0.0
-        self._omega_lo = s.omega_init_rad_s
-        self._dw = 0.0
-        self._dw_inst = 0.0
-        self._w_mean = self._w_fast = s.omega_init_rad_s
-        self._w_var = 0.01
-        self._cov = [1e-6, 0.0, 1e-6]
-        self._axis = (1.0, 0.0)
-        self._vel = (0.0, 0.0)
-        self._vel_two = ((0.0, 0.0), (0.0, 0.0))
-        self._pos = (0.0, 0.0)
-        self._last_att: tuple[float, ...] | None = None
-        self._frozen_s = 0.0
+        self._watch = MotionWatch(s)
         self._quiet_since = 0.0
-        self._last_acc_t = -math.inf
-        self._last_z_t = -math.inf
         self._last_att_t = -math.inf
-        self._psi_prev: float | None = None
-        self._turn_rate = 0.0  # low-passed over turn_filter_s: slow course changes
-        self._turn_fast = 0.0  # low-passed over 1 s: sharp turns
         self._doppler_t = -math.inf
+        self._spread = SlopeSpread()  # the sea's slope statistics (the expected-roll term)
 
     def observe(self, sample: MotionSample) -> None:
         """Take one motion sample (any rate, in time order); bad samples only lower the confidence."""
@@ -108,20 +90,23 @@ class WaveEstimator:
             return
         dt = t - self._t
         self._t, self._dt = t, dt
-        self._update_navigation(sample, dt)
-        att = self._valid_attitude(sample, dt)
-        if att is None:
+        self._watch.navigate(sample, dt)
+        att = self._watch.attitude(sample, dt)
+        if att is None:  # not finite, or frozen: a stale stream restarts the settling clock
+            self._quiet_since = t
             return
         self._last_att_t = t
-        self._update_heading(att[2], dt)
+        if self._watch.manoeuvring(att[2], dt):  # a turn or a jump changes ω_e
+            self._quiet_since = t
         roll, pitch, slope_n, slope_e = self._slopes(att, dt)
-        self._advance_oscillator(slope_n, slope_e, dt)
+        self._spread.update(roll / self.s.roll_gain, pitch / self.s.pitch_gain, att[2], dt)
+        self._osc.advance(slope_n, slope_e, dt, self._fit_quality())
         prev = (self._fit["sn"].X, self._fit["se"].X)
-        rotor = cmath.exp(1j * self._theta)
+        rotor = cmath.exp(1j * self._osc.theta)
         for key, value in (("sn", slope_n), ("se", slope_e), ("roll", roll), ("pitch", pitch)):
             self._fit[key].update(value, rotor, dt)
-        self._update_heave(sample, att, rotor, t, dt)
-        self._update_lock(prev, dt)
+        self._heave.update(sample, att, rotor, t, dt)
+        self._osc.update_lock(prev, (self._fit["sn"].X, self._fit["se"].X), dt)
         self._update_doppler(t)
         self._update_steadiness(t)
 
@@ -129,57 +114,9 @@ class WaveEstimator:
         """First sample, or after a long silence: keep the fits, restart the settling clock."""
         self._t = t
         self._quiet_since = t
+        self._spread.restart()
         self._steady.reset()
-        self._last_att = None
-        self._psi_prev = None
-
-    def _update_navigation(self, sample: MotionSample, dt: float) -> None:
-        """Low-passed NED velocity (for the Doppler term) and the latest position."""
-        vel = _finite(sample.velocity_ned, 2)
-        if vel is not None:
-            g = lpf_gain(dt, 3.0)
-            self._vel = (self._vel[0] + g * (vel[0] - self._vel[0]), self._vel[1] + g * (vel[1] - self._vel[1]))
-            # the Doppler line pairs ω_e with the velocity averaged by the same two 2 s stages as ω_e:
-            # the mean speed, not the surge within each wave
-            g = lpf_gain(dt, 2.0)
-            v1 = self._vel_two[0]
-            v1 = (v1[0] + g * (vel[0] - v1[0]), v1[1] + g * (vel[1] - v1[1]))
-            v2 = self._vel_two[1]
-            self._vel_two = (v1, (v2[0] + g * (v1[0] - v2[0]), v2[1] + g * (v1[1] - v2[1])))
-        pos = _finite(sample.position_ned, 2)
-        if pos is not None:
-            self._pos = pos
-
-    def _valid_attitude(self, sample: MotionSample, dt: float) -> tuple[float, ...] | None:
-        """(φ, θ, ψ) if finite and not frozen; a stale stream restarts the settling clock."""
-        att = _finite(sample.attitude, 3)
-        if att is None:
-            self._quiet_since = self._t or 0.0
-            return None
-        if att == self._last_att:
-            self._frozen_s += dt
-        else:
-            self._frozen_s = 0.0
-        self._last_att = att
-        if self._frozen_s > 0.3:
-            self._quiet_since = self._t or 0.0
-            return None
-        return att
-
-    def _update_heading(self, psi: float, dt: float) -> None:
-        """Watch the heading: a turn or a jump changes ω_e, so the settling clock restarts.
-
-        Two rates: over ``turn_filter_s`` (longer than a wave period, so the hull's wave-induced yaw
-        averages out) against ``turn_rate_rad_s``, and over 1 s against ``sharp_turn_rate_rad_s``.
-        """
-        if self._psi_prev is not None:
-            step = math.remainder(psi - self._psi_prev, 2 * math.pi)
-            self._turn_rate += lpf_gain(dt, self.s.turn_filter_s) * (step / dt - self._turn_rate)
-            self._turn_fast += lpf_gain(dt, 1.0) * (step / dt - self._turn_fast)
-            if (abs(step) > 0.35 or abs(self._turn_rate) > self.s.turn_rate_rad_s
-                    or abs(self._turn_fast) > self.s.sharp_turn_rate_rad_s):
-                self._quiet_since = self._t or 0.0
-        self._psi_prev = psi
+        self._watch.restart()
 
     def _slopes(self, att: tuple[float, ...], dt: float) -> tuple[float, float, float, float]:
         """High-passed slope across and along the hull (roll × roll_sign, pitch) and rotated by ψ into NED."""
@@ -205,85 +142,27 @@ class WaveEstimator:
         c, sn = c / norm, sn / norm
         return pitch * c - roll * sn, pitch * sn + roll * c
 
-    def _advance_oscillator(self, slope_n: float, slope_e: float, dt: float) -> None:
-        """Principal slope axis → tracker → oscillator phase at the (low-passed) tracked ω_e."""
-        g = lpf_gain(dt, 8.0)
-        cov = self._cov
-        cov[0] += g * (slope_n * slope_n - cov[0])
-        cov[1] += g * (slope_n * slope_e - cov[1])
-        cov[2] += g * (slope_e * slope_e - cov[2])
-        ang = principal_axis(*cov)
-        u = (math.cos(ang), math.sin(ang))
-        if u[0] * self._axis[0] + u[1] * self._axis[1] < 0:
-            u = (-u[0], -u[1])
-        self._axis = u
-        omega = self._tracker.update(u[0] * slope_n + u[1] * slope_e, dt)
-        # frequency-locked loop: the slope phasors' rotation pulls the oscillator, the tracker guides it
-        if self._coarse_disagrees(omega):  # (re)acquisition: jump to the coarse tracker
-            self._omega_lo = self._w_fast = self._w_mean = omega
-            self._dw = self._dw_inst = 0.0
-        else:
-            q = self._fit_quality() ** 2
-            pull = (q * self.s.fll_gain * self._dw_inst
-                    + (1.0 - 0.95 * q) * self.s.tracker_pull * (omega - self._omega_lo))
-            self._omega_lo = min(self.s.omega_max_rad_s, max(self.s.omega_min_rad_s, self._omega_lo + dt * pull))
-        self._theta = math.remainder(self._theta + self._omega_lo * dt, 2 * math.pi)
-
-    def _update_heave(self, sample: MotionSample, att: tuple[float, ...], rotor: complex, t: float,
-                      dt: float) -> None:
-        """Fit the vertical acceleration (IMU) and the GPS down position when they are there."""
-        f = _finite(sample.accel_body, 3)
-        if f is not None:
-            phi, th = att[0], att[1]
-            a_down = (-math.sin(th) * f[0] + math.cos(th) * math.sin(phi) * f[1]
-                      + math.cos(th) * math.cos(phi) * f[2] + GRAVITY)
-            self._fit["acc"].update(self._hp["acc"].update(a_down, dt), rotor, dt)
-            self._last_acc_t = t
-        pos = _finite(sample.position_ned, 3)
-        if pos is not None:
-            self._fit["z"].update(self._hp["z"].update(pos[2], dt), rotor, dt)
-            self._last_z_t = t
-
-    def _update_lock(self, prev: tuple[complex, complex], dt: float) -> None:
-        """Rotation rate of the slope phasors = ω_e − ω_oscillator; its steadiness = the lock quality."""
-        sn, se = self._fit["sn"].X, self._fit["se"].X
-        cross = prev[0].conjugate() * sn + prev[1].conjugate() * se
-        self._dw_inst = cmath.phase(cross) / dt if abs(cross) > 0 else 0.0
-        self._dw += lpf_gain(dt, 1.5) * (self._dw_inst - self._dw)
-        w = self._omega_lo + self._dw
-        g = lpf_gain(dt, 2.0)  # two stages: averages out the phase wobble of a surging hull
-        self._w_fast += g * (w - self._w_fast)
-        self._w_mean += g * (self._w_fast - self._w_mean)
-        self._w_var += lpf_gain(dt, 3.0) * ((self._w_fast - self._w_mean) ** 2 - self._w_var)
-
     def _update_doppler(self, t: float) -> None:
         """Once a second, when locked: a point (u·V, ω_e) for the slope-only Doppler fit."""
-        if t - self._doppler_t < 1.0 or self._lock_quality() < 0.7 or t - self._quiet_since < self.s.settle_s:
+        if t - self._doppler_t < 1.0 or self._osc.lock_quality() < 0.7 or t - self._quiet_since < self.s.settle_s:
             return
-        u = self._axis
+        u = self._osc.axis
         dt = t - self._doppler_t if math.isfinite(self._doppler_t) else 1.0
-        v1, v = self._vel_two
-        if math.hypot(v1[0] - v[0], v1[1] - v[1]) > 0.05 or abs(self._w_fast - self._w_mean) > 0.01 * self._w_mean:
+        v1, v = self._watch.vel_two
+        if math.hypot(v1[0] - v[0], v1[1] - v[1]) > 0.05 or not self._osc.steady():
             return  # speed or ω_e still settling: no point
-        self._doppler.add(u[0] * v[0] + u[1] * v[1], self._w_mean, dt)
+        self._doppler.add(u[0] * v[0] + u[1] * v[1], self._osc.w_mean, dt)
         self._doppler_t = t
 
     def _update_steadiness(self, t: float) -> None:
         """Every 0.1 s of samples, the heave solve into the steadiness (else reset): what the boat did decides."""
-        if t - self._steady_t < 0.1 or not self._w_mean > 0:
+        if t - self._steady_t < 0.1 or not self._osc.w_mean > 0:
             return
-        self._steady_t, (sol, extras) = t, self._solve(self._w_mean)
+        self._steady_t, (sol, extras) = t, self._solve(self._osc.w_mean)
         if sol is not None and extras.get("mode") == 1.0:
             self._steady.update(t, sol.omega, sol.travel_dir_rad)
         else:
             self._steady.reset()  # steadiness is the heave solve's: earned again when it comes back
-
-    def _coarse_disagrees(self, omega: float) -> bool:
-        """True while the coarse tracker has few crossings yet, or has left the oscillator far behind."""
-        crossings = getattr(self._tracker, "crossings", 99)
-        if 1 <= crossings < 3:
-            return True
-        return crossings >= 3 and abs(omega - self._omega_lo - self._dw) > 0.15 * omega
 
     def _fit_quality(self) -> float:
         """Share of the slope signal the sinusoid fits explain (0 = none .. 1 = all)."""
@@ -294,55 +173,32 @@ class WaveEstimator:
         return max(0.0, min(1.0, 1.0 - (fit_n.residual_power + fit_e.residual_power) / power))
 
     # ----------------------------------------------------------------- estimate
-    def _lock_quality(self) -> float:
-        """1 when ω_e is steady (relative std ≪ 1 %) and the phasors barely rotate, → 0 otherwise."""
-        w = max(self._w_mean, 1e-3)
-        rel_std = math.sqrt(max(self._w_var, 0.0)) / w
-        rotation = abs(self._dw) * self.s.fit_tau_s
-        agree = abs(self._tracker.omega / w - 1.0)
-        return (math.exp(-((rel_std / 0.02) ** 2)) * math.exp(-((rotation / 0.5) ** 2))
-                * math.exp(-((agree / 0.06) ** 2)))
-
     def _compensation(self, omega_e: float) -> complex:
         """Undo the fits' lag on a rotating phasor and the high-pass's response at ω_e."""
-        return (1 + 1j * self._dw * self.s.fit_tau_s) / self._hp["roll"].response(omega_e)
-
-    def _elevation(self, omega_e: float, comp: complex) -> tuple[complex, float] | None:
-        """Elevation phasor (from the IMU if streaming, else from the GPS height) and its source."""
-        t = self._t or 0.0
-        if t - self._last_acc_t < 1.0 and self._fit["acc"].samples > 0:
-            return self._fit["acc"].X * comp / (omega_e * omega_e), HEAVE_IMU
-        if t - self._last_z_t < 1.0 and self._fit["z"].samples > 0:
-            return -self._fit["z"].X * comp * lag_correction(omega_e, self.s.position_lag_s), HEAVE_GPS
-        return None
+        return (1 + 1j * self._osc.dw * self.s.fit_tau_s) / self._hp["roll"].response(omega_e)
 
     def _solve(self, omega_e: float) -> tuple[WaveSolution | None, dict[str, float]]:
         """The wave from the phasors: with heave if the heave is real, else from the Doppler line."""
         comp = self._compensation(omega_e)
         sn, se = self._slope_phasors(comp * lag_correction(omega_e, self.s.attitude_lag_s))
         extras = {"mode": 0.0, "heave_source": HEAVE_NONE}
-        elev = self._elevation(omega_e, comp)
+        elev = self._heave.elevation(self._t or 0.0, omega_e, comp)
         if elev is not None and 2 * abs(elev[0]) >= self.s.min_height_m:
-            v = self._vel_two[1]  # averaged like ω_e (two 2 s stages): ω = ω_e + k·(V·d) pairs them
-            sol = solve_with_heave(sn, se, elev[0], omega_e, v[0], v[1], self._theta)
-            if sol is not None and self._plausible(sol):
+            v = self._watch.vel_two[1]  # averaged like ω_e (two 2 s stages): ω = ω_e + k·(V·d) pairs them
+            sol = solve_with_heave(sn, se, elev[0], omega_e, v[0], v[1], self._osc.theta)
+            if sol is not None and plausible(sol, self.s.wavelength_min_m, self.s.wavelength_max_m):
                 extras.update(mode=1.0, heave_source=elev[1])
                 return sol, extras
         fit = self._doppler.fit()
         if fit is None:
             return None, extras
         omega, kappa, rel = fit
-        u = self._axis
+        u = self._osc.axis
         chi = math.atan2(u[1], u[0]) + (0.0 if kappa > 0 else math.pi)
-        sol = solve_slope_only(sn, se, chi, abs(kappa), omega, self._theta)
+        sol = solve_slope_only(sn, se, chi, abs(kappa), omega, self._osc.theta)
         extras.update(mode=2.0, doppler_rel_err=rel)
-        return (sol if sol is not None and self._plausible(sol) else None), extras
-
-    def _plausible(self, sol: WaveSolution) -> bool:
-        """Wavelength within the configured range, a positive true frequency, all finite."""
-        s = self.s
-        ok = all(math.isfinite(v) for v in (sol.amplitude_m, sol.wavenumber, sol.omega, sol.phase_now))
-        return ok and sol.omega > 0 and s.wavelength_min_m <= 2 * math.pi / sol.wavenumber <= s.wavelength_max_m
+        ok = sol is not None and plausible(sol, self.s.wavelength_min_m, self.s.wavelength_max_m)
+        return (sol if ok else None), extras
 
     def _confidence(self, sol: WaveSolution, extras: dict[str, float]) -> float:
         """Product of lock (with heave: the solution's steadiness), settling, slope SNR and one-wave consistency."""
@@ -355,7 +211,7 @@ class WaveEstimator:
             fit_n.noise_variance(self._dt) + fit_e.noise_variance(self._dt), 1e-30)
         slope_amp = math.hypot(abs(fit_n.X), abs(fit_e.X))
         strong = _smooth_step(slope_amp / max(self.s.min_slope_rad, 1e-9) - 1.0)
-        lock = self._steady.value if extras.get("mode") == 1.0 else self._lock_quality()
+        lock = self._steady.value if extras.get("mode") == 1.0 else self._osc.lock_quality()
         conf = lock * settle * (snr / (snr + 100.0)) * strong
         conf *= math.exp(-((sol.consistency / 0.3) ** 2))
         if extras.get("mode") == 2.0:
@@ -367,16 +223,17 @@ class WaveEstimator:
         """The current fit whatever its confidence (for logs); None when nothing can be solved yet."""
         if self._t is None:
             return None
-        omega_e = self._w_mean
+        omega_e = self._osc.w_mean
         if not omega_e > 0:
             return None
         sol, extras = self._solve(omega_e)
-        extras.update(encounter_freq_rad_s=omega_e, axis_deg=math.degrees(math.atan2(self._axis[1], self._axis[0])))
+        axis = self._osc.axis
+        extras.update(encounter_freq_rad_s=omega_e, axis_deg=math.degrees(math.atan2(axis[1], axis[0])))
         if sol is None:
             return None
         conf = self._confidence(sol, extras)
         lag = self.s.position_lag_s
-        north, east = self._pos[0] + self._vel[0] * lag, self._pos[1] + self._vel[1] * lag
+        north, east = self._watch.pos[0] + self._watch.vel[0] * lag, self._watch.pos[1] + self._watch.vel[1] * lag
         eps = phase_offset(sol, self._t, north, east)
         return WaveEstimate(2 * sol.amplitude_m, 2 * math.pi / sol.omega, 2 * math.pi / sol.wavenumber,
                             math.remainder(sol.travel_dir_rad, 2 * math.pi), eps, conf, extras)
@@ -388,13 +245,21 @@ class WaveEstimator:
             return None
         return est
 
+    def spread(self, explained: bool) -> np.ndarray | None:
+        """NED covariance (2×2, rad²) of the slope the hull follows that the wave model does not explain,
+        None while unknown: all of it, or with a confident estimate in use (``explained``) the share the
+        sinusoid fits leave (an irregular sea's remainder; near zero in a regular sea). None too while the
+        attitude stream is bad (NaN, frozen) or silent: a blind boat flies Direct."""
+        c = self._spread.covariance(self.s.min_slope_rad) if (self._t or 0.0) - self._last_att_t <= 0.5 else None
+        return c * (1.0 - self._fit_quality()) if c is not None and explained else c
+
     def encounter_frequency(self) -> float:
         """The tracked (averaged) encounter frequency ω_e in rad/s."""
-        return self._w_mean
+        return self._osc.w_mean
 
     def diagnostics(self) -> dict[str, float]:
         """What is seen even without a wave solution: ω_e, the slope axis (° NED, mod 180), lock, slope."""
         fit_n, fit_e = self._fit["sn"], self._fit["se"]
-        return {"encounter_freq_rad_s": self._w_mean, "lock": self._lock_quality(),
-                "axis_deg": math.degrees(math.atan2(self._axis[1], self._axis[0])),
+        return {"encounter_freq_rad_s": self._osc.w_mean, "lock": self._osc.lock_quality(),
+                "axis_deg": math.degrees(math.atan2(self._osc.axis[1], self._osc.axis[0])),
                 "fit_quality": self._fit_quality(), "slope_amp_rad": math.hypot(abs(fit_n.X), abs(fit_e.X))}

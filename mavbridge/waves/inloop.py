@@ -20,7 +20,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from mavbridge.seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource
+from mavbridge.seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
 from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
 from vessel.dynamics import OceanCurrent, rigid_body_ode
@@ -152,7 +152,8 @@ class WaveFeed:
         self.say = say
         self.notes: list[str] = []
         self.first_confident_s: float | None = None
-        self.confident_steps = self.steps = 0
+        self.confident_steps = self.steps = self.spread_steps = 0
+        self._spread_on = False
         self.estimator_ms: list[float] = []
         self.first_errors: dict[str, float | None] = {}
         self._confident: bool | None = None
@@ -178,12 +179,26 @@ class WaveFeed:
             return est.row() if est is not None else {}
         est = self._hold.apply(self.source.estimate(t), t)
         nmpc.set_wave(est.field() if est is not None else None)
+        spread = sea_spread(self.source, est is not None)
+        nmpc.set_sea_spread(spread)
         self.estimator_ms.append((time.perf_counter() - start) * 1e3)
+        self._track_spread(t, spread, est is not None)
         if est is not None and self.first_confident_s is None:
             self.first_errors = estimate_metrics(est, self.truth, t, plant.rigid_state, self.horizon_s)
         self._track(t, est is not None, bool(getattr(nmpc, "roll_term_active", True)))
         latest = self.source.latest(t) if hasattr(self.source, "latest") else est
         return latest.row() if latest is not None else {}
+
+    def _track_spread(self, t: float, spread: np.ndarray | None, explained: bool) -> None:
+        """Count the steps planned on the sea's statistics alone; say when that starts and stops."""
+        alone = spread is not None and not explained
+        self.spread_steps += int(alone)
+        if alone and not self._spread_on and spread is not None:
+            self._note(f"t = {t:.1f} s: sea statistics known ({spread_line(spread)}): "
+                       "the roll term acts on the expected roll")
+        elif self._spread_on and not alone:
+            self._note(f"t = {t:.1f} s: the roll term no longer acts on the sea's statistics alone")
+        self._spread_on = alone
 
     def _track(self, t: float, confident: bool, roll_term: bool) -> None:
         """Count confident steps; say when the roll term is off at the start and when confidence changes."""
@@ -215,6 +230,7 @@ class WaveFeed:
         latest = self.source.latest(t_end) if hasattr(self.source, "latest") else None
         out.update(time_to_confident_s=self.first_confident_s,
                    confident_fraction=self.confident_steps / max(self.steps, 1),
+                   sea_statistics_fraction=self.spread_steps / max(self.steps, 1),
                    final_confidence=latest.confidence if latest is not None else 0.0,
                    notes=list(self.notes),
                    at_first_confident={**self.first_errors},

@@ -72,3 +72,9 @@ def phase_offset(solution: WaveSolution, t_s: float, north: float, east: float) 
     s = north * math.cos(solution.travel_dir_rad) + east * math.sin(solution.travel_dir_rad)
     eps = solution.phase_now - solution.omega * t_s + solution.wavenumber * s
     return math.remainder(eps, 2 * math.pi)
+
+
+def plausible(sol: WaveSolution, wavelength_min_m: float, wavelength_max_m: float) -> bool:
+    """Wavelength within [min, max] m, a positive true frequency, all finite."""
+    ok = all(math.isfinite(v) for v in (sol.amplitude_m, sol.wavenumber, sol.omega, sol.phase_now))
+    return ok and sol.omega > 0 and wavelength_min_m <= 2 * math.pi / sol.wavenumber <= wavelength_max_m

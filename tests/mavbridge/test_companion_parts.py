@@ -297,7 +297,8 @@ def _fly(nmpc: Any, seconds: float, heading: Callable[[float], float] = lambda t
             assert np.all(np.isfinite(x)), f"a non-finite state at t = {t}"
             result = nmpc.solve(x, t, (200.0, 200.0))
             assert np.all(np.isfinite(result.tau)), f"a non-finite input at t = {t}: {result.status}"
-            assert result.roll_term_active == bool(gate.confident)
+            # the roll term acts on a confident wave, or on the sea's statistics alone
+            assert result.roll_term_active == bool(gate.confident or gate.statistics_only)
             confident.append((t, bool(gate.confident)))
     return Flight(gate, state, lines, confident, seen)
 
@@ -329,6 +330,7 @@ def test_bad_attitude_degrades_to_no_roll_term_and_never_a_nan_input(nmpc: Any, 
     flight = _fly(nmpc, 44.0, edit=edit)
     assert any(flight.confident_between(20.0, 32.0)), "not confident before the fault"
     assert not any(flight.confident_between(37.0, 38.5)), "still flying on the wave after the fault"
+    assert not flight.gate.statistics_only, "a blind boat still planned on the sea's statistics"
     assert any("estimate no longer confident" in line for line in flight.lines), flight.lines
     if edit is _nan_attitude:
         assert flight.state.rejected >= 70  # every NaN ATTITUDE was dropped before the estimator saw it
@@ -352,10 +354,13 @@ def test_a_missing_imu_stream_uses_the_gps_height(nmpc: Any) -> None:
 
 
 def test_a_boat_at_rest_without_heave_never_gets_a_roll_term(nmpc: Any) -> None:
-    """No heave and no speed: no Doppler, no wavenumber; the controller stays Direct, inputs finite."""
+    """No heave and no speed: no Doppler, no wavenumber, so no wave to plan on; inputs finite. The sea's
+    statistics need neither: after their 30 s the expected-roll term acts on them alone."""
     flight = _fly(nmpc, 40.0, speed=0.0, heave=False)
     assert flight.confident and not any(on for _, on in flight.confident)
-    assert flight.gate.summary([])["roll_term_fraction"] == 0.0 and flight.gate.changes == 0
+    summary = flight.gate.summary([])
+    assert summary["roll_term_fraction"] == 0.0 and flight.gate.changes == 0
+    assert 0.0 < summary["sea_statistics_fraction"] < 0.4 and flight.gate.statistics_only
     assert flight.samples_seen >= 790
 
 

@@ -1,0 +1,74 @@
+"""The companion's start-up, between connecting and the control loop, and its wave hand-over.
+
+``start_flight`` runs the sequence once per run: wait for the autopilot, prepare the output path,
+request the streams, load the mission, measure the rates (and pin the fastest IMU stream), check the
+waypoints' range before anything moves, make the cold full solve so every step in the loop starts
+warm, then set the mode and arm only when the operator asked (``--set-mode``/``--arm``).
+``wave_step`` hands the wave source's answer (and its sea statistics) to the NMPC once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from vessel.config import ConfigError
+
+from .engage_gate import check_waypoints
+from .link import Link, mavlink
+from .nmpc import RollAwareNmpc
+from .rover_modes import mode_name
+from .seasource import SCENARIO_TRUTH, WaveSource, sea_spread
+from .streams import imu_rate, measure_rates, request_streams
+
+
+def log_result(log: Callable[[str], None], what: str, result: int | None) -> None:
+    """Warn when a command was not accepted."""
+    if result != mavlink.MAV_RESULT_ACCEPTED:
+        reason = "no answer" if result is None else mavlink.enums["MAV_RESULT"][result].name
+        log(f"warning: {what} not accepted ({reason})")
+
+
+def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, float]:
+    """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
+    returns the estimate's log columns."""
+    estimate = waves.estimate(t_s)
+    try:
+        nmpc.set_wave(estimate.field() if estimate is not None else None)
+    except (ConfigError, ValueError):  # a wave the model refuses (breaking, not finite): no roll term, no crash
+        nmpc.set_wave(None)
+        estimate = None
+    nmpc.set_sea_spread(sea_spread(waves, estimate is not None))
+    return estimate.row() if estimate is not None else {}
+
+
+def start_flight(c: Any, link: Link) -> None:
+    """Autopilot, output path, streams, mission, rates, the cold solve; then mode and arming if asked
+    (``c``: the ``Companion`` whose parts this prepares)."""
+    sysid, compid = link.wait_autopilot(c.config.connect_timeout_s)
+    c.log(f"autopilot {sysid}/{compid} on {c.config.connect}; we are {c.config.system_id}/"
+          f"{c.config.component_id}; output {c.config.output}" + ("" if c.output.sends else " (dry run)"))
+    c.output.prepare(link)
+    request_streams(link, c.period_s, c.log)
+    c.mission.load(link, c.state.set_home)
+    rates = c.events.rates_hz = measure_rates(link, lambda: c.state.attitude_ms)
+    c.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
+    boat = (float(c.state.vector()[0]), float(c.state.vector()[1])) if c.state.ready() else None
+    check_waypoints(c.mission.waypoints, c.config.max_range_m, boat)  # before arming or any mode change
+    imu, imu_hz = imu_rate(rates)
+    c.state.use_imu(imu)  # the fastest IMU stream, not the first to arrive
+    if c.waves.name != SCENARIO_TRUTH:
+        c.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
+              "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
+    if c.state.ready() and c.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
+        t_s = (c.state.attitude_ms or 0) / 1000.0
+        wave_step(c.waves, c.nmpc, t_s)
+        prepared = c.nmpc.prepare(c.state.vector(), t_s, c.mission.waypoints[0])
+        c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
+              f"({prepared.status})")
+    c.supervisor.self_commanded = c.set_mode or c.arm
+    if c.set_mode:
+        mode = c.supervisor.expected_mode = c.output.required_mode
+        log_result(c.log, f"mode {mode_name(mode)}", link.set_mode(mode))
+    if c.arm:
+        log_result(c.log, "arming", link.arm())

@@ -1,0 +1,105 @@
+"""The sea's slope statistics and the NMPC's expected-roll term: measured from the hull's motion, factored
+for the solvers, and steering the plan away from beam seas only when R > 0."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
+from mavbridge.nmpc.sea_spread import slope_factor
+from mavbridge.seasource import MotionSample, spread_line
+from mavbridge.waves import WaveEstimator
+from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea
+from mavbridge.waves.spread import SPREAD_MIN_S, SlopeSpread
+from vessel import otter_parameters
+
+BEAM_SPREAD = np.array([[0.0, 0.0], [0.0, 0.0085]])  # slope along East-West only (waves travelling West)
+
+
+@pytest.mark.parametrize("cov", [BEAM_SPREAD, np.array([[0.004, 0.001], [0.001, 0.003]]),
+                                 np.array([[0.002, -0.002], [-0.002, 0.002]])])
+def test_slope_factor_reproduces_the_covariance(cov: np.ndarray) -> None:
+    l_nn, l_en, l_ee = slope_factor(cov)
+    lower = np.array([[l_nn, 0.0], [l_en, l_ee]])
+    np.testing.assert_allclose(lower @ lower.T, cov, atol=1e-15)
+
+
+def test_slope_factor_of_none_is_zero_and_bad_covariances_are_refused() -> None:
+    np.testing.assert_array_equal(slope_factor(None), np.zeros(3))
+    for bad, why in ((np.array([[np.nan, 0], [0, 1.0]]), "finite"), (np.array([[1.0, 0.2], [0.1, 1.0]]), "symmetric"),
+                     (np.array([[1.0, 2.0], [2.0, 1.0]]), "semi-definite"), (np.eye(3), "2x2")):
+        with pytest.raises(ValueError, match=why):
+            slope_factor(bad)
+
+
+def test_slope_spread_is_offered_after_its_observation_time_and_turns_do_not_reset_it() -> None:
+    spread, dt, amp, omega = SlopeSpread(), 0.05, 0.1, 1.2
+    t = 0.0
+    while t < SPREAD_MIN_S - 1.0:
+        # heading North, the slope across the hull: an East-West slope in NED
+        spread.update(amp * math.sin(omega * t), 0.0, 0.0, dt)
+        t += dt
+    assert spread.covariance(0.004) is None  # not yet observed long enough
+    while t < 90.0:
+        psi = 0.0 if t < 60.0 else math.pi / 2  # a 90° turn: the same East-West slope is now along the hull
+        across, along = (amp * math.sin(omega * t), 0.0) if psi == 0.0 else (0.0, amp * math.sin(omega * t))
+        spread.update(across, along, psi, dt)
+        t += dt
+    cov = spread.covariance(0.004)
+    assert cov is not None
+    assert cov[1, 1] == pytest.approx(amp**2 / 2, rel=0.1)  # East-West: the sinusoid's variance
+    assert abs(cov[0, 0]) < 1e-6 and abs(cov[0, 1]) < 1e-6
+    assert spread.covariance(0.2) is None  # below the smallest slope that counts
+    assert "along 90 deg" in spread_line(cov)
+
+
+def _estimator_in_paper_sea(seconds: float) -> WaveEstimator:
+    boat = KinematicBoat(paper_sea(0.7), 1.5, lambda t: math.radians(45.0))
+    est = WaveEstimator()
+    for sample in motion_samples(boat, seconds, seed=3, t0=100.0):
+        est.observe(sample)
+    return est
+
+
+def test_in_a_regular_sea_a_confident_wave_explains_nearly_all_of_the_spread() -> None:
+    est = _estimator_in_paper_sea(60.0)
+    total, rest = est.spread(explained=False), est.spread(explained=True)
+    assert total is not None and rest is not None
+    # the paper's wave travels West: its slope is East-West, RMS = (H/2)·k/√2 ≈ 0.11 rad
+    assert math.sqrt(total[1, 1]) == pytest.approx(0.875 * 2 * math.pi / 35.0 / math.sqrt(2), rel=0.25)
+    assert total[0, 0] < 0.2 * total[1, 1]
+    assert np.trace(rest) < 0.2 * np.trace(total)
+
+
+def test_nan_and_frozen_attitudes_do_not_count_as_observation() -> None:
+    est = WaveEstimator()
+    for i in range(2 * int(SPREAD_MIN_S / 0.05)):
+        att = np.array([np.nan, 0.0, 0.0]) if i % 2 else np.array([0.05, 0.0, 0.0])  # half NaN, half frozen
+        est.observe(MotionSample(0.05 * i, att, np.zeros(3), np.zeros(3), np.zeros(3), None))
+    assert est.spread(explained=False) is None
+
+
+def _plan_headings(r: float, spread: np.ndarray | None) -> np.ndarray:
+    """Headings (rad) of the planned states from a boat heading 20° East of North at 1 m/s to a waypoint
+    60 m North (exactly North would be a stationary point of the symmetric problem)."""
+    cfg = NmpcConfig(horizon=40, solver="ipopt", r=r)
+    with RollAwareNmpc(cfg, otter_parameters()) as nmpc:
+        nmpc.set_wave(None)
+        nmpc.set_sea_spread(spread)
+        x = np.zeros(12)
+        x[5], x[6] = math.radians(20.0), 1.0
+        result = nmpc.prepare(x, 0.0, (60.0, 0.0))
+        assert result.success, result.status
+        return np.asarray(result.states)[:, 5]
+
+
+def test_expected_roll_turns_the_plan_out_of_beam_seas_only_with_r() -> None:
+    plain = _plan_headings(1550.0, None)
+    spread = _plan_headings(1550.0, BEAM_SPREAD)
+    direct = _plan_headings(0.0, BEAM_SPREAD)
+    assert plain[-1] < math.radians(15.0)  # no sea known: turning back onto the waypoint's bearing
+    assert spread[-1] > plain[-1] + math.radians(5.0)  # beam seas expected: it stays turned towards head seas
+    np.testing.assert_array_equal(direct, _plan_headings(0.0, None))  # R = 0: the term is nothing
