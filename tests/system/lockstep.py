@@ -6,10 +6,12 @@ import pytest
 
 from sim_vehicle.harness import SimProcess
 
-# autopilot time from which lockstep runs command: after the startup (10 s wall at 10x; the held first tick
-# waits 20 s more for a slow one), and 17 whole periods of the paper's 6 s wave, so that the sea (phase from
-# boot) meets the boat as at t = 0 of the in-process runs these are compared with
-START_AT_S = 102.0
+# autopilot time from which lockstep runs command: after the companion's startup (16 s wall at 10x: its
+# streams, mission, rate measurement and cold solve must be done before it, or it measures the rates of a
+# held simulator and meets its first tick with the default stream rates; at 10 s wall a CI run at load 6.7
+# on two cores was late), the held first tick waiting 20 s more; and 27 whole periods of the paper's 6 s
+# wave, so that the sea (phase from boot) meets the boat as at t = 0 of the in-process runs
+START_AT_S = 162.0
 # the lockstep tests compare with in-process runs on the true sea: the companion flies on it too
 LOCKSTEP = ("--lockstep", "--start-at", str(START_AT_S), "--waves", "scenario")
 # a tick waits up to 20 s wall (only a hung companion times out; the first tick includes the cold solve);
