@@ -2,13 +2,10 @@
 (stamped on the autopilot's clock, ``mavbridge.tlog``).
 
 Only messages from the autopilot found by the first ArduPilot Rover/boat HEARTBEAT are passed on;
-garbage, bad CRCs and other systems or components are counted and dropped. On a UDP server port
-pymavlink writes to every address that ever sent a datagram; we send only to the autopilot's address,
-so a stray sender on the port never receives our commands. That address is pinned at the autopilot's
-first heartbeat, and a datagram from any other address is foreign even when it carries the autopilot's
-system and component id (anyone can write those): another address takes over only with an autopilot
-heartbeat after ADDRESS_FORGET_S without a word from the pinned one (a restarted simulator). On a
-serial link there is no address to go by; MAVLink 2 signing is the defence there.
+garbage, bad CRCs and other systems or components are counted and dropped. Which datagrams are the
+autopilot's (its pinned UDP address, duplicates and late heartbeats by sequence number) is decided in
+``mavbridge.link_filter``; the retrying requests (COMMAND_LONG, PARAM_REQUEST_READ) are in
+``mavbridge.link_requests``. ``Link`` holds those parts and keeps the one interface the companion uses.
 """
 
 from __future__ import annotations
@@ -16,7 +13,6 @@ from __future__ import annotations
 import os
 import select
 import time
-from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,45 +20,48 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
-from .retry import IN_PROGRESS_FACTOR, RetryPolicy, RetrySettings, ask, give_up_line
+from . import link_requests
+from .link_filter import (  # noqa: F401  (re-exported: the link's constants have always been read from here)
+    ADDRESS_FORGET_S,
+    ROVER_TYPES,
+    SEQ_FORGET_S,
+    SEQ_WINDOW,
+    AutopilotAddress,
+    SequenceFilter,
+    is_autopilot_heartbeat,
+)
+from .link_requests import command_name  # noqa: F401  (re-exported)
+from .retry import RetryPolicy, RetrySettings
 from .signing import LinkSettings, sign_link
 from .tlog import AutopilotClockTlog
 
 mavlink = mavutil.mavlink
 MAV_AUTOPILOT_INVALID = 8
-ROVER_TYPES = {mavlink.MAV_TYPE_GROUND_ROVER, mavlink.MAV_TYPE_SURFACE_BOAT}
 MAV_COMP_ID_ONBOARD_COMPUTER = 191
-SEQ_FORGET_S = 0.5  # wall seconds without a message from the autopilot after which its sequence restarts
-SEQ_WINDOW = 64  # sequence numbers remembered for spotting duplicates (they wrap at 256)
-ADDRESS_FORGET_S = 1.0  # wall seconds of silence from the autopilot's UDP address before another may take over
-
-
-class _AddressRecordingSocket:
-    """Wraps a UDP socket so the sender of the last datagram read is known (pymavlink keeps only a set)."""
-
-    def __init__(self, sock: Any) -> None:
-        self._sock = sock
-        self.last_sender: Any = None
-
-    def recvfrom(self, size: int) -> tuple[bytes, Any]:
-        data, address = self._sock.recvfrom(size)
-        self.last_sender = address
-        return data, address
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._sock, name)
 
 Handler = Callable[[Any], None]
 
 
-def command_name(command: int) -> str:
-    """MAV_CMD_... name of a command number (the number if the dialect has none)."""
-    entry = mavlink.enums["MAV_CMD"].get(command)
-    return entry.name if entry is not None else str(command)
-
-
 class LinkError(RuntimeError):
     """The link cannot do what was asked (no autopilot, no answer); one line for the user."""
+
+
+def _connect(url: str, system_id: int, component_id: int, baud: int) -> Any:
+    """pymavlink's connection for ``url`` as (system_id, component_id); a bad URL, port or device is a LinkError."""
+    try:
+        return mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
+                                          baud=baud, autoreconnect=True, dialect="ardupilotmega")
+    except Exception as exc:  # pymavlink raises many kinds for bad URLs, ports and devices
+        raise LinkError(f"connection {url!r}: {exc}") from None
+
+
+def _open_tlog(tlog_path: str | Path | None, conn: Any) -> AutopilotClockTlog | None:
+    """The .tlog of both ways (None without a path); a file that cannot be written closes ``conn``: LinkError."""
+    try:
+        return AutopilotClockTlog(tlog_path) if tlog_path else None
+    except OSError as exc:
+        conn.close()
+        raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
 
 
 class Link:
@@ -71,19 +70,12 @@ class Link:
     def __init__(self, url: str, system_id: int = 255, component_id: int = MAV_COMP_ID_ONBOARD_COMPUTER,
                  tlog_path: str | Path | None = None, baud: int = 921600, settings: RetrySettings | None = None,
                  log: Callable[[str], None] = print) -> None:
-        try:
-            self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
-                                                   baud=baud, autoreconnect=True, dialect="ardupilotmega")
-        except Exception as exc:  # pymavlink raises many kinds for bad URLs, ports and devices
-            raise LinkError(f"connection {url!r}: {exc}") from None
+        self.conn = _connect(url, system_id, component_id, baud)
         self.url = url
         self.mav = self.conn.mav
         self.target: tuple[int, int] | None = None
-        self._autopilot_address: Any = None
-        self._autopilot_seen = 0.0  # wall time of the last datagram from that address
-        self._udp_server = isinstance(self.conn, mavutil.mavudp) and self.conn.udp_server
-        if self._udp_server:
-            self.conn.port = _AddressRecordingSocket(self.conn.port)
+        self._address = AutopilotAddress(self.conn)  # on a UDP server port: the autopilot's, the only one we write to
+        self._sequence = SequenceFilter()
         self.system_id = system_id
         self.retry = settings.retry_policy() if settings is not None else RetryPolicy()
         key = settings.signing_key() if isinstance(settings, LinkSettings) else None
@@ -91,18 +83,11 @@ class Link:
         if key is not None:
             sign_link(self.conn, key)
         self.log = log  # give-up lines (one per abandoned request)
-        try:
-            self._tlog = AutopilotClockTlog(tlog_path) if tlog_path else None
-        except OSError as exc:
-            self.conn.close()
-            raise LinkError(f"{tlog_path}: cannot write the log ({exc.strerror or exc})") from None
+        self._tlog = _open_tlog(tlog_path, self.conn)
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
         self.idle_hooks: list[Callable[[], None]] = []  # run between messages (never inside a handler)
         self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "unsigned": 0, "stale": 0, "retries": 0}
-        self._last_seq: int | None = None
-        self._last_seq_wall = 0.0
-        self._recent_seqs: deque[int] = deque(maxlen=SEQ_WINDOW)
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
 
@@ -122,11 +107,6 @@ class Link:
         self.conn.close()
 
     # -- receiving --------------------------------------------------------------------------------
-    def _is_autopilot_heartbeat(self, msg: Any) -> bool:
-        """An ArduPilot Rover or boat (a gimbal, radio or GCS on the link is not the autopilot)."""
-        return (msg.get_type() == "HEARTBEAT" and msg.autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
-                and msg.type in ROVER_TYPES)
-
     def recv(self, timeout_s: float) -> Any | None:
         """The next message from the autopilot (after handlers ran), or None on timeout or a dropped one.
 
@@ -143,12 +123,12 @@ class Link:
             self.counts["unsigned" if "signature" in str(getattr(msg, "reason", "")) else "bad"] += 1
             return None
         source = (msg.get_srcSystem(), msg.get_srcComponent())
-        if self.target is None and self._is_autopilot_heartbeat(msg):
+        if self.target is None and is_autopilot_heartbeat(msg):
             self.target = source
-        if source != self.target or not self._from_autopilot_address(msg):
+        if source != self.target or not self._address.admits(msg):
             self.counts["foreign"] += 1
             return None
-        if self._out_of_order(msg):
+        if self._sequence.out_of_order(msg):
             self.counts["stale"] += 1
             return None
         if self._tlog is not None:
@@ -159,38 +139,6 @@ class Link:
         for handler in self.handlers:
             handler(msg)
         return msg
-
-    def _from_autopilot_address(self, msg: Any) -> bool:
-        """True unless, on a UDP server port, the datagram came from another address than the autopilot's
-        (pinned at its first heartbeat; re-pinned by an autopilot heartbeat after ADDRESS_FORGET_S of silence)."""
-        if not self._udp_server:
-            return True
-        sender, now = self.conn.port.last_sender, time.monotonic()
-        if sender != self._autopilot_address and self._is_autopilot_heartbeat(msg) and \
-                (self._autopilot_address is None or now - self._autopilot_seen >= ADDRESS_FORGET_S):
-            self._autopilot_address = sender
-        if sender != self._autopilot_address:
-            return False
-        self._autopilot_seen = now
-        return True
-
-    def _out_of_order(self, msg: Any) -> bool:
-        """A datagram the link duplicated (its MAVLink sequence number among the last SEQ_WINDOW seen), or a
-        HEARTBEAT delivered late (its number behind the newest): a stale one from before arming must not read
-        as a disarm. Other late messages still count (an ACK is an ACK; telemetry carries its own time).
-        After SEQ_FORGET_S of silence (an outage, a reboot) numbering starts afresh."""
-        seq, now = msg.get_seq(), time.monotonic()
-        if now - self._last_seq_wall >= SEQ_FORGET_S:
-            self._recent_seqs.clear()
-            self._last_seq = None
-        self._last_seq_wall = now
-        if seq in self._recent_seqs:
-            return True
-        self._recent_seqs.append(seq)
-        behind = self._last_seq is not None and (seq - self._last_seq) % 256 >= 128
-        if not behind:
-            self._last_seq = seq
-        return behind and msg.get_type() == "HEARTBEAT"
 
     def pending(self) -> bool:
         """True if bytes wait in the socket or device (pymavlink's own buffer may hold a partial frame: ignored)."""
@@ -227,15 +175,9 @@ class Link:
         return self.target
 
     # -- sending ----------------------------------------------------------------------------------
-    def _pin(self) -> None:
-        """On a UDP server port, write only to the autopilot's address."""
-        if self._udp_server and self._autopilot_address is not None:
-            self.conn.clients = {self._autopilot_address}
-            self.conn.clients_last_alive[self._autopilot_address] = time.time()
-
     def send(self, name: str, *args: Any) -> None:
         """Send message ``name`` (e.g. 'rc_channels_override') with its fields in order."""
-        self._pin()
+        self._address.pin()  # on a UDP server port: to the autopilot's address only
         getattr(self.mav, f"{name}_send")(*args)
 
     def heartbeat_if_due(self, period_s: float = 1.0) -> None:
@@ -249,56 +191,18 @@ class Link:
             self.send("heartbeat", mavlink.MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0,
                       mavlink.MAV_STATE_ACTIVE)
 
-    def _count_retry(self) -> None:
-        self.counts["retries"] += 1
-
+    # -- requests that wait for an answer (mavbridge.link_requests) ----------------------------------
     def command_long(self, command: int, params: tuple[float, ...], policy: RetryPolicy | None = None) -> int | None:
-        """COMMAND_LONG to the autopilot, resent (``confirmation`` + 1) until a COMMAND_ACK for it arrives.
-
-        After MAV_RESULT_IN_PROGRESS nothing is resent; the final ACK is awaited ten timeouts. Returns the
-        result, or None after the last try (one line says so).
-        """
-        assert self.target is not None, "wait_autopilot() first"
-        policy = policy or self.retry
-        target = self.target
-        p = list(params) + [0.0] * (7 - len(params))
-        name = command_name(command)
-        self.drain()  # a late or duplicated ACK of an earlier command must not stand for this one
-
-        def is_ack(m: Any) -> bool:
-            return (m.get_type() == "COMMAND_ACK" and m.command == command
-                    and getattr(m, "target_system", 0) in (0, self.system_id))
-
-        ack, tries = ask(lambda attempt: self.send("command_long", target[0], target[1], command, min(attempt, 255),
-                                                   *p), self.wait_for, is_ack, policy, self._count_retry)
-        if ack is not None and ack.result == mavlink.MAV_RESULT_IN_PROGRESS:
-            wait_s = policy.timeout_s * IN_PROGRESS_FACTOR
-            ack = self.wait_for(lambda m: is_ack(m) and m.result != mavlink.MAV_RESULT_IN_PROGRESS, wait_s)
-            if ack is None:
-                self.log(f"link: COMMAND_LONG {name}: IN_PROGRESS, then no final COMMAND_ACK within {wait_s:g} s")
-                return None
-        if ack is None:
-            self.log(give_up_line(f"COMMAND_LONG {name}", "COMMAND_ACK", tries, policy.timeout_s))
-            return None
-        return int(ack.result)
+        """COMMAND_LONG, resent until its COMMAND_ACK (``link_requests.command_long``); the result or None."""
+        return link_requests.command_long(self, command, params, policy)
 
     def read_optional_parameter(self, name: str) -> float | None:
         """A parameter that older firmware (or a simulator) may not have: asked briefly, silent if absent."""
         return self.read_parameter(name, self.retry.for_optional(), quiet=True)
 
     def read_parameter(self, name: str, policy: RetryPolicy | None = None, quiet: bool = False) -> float | None:
-        """PARAM_REQUEST_READ by name, resent on each timeout; the value, or None when no answer came."""
-        assert self.target is not None, "wait_autopilot() first"
-        policy = policy or self.retry
-        target = self.target
-        reply, tries = ask(lambda _attempt: self.send("param_request_read", target[0], target[1], name.encode(), -1),
-                           self.wait_for, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, policy,
-                           (lambda: None) if quiet else self._count_retry)  # absent optional ones are no retries
-        if reply is None:
-            if not quiet:
-                self.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))
-            return None
-        return float(reply.param_value)
+        """PARAM_REQUEST_READ by name, resent on each timeout (``link_requests.read_parameter``); value or None."""
+        return link_requests.read_parameter(self, name, policy, quiet)
 
     def set_mode(self, custom_mode: int) -> int | None:
         """MAV_CMD_DO_SET_MODE with the custom-mode flag; returns the ACK result."""

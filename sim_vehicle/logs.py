@@ -43,7 +43,7 @@ class TlogWriter:
     Every frame received is logged. A message sent is logged once, however many channels carry it: the
     vehicle's telemetry goes to each output (two UDP outputs and a TCP client each get their own copy of the
     same ATTITUDE whenever their streams fall due together), and a lockstep hold repeats its tick's ATTITUDE
-    to the controller (``Simulator._repeat_tick``); logging each copy filled the log with identical rows at
+    to the controller (``sim_hold.LockstepHold._repeat_tick``); logging each copy filled the log with identical rows at
     one time_boot_ms. Copies are told apart by what they say (``said``) at the same stamp.
     """
 

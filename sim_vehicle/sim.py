@@ -1,40 +1,36 @@
-"""The simulator: one loop that owns time, stepping MAVLink I/O, the autopilot and the plant at 100 Hz."""
+"""The simulator: one loop that owns time, stepping MAVLink I/O, the autopilot and the plant at 100 Hz.
+
+Its parts: the ports it opens at each boot (``sim_ports``), where simulated time is held still — a lockstep tick,
+the wait for a first client (``sim_hold``) — and what it writes to ``--log-dir`` (``sim_logs``).
+"""
 
 from __future__ import annotations
 
 import logging
-import select
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from vessel import World, world_preset
-from vessel.config import ConfigError
 from vessel.geo import Home
 
 from .battery import Battery
 from .clock import Pacer
 from .gcs import Gcs
-from .json_backend_log import write_sea_record
-from .link import Channel
-from .lockstep import DEFAULT_TIMEOUT_S, Lockstep
-from .logs import StateCsv, TlogWriter
+from .lockstep import DEFAULT_TIMEOUT_S
 from .mission import MissionStore
 from .modes import Mode
-from .params import ParamTable, baud_from_code
+from .params import ParamTable
 from .physics import PHYSICS_DT_S, Physics, nav_state
-from .telemetry import FIRMWARE_VERSION, Telemetry
+from .sim_hold import make_lockstep_hold, wait_for_first_client
+from .sim_logs import SimLogs
+from .sim_ports import banner, open_ports
+from .telemetry import Telemetry
 from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
-CSV_FLUSH_S = 1.0
-HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is held
-RESEND_WALL_S = 0.25  # lockstep: a held tick repeats its HEARTBEAT and ATTITUDE this often (lost datagrams)
-FRAME_CLASS_BOAT = 2
-SERIAL_PORT_CHANNEL = 2  # --serial plays SERIAL2, the Otter companion's port, whose rates are SR2_*
 REBOOT_SILENCE_S = 2.0  # wall seconds a reboot is silent (an autopilot's boot; SITL's restart)
 
 
@@ -75,8 +71,7 @@ class Simulator:
         self.home = opts.home
         self.store = MissionStore(opts.mission_store)
         self.boot_unix_us = int(time.time() * 1e6)
-        self.tlog = TlogWriter(opts.log_dir / "sim_vehicle.tlog", self.unix_us) if opts.log_dir else None
-        self.csv = StateCsv(opts.log_dir / "state.csv") if opts.log_dir else None
+        self.logs = SimLogs(opts.log_dir, self.unix_us)
         self.running = True
         self.boots = 0
         self._boot()
@@ -92,40 +87,18 @@ class Simulator:
         self.physics = Physics.create(opts.world, opts.seed, opts.surface_heave)
         self.physics.attach_sensing(self.params.__getitem__, opts.ideal_sensors, opts.noise_seed)
         self.startup_s = time.monotonic() - started  # an irregular plant compiles (vessel.jit) before time starts
-        if opts.log_dir is not None and self.boots == 1:
-            write_sea_record(opts.log_dir / "sea.json", opts.seed, self.physics.plant.waves,
-                             self.physics.plant.current, opts.world.vessel, opts.world.plant_state(),
-                             note="known to the simulator only; nothing it sends over MAVLink carries the sea")
+        if self.boots == 1:
+            self.logs.write_sea(self.physics, opts.world, opts.seed)
         self.battery = Battery()
         self.vehicle = Vehicle(self.params, self.home, self.store, self._text, self._reached, opts.rc_receiver)
-        self.telemetry = Telemetry(
-            self.physics,
-            self.vehicle,
-            self.home,
-            self.params,
-            self.store,
-            self.vehicle.runner,
-            self.battery,
-            self.boot_unix_us,
-        )
-        self.gcs = Gcs(
-            self.params,
-            self.vehicle,
-            self.telemetry,
-            self.store,
-            self.home,
-            self._banner(),
-            self.tlog.write if self.tlog else None,
-        )
-        if opts.tcp_port is not None:
-            self.gcs.add_tcp_server(opts.tcp_host, opts.tcp_port)
-        for host, port in opts.outputs:
-            self.gcs.add_udp(host, port)
-        if opts.serial is not None:
-            self._open_serial(*opts.serial)
+        self.telemetry = Telemetry(self.physics, self.vehicle, self.home, self.params, self.store,
+                                   self.vehicle.runner, self.battery, self.boot_unix_us)
+        self.gcs = Gcs(self.params, self.vehicle, self.telemetry, self.store, self.home, banner(self.params),
+                       self.logs.tlog.write if self.logs.tlog else None)
+        open_ports(self.gcs, self.params, (opts.tcp_host, opts.tcp_port), opts.outputs, opts.serial)
         self.n_cmd = (0.0, 0.0)
-        self.lockstep = self._make_lockstep()
-        self._controller_channel: int | None = None  # id() of the channel the controller commands on
+        self.hold = make_lockstep_hold(opts.lockstep_period_s, opts.lockstep_timeout_s, opts.lockstep_start_s,
+                                       self.params, self.gcs, self.telemetry, self.vehicle)  # --lockstep
 
     def _reboot(self) -> Pacer:
         """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (param1 1), as SITL restarts: the links close, nothing is said for
@@ -137,40 +110,6 @@ class Simulator:
         self._boot()
         return Pacer(self.opts.speedup)
 
-    def _make_lockstep(self) -> Lockstep | None:
-        """--lockstep: the controller is SYSID_MYGCS, as for RC overrides; its commands are watched here."""
-        if self.opts.lockstep_period_s is None:
-            if self.opts.lockstep_start_s is not None:
-                raise ConfigError("--lockstep-start needs --lockstep")
-            return None
-        lock = Lockstep(self.opts.lockstep_period_s, self.opts.lockstep_timeout_s, int(self.params["SYSID_MYGCS"]),
-                        self.opts.lockstep_start_s)
-        self.gcs.lockstep_order = True
-        self.gcs.message_hooks.append(self._watch_commands)
-        return lock
-
-    def _watch_commands(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
-        """Feed every incoming message to the lockstep; remember the channel the controller commands on."""
-        assert self.lockstep is not None
-        was = self.lockstep.command_arrived()
-        self.lockstep.on_message(msg.get_type(), msg.get_srcSystem())
-        if self.lockstep.command_arrived() and not was:
-            self._controller_channel = id(channel)
-
-    def _open_serial(self, device: str, baud: int | None) -> None:
-        """The companion's port, as SERIAL2 of an autopilot: MAVLink only if SERIAL2_PROTOCOL says so, SR2_* rates."""
-        protocol = int(self.params["SERIAL2_PROTOCOL"])
-        if protocol not in (1, 2):
-            raise ConfigError(f"--serial: SERIAL2_PROTOCOL is {protocol}, so that port would not speak MAVLink "
-                              "(set it to 2 = MAVLink2)")
-        if baud is None:
-            try:
-                baud = baud_from_code(self.params["SERIAL2_BAUD"])
-            except ValueError as exc:
-                raise ConfigError(f"SERIAL2_BAUD: {exc}") from None
-        self.gcs.add_serial(device, baud, SERIAL_PORT_CHANNEL)
-        log.info("serving MAVLink on %s at %d baud (SERIAL2, stream rates SR%d_*)", device, baud, SERIAL_PORT_CHANNEL)
-
     def unix_us(self) -> int:
         """Simulated Unix time in µs (boot wall time + simulated time)."""
         return self.boot_unix_us + round(self.physics.plant.time * 1e6)
@@ -178,12 +117,6 @@ class Simulator:
     def _text(self, severity: int, text: str) -> None:
         """STATUSTEXT from the vehicle logic to every channel."""
         self.gcs.text(severity, text)
-
-    def _banner(self) -> list[str]:
-        """The STATUSTEXT lines Rover sends when a GCS asks for all parameters (firmware and frame)."""
-        major, minor, patch = FIRMWARE_VERSION
-        frame = "Frame: BOAT" if self.params["FRAME_CLASS"] == FRAME_CLASS_BOAT else "Frame: ROVER"
-        return [f"ArduRover V{major}.{minor}.{patch} (sim_vehicle Otter SITL)", frame]
 
     def _reached(self, seq: int) -> None:
         """MISSION_ITEM_REACHED to every channel when a nav item completes."""
@@ -201,113 +134,43 @@ class Simulator:
         x = plant.step(self.n_cmd)
         if self.physics.sensing is not None:
             self.physics.sensing.update()
-        self._log_state(x)
+        self.logs.state(self.physics, x, self.n_cmd, self.vehicle)
         self.gcs.send_due(plant.time)
-
-    def _log_state(self, x: np.ndarray) -> None:
-        """One CSV row of the true state after a step."""
-        if self.csv is None:
-            return
-        t = self.physics.plant.time
-        wave = self.physics.wave_at(float(x[0]), float(x[1]), t)
-        self.csv.write(t, x, self.n_cmd, wave, int(self.vehicle.mode), self.vehicle.armed)
 
     def run(self) -> None:
         """Loop until stopped (signal) or the optional duration has passed."""
-        plant = self.physics.plant
-        last_flush = time.monotonic()
-        if self.csv is not None:
-            self.csv.write(
-                plant.time,
-                plant.state,
-                self.n_cmd,
-                self.physics.wave_at(0.0, 0.0, 0.0),
-                int(self.vehicle.mode),
-                self.vehicle.armed,
-            )
+        self.logs.first_state(self.physics, self.n_cmd, self.vehicle)
         log.info("sim_vehicle running: mode %s, speedup %g", Mode(self.vehicle.mode).name, self.opts.speedup)
         try:
             if self.physics.sensing is not None:
                 self.physics.sensing.update()  # the first reading, at t = 0
             if self.opts.wait_for_client:
-                self._hold_until_a_client_speaks()
-            pacer = Pacer(self.opts.speedup)  # simulated time starts now
-            while self.running:
-                if self.opts.duration_s is not None and plant.time >= self.opts.duration_s:
-                    break
-                self.step()
-                if self.gcs.commands.reboot_requested:
-                    pacer, plant = self._reboot(), self.physics.plant
-                    continue
-                if self.lockstep is not None:
-                    self._hold_for_command(self.lockstep, pacer)
-                pacer.wait_until(plant.time)
-                if self.csv is not None and time.monotonic() - last_flush > CSV_FLUSH_S:
-                    self.csv.flush()
-                    last_flush = time.monotonic()
+                self.boot_unix_us = self.telemetry.boot_unix_us = wait_for_first_client(self.gcs, self._running)
+            self._loop(Pacer(self.opts.speedup))  # simulated time starts now
         finally:
             self.close()
 
-    def _hold_for_command(self, lock: Lockstep, pacer: Pacer) -> None:
-        """At a lockstep tick (this step sent ATTITUDE to the controller), read the links until its command.
+    def _running(self) -> bool:
+        """Whether the loop should go on (a signal handler clears ``running``)."""
+        return self.running
 
-        Messages handled while holding are stamped with the tick's time; nothing is sent, so the order of
-        what the controller saw for this tick is fixed. Pacing restarts after the hold (no catching up).
-        """
-        now = self.physics.plant.time
-        if self._controller_channel is None:  # before its first command: ATTITUDE on any channel
-            sent = [i for ids in self.gcs.last_sent.values() for i in ids]
-        else:
-            sent = self.gcs.last_sent.get(self._controller_channel, [])
-        if not lock.is_tick(now, mavlink.MAVLINK_MSG_ID_ATTITUDE in sent):
-            return
-        self.vehicle.now = now
-        start = resent = time.monotonic()
-        while self.running and not lock.command_arrived():
-            waited = time.monotonic() - start
-            if waited > lock.timeout_s:
-                lock.timed_out(now, waited)
+    def _loop(self, pacer: Pacer) -> None:
+        """Step, reboot when asked, hold at lockstep ticks and pace, until stopped or the duration has passed."""
+        while self.running:
+            if self.opts.duration_s is not None and self.physics.plant.time >= self.opts.duration_s:
                 break
-            if time.monotonic() - resent > RESEND_WALL_S:
-                self._repeat_tick()
-                resent = time.monotonic()
-            self.gcs.poll(now)
-            if not lock.command_arrived():
-                select.select(self.gcs.fileno_list(), [], [], HOLD_POLL_S)
-        if lock.command_arrived():
-            lock.released(time.monotonic() - start)
-        pacer.restart(now)
-
-    def _repeat_tick(self) -> None:
-        """The held tick's HEARTBEAT and ATTITUDE again (same time, same content) to the controller's channel:
-        a lost datagram (a lossy link, or a receiver's parser thrown off by noise) must not stall the run, and
-        the controller's link watchdog keeps seeing the autopilot while it computes."""
-        attitude = self.telemetry.build(mavlink.MAVLINK_MSG_ID_ATTITUDE)
-        for channel in self.gcs.channels:  # before the first command (a start hold): every channel
-            if channel.closed or self._controller_channel not in (None, id(channel)):
+            self.step()
+            if self.gcs.commands.reboot_requested:
+                pacer = self._reboot()
                 continue
-            channel.send(self.telemetry.heartbeat())
-            if attitude is not None:
-                channel.send(attitude)
-
-    def _hold_until_a_client_speaks(self) -> None:
-        """Keep simulated time at 0, reading (and answering) the links, until some client sends a message.
-
-        ArduPilot's SITL likewise waits for its SERIAL0 TCP client before it starts; here any link counts
-        (UDP has no connection), and a client speaks first as every GCS does with its own heartbeat.
-        """
-        log.info("waiting for a client to speak before simulated time starts")
-        while self.running and self.gcs.messages_received == 0:
-            self.gcs.poll(0.0)
-            time.sleep(HOLD_POLL_S)
-        self.boot_unix_us = self.telemetry.boot_unix_us = int(time.time() * 1e6)  # the clock starts now
+            if self.hold is not None:
+                self.hold.hold_for_command(self.physics.plant.time, pacer, self._running)
+            pacer.wait_until(self.physics.plant.time)
+            self.logs.flush_if_due()
 
     def close(self) -> None:
         """Close sockets and logs (and say what lockstep did)."""
-        if self.lockstep is not None:
-            log.warning(self.lockstep.stats.summary())
+        if self.hold is not None:
+            log.warning(self.hold.summary())
         self.gcs.close()
-        if self.csv is not None:
-            self.csv.close()
-        if self.tlog is not None:
-            self.tlog.close()
+        self.logs.close()
