@@ -5,6 +5,11 @@ second, which dominated short closed-loop runs (a sweep worker runs hundreds in 
 instance keeps nothing between calls but its last call's statistics, so a closed backend hands its
 instance back to a per-process pool of idle instances (``_IDLE``, by problem structure and options)
 and the next backend of that structure takes it: never two live backends on one instance.
+
+An idle instance holds its expanded NLP (about 150 MB for an irregular sea at P = 10), so the pool is
+bounded in all (``IDLE_TOTAL``, the instance returned longest ago goes first), and a problem with a
+built-in wave field (an irregular sea fed as truth) is not pooled at all: that field is keyed by its
+identity, every run builds a new one, so its instance could never be taken again.
 """
 
 from __future__ import annotations
@@ -19,7 +24,8 @@ from .config import NmpcConfig
 from .functions import ProblemFunctions, build_key
 
 IDLE_PER_KEY = 4  # idle instances kept per structure (a process rarely has more controllers at once)
-_IDLE: dict[tuple, list[ca.Function]] = {}
+IDLE_TOTAL = 8  # idle instances kept in all structures together
+_IDLE: dict[tuple, list[ca.Function]] = {}  # in order of the last return: the longest idle structure first
 _IDLE_LOCK = threading.Lock()
 
 SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -72,10 +78,7 @@ class IpoptBackend:
         """Hand the solver instance back to the idle pool (a later solve here is refused)."""
         solver, self.solver = self.solver, None
         if solver is not None and self._pool_key is not None:
-            with _IDLE_LOCK:
-                idle = _IDLE.setdefault(self._pool_key, [])
-                if len(idle) < IDLE_PER_KEY:
-                    idle.append(solver)
+            _give_back(self._pool_key, solver)
 
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
               lam_w0: np.ndarray | None, lam_g0: np.ndarray | None) -> SolveOutcome:
@@ -105,7 +108,10 @@ class IpoptBackend:
 
 
 def _pool_key(functions: ProblemFunctions, options: dict) -> tuple | None:
-    """The idle pool's key: the problem structure and the options; None (no pooling) if unhashable."""
+    """The idle pool's key: the problem structure and the options; None (no pooling) if unhashable or
+    built on a fixed wave field (never the same object twice: see the module's description)."""
+    if functions.fixed_waves is not None:
+        return None
     key = (build_key(functions.params, functions.fixed_waves, functions.current, functions.cfg),
            tuple(sorted(options.items())))
     try:
@@ -122,6 +128,21 @@ def _take_idle(key: tuple | None) -> ca.Function | None:
     with _IDLE_LOCK:
         idle = _IDLE.get(key)
         return idle.pop() if idle else None
+
+
+def _give_back(key: tuple, solver: ca.Function) -> None:
+    """Put a closed backend's instance in the pool (its structure now the most recent), dropping the
+    instances idle longest beyond ``IDLE_PER_KEY`` and ``IDLE_TOTAL``; they are destroyed outside the lock."""
+    dropped: list[ca.Function] = []
+    with _IDLE_LOCK:
+        idle = [*_IDLE.pop(key, []), solver]
+        cut = max(0, len(idle) - IDLE_PER_KEY)
+        dropped += idle[:cut]
+        _IDLE[key] = idle[cut:]
+        while sum(len(v) for v in _IDLE.values()) > IDLE_TOTAL:
+            oldest = next(v for v in _IDLE.values() if v)
+            dropped.append(oldest.pop(0))
+    dropped.clear()
 
 
 def idle_instances() -> int:

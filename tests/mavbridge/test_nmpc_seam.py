@@ -182,3 +182,37 @@ def test_a_closed_controllers_ipopt_serves_the_next_one_and_only_it() -> None:
         third.close()
     assert any(solver is instance for solver in ipopt._IDLE[key])
     assert len(ipopt._IDLE[key]) <= ipopt.IDLE_PER_KEY
+
+
+def test_a_controller_on_a_fixed_wave_field_keeps_no_idle_instance() -> None:
+    """A built-in field (an irregular sea as truth) is keyed by its identity and every run builds a new one:
+    its IPOPT instance (≈150 MB at P = 10) could never be taken again, so closing drops it."""
+    from mavbridge.nmpc import ipopt
+    from vessel import IrregularSea
+
+    field = IrregularSea(hs_m=1.75, tp_s=6.0, n_components=10, seed=1).wave_field(otter_parameters())
+    before = ipopt.idle_instances()
+    with RollAwareNmpc(NmpcConfig(horizon=3, solver="ipopt"), otter_parameters(), field) as nmpc:
+        assert nmpc._functions.fixed_waves is field and nmpc._backend._pool_key is None
+        assert nmpc.solve(_start(), 0.0, TARGET).success
+    assert ipopt.idle_instances() == before
+
+
+def test_the_idle_pool_is_bounded_over_all_structures(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Structures that never come back (a sweep over horizons or vessel parameters) do not pile up: beyond
+    IDLE_TOTAL the instance returned longest ago is dropped, and the pool still serves the newest."""
+    from mavbridge.nmpc import ipopt
+
+    monkeypatch.setattr(ipopt, "_IDLE", {})
+    monkeypatch.setattr(ipopt, "IDLE_TOTAL", 2)
+    instances = []
+    for horizon in (2, 3, 4):
+        nmpc = RollAwareNmpc(NmpcConfig(horizon=horizon, solver="ipopt"), otter_parameters(), WAVES)
+        instances.append((nmpc._backend._pool_key, nmpc._backend.solver))
+        nmpc.close()
+    assert ipopt.idle_instances() == 2
+    (oldest_key, _), *newer = instances
+    assert not ipopt._IDLE.get(oldest_key)  # the horizon-2 instance went first
+    assert all(any(s is solver for s in ipopt._IDLE[key]) for key, solver in newer)
+    with RollAwareNmpc(NmpcConfig(horizon=4, solver="ipopt"), otter_parameters(), WAVES) as again:
+        assert again._backend.solver is newer[-1][1]
