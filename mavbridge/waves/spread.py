@@ -9,8 +9,9 @@ with y = (−sin ψ, cos ψ) the body y axis — beam seas roll it, head and fol
 
 C is offered only after ``min_s`` of valid attitude samples (NaN and frozen attitudes do not count; a
 silence longer than the estimator's ``max_gap_s`` starts the count again) and when the slope is large
-enough to be a sea. Turns do not reset it: the statistics of the surface in NED do not depend on the
-boat's heading (only through the encounter frequency, which moves the hull's response a little).
+enough to be a sea (above the attitude noise: ``NOISE_FLOOR_RAD``). Turns do not reset it: the
+statistics of the surface in NED do not depend on the boat's heading (only through the encounter
+frequency, which moves the hull's response a little).
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from .filters import lpf_gain
 
 SPREAD_TAU_S = 60.0  # time constant of the running covariance: several wave groups
 SPREAD_MIN_S = 30.0  # valid observation needed before the covariance is offered (5 periods of a 6 s sea)
+# an RMS slope below this is no sea: the default 0.2° attitude noise on roll and pitch alone gives 0.005 rad
+NOISE_FLOOR_RAD = 0.01
 
 
 class SlopeSpread:
@@ -51,7 +54,8 @@ class SlopeSpread:
 
     def covariance(self, min_slope_rad: float) -> np.ndarray | None:
         """C (2×2, rad², NED) once ``min_s`` of valid samples are in and the RMS slope ≥ ``min_slope_rad``."""
-        if self.observed_s < self.min_s or math.sqrt(max(self._c[0] + self._c[2], 0.0)) < min_slope_rad:
+        floor = max(min_slope_rad, NOISE_FLOOR_RAD)
+        if self.observed_s < self.min_s or math.sqrt(max(self._c[0] + self._c[2], 0.0)) < floor:
             return None
         c_nn, c_en, c_ee = self._c
         return np.array([[c_nn, c_en], [c_en, c_ee]])

@@ -3,6 +3,7 @@ for the solvers, and steering the plan away from beam seas only when R > 0."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -72,6 +73,15 @@ def test_in_a_regular_sea_a_confident_wave_explains_nearly_all_of_the_spread() -
     assert math.sqrt(total[1, 1]) == pytest.approx(0.875 * 2 * math.pi / 35.0 / math.sqrt(2), rel=0.25)
     assert total[0, 0] < 0.2 * total[1, 1]
     assert np.trace(rest) < 0.2 * np.trace(total)
+
+
+def test_calm_water_seen_through_noisy_sensors_is_no_sea() -> None:
+    """The default attitude noise (0.2°) alone never passes for a sea's slope statistics."""
+    boat = KinematicBoat(dataclasses.replace(paper_sea(0.0), height_m=0.0), 1.0, lambda t: 0.3)
+    est = WaveEstimator()
+    for sample in motion_samples(boat, 60.0, seed=5, t0=10.0):
+        est.observe(sample)
+    assert est.spread(explained=False) is None
 
 
 def test_nan_and_frozen_attitudes_do_not_count_as_observation() -> None:
