@@ -143,23 +143,37 @@ def demo_commands(scenario: Scenario, out: Path, resolved: str, ports: tuple[int
     return sim_cmd, companion_cmd
 
 
+UPLOAD_TRIES = 2  # `mission upload` is idempotent; MAVSDK's process has been seen to die after "accepted"
+
+
+def _upload_waypoint(scenario: Scenario, gcs_port: int) -> bool:
+    """Upload the scenario's waypoint with `mission upload` (MAVSDK); a failed try is said and tried again
+    (a whole upload replaces the mission, so a repeat is harmless). False when every try failed."""
+    north, east = scenario.waypoint.north_m, scenario.waypoint.east_m
+    for attempt in range(1, UPLOAD_TRIES + 1):
+        try:
+            upload = subprocess.run([sys.executable, "-m", "mission.cli", "upload", "--waypoint",
+                                     f"{north:g},{east:g}", "--connect", f"udpin://127.0.0.1:{gcs_port}",
+                                     "--timeout", "20"], capture_output=True, text=True, timeout=120)
+        except subprocess.TimeoutExpired:
+            print(f"demo: mission upload did not finish within 120 s (try {attempt} of {UPLOAD_TRIES})",
+                  file=sys.stderr)
+            continue
+        print(upload.stdout.rstrip())
+        if upload.returncode == 0:
+            return True
+        print(f"demo: mission upload failed with exit status {upload.returncode} (try {attempt} of "
+              f"{UPLOAD_TRIES}): {upload.stderr.strip() or 'no message'}", file=sys.stderr)
+    return False
+
+
 def _fly(scenario: Scenario, out: Path, cmds: tuple[list[str], list[str]], gcs_port: int, wall_limit_s: float,
          children: list[tuple[subprocess.Popen, str]]) -> int | None:
     """Start the simulator, upload the waypoint, run the companion to its end; 1 on a failure before flying,
     None once the companion has ended (or was stopped at ``wall_limit_s``). Children go into ``children``."""
     with (out / "sim.log").open("w") as sim_log:
         children.append((subprocess.Popen(cmds[0], stdout=sim_log, stderr=subprocess.STDOUT), "sim-vehicle"))
-    north, east = scenario.waypoint.north_m, scenario.waypoint.east_m
-    try:
-        upload = subprocess.run([sys.executable, "-m", "mission.cli", "upload", "--waypoint", f"{north:g},{east:g}",
-                                 "--connect", f"udpin://127.0.0.1:{gcs_port}", "--timeout", "20"],
-                                capture_output=True, text=True, timeout=120)
-    except subprocess.TimeoutExpired:
-        print("demo: mission upload did not finish within 120 s", file=sys.stderr)
-        return 1
-    print(upload.stdout.rstrip())
-    if upload.returncode != 0:
-        print(f"demo: mission upload failed: {upload.stderr.strip()}", file=sys.stderr)
+    if not _upload_waypoint(scenario, gcs_port):
         return 1
     companion = subprocess.Popen(cmds[1])
     children.append((companion, "mavbridge run"))

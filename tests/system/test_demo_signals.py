@@ -69,8 +69,13 @@ def test_signal_stops_every_child_and_writes_the_plots(tmp_path: Path, signum: i
 
     threading.Thread(target=read, daemon=True).start()
     try:
-        if not engaged.wait(300):
-            raise WaitTimeoutError("the demo's companion never printed 'phase: engaged' in 300 s:\n" + "\n".join(lines))
+        deadline = time.monotonic() + 300.0
+        while not engaged.wait(0.5) and demo.poll() is None and time.monotonic() < deadline:
+            pass
+        if not engaged.is_set():  # the demo ended before engaging, or 300 s passed: say which, with its output
+            why = f"ended with {demo.returncode}" if demo.poll() is not None else "still running after 300 s"
+            raise WaitTimeoutError(f"the demo's companion never printed 'phase: engaged' (the demo {why}):\n"
+                                   + "\n".join(lines))
         tree = _descendants(demo.pid)
         assert len(tree) >= 2, tree  # the simulator and the companion (and whatever they started)
         os.kill(demo.pid, signum)
