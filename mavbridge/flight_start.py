@@ -51,7 +51,7 @@ def start_flight(c: Any, link: Link) -> None:
     c.output.prepare(link)
     request_streams(link, c.period_s, c.log)
     c.mission.load(link, c.state.set_home)
-    rates = c.events.rates_hz = measure_rates(link, lambda: c.state.attitude_ms)
+    rates = c.events.rates_hz = measure_rates(link, lambda: c.state.attitude_ms, warn=c.log)
     c.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
     boat = (float(c.state.vector()[0]), float(c.state.vector()[1])) if c.state.ready() else None
     check_waypoints(c.mission.waypoints, c.config.max_range_m, boat)  # before arming or any mode change

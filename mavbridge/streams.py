@@ -67,10 +67,13 @@ def restore_configured(link: Any) -> None:
         link.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (msg_id, 0.0))
 
 
-def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float = 2.0) -> dict[str, float]:
+def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float = 2.0,
+                  warn: Callable[[str], None] | None = None) -> dict[str, float]:
     """Messages per autopilot second (``clock_ms``: the newest time_boot_ms) over ``seconds`` of listening.
 
-    Falls back to wall time when the autopilot's clock did not advance (nothing stamped arrived).
+    Falls back to wall time when the autopilot's clock did not advance (nothing stamped arrived, or a
+    simulator held still): said through ``warn``, since rates of a held simulator are its repeats, not its
+    streams (a lockstep ``--start-at`` reached before the companion's startup ended).
     """
     before = dict(link.rates)
     first_ms = clock_ms()
@@ -78,5 +81,8 @@ def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float 
     link.wait_for(lambda m: False, seconds)
     wall = time.monotonic() - start
     span = ((clock_ms() or 0) - (first_ms or 0)) / 1000.0 if first_ms is not None else 0.0
+    if span <= 0 and warn is not None:
+        warn(f"warning: the autopilot's clock did not advance in {wall:.1f} s of measuring stream rates "
+             "(time held: in lockstep, --start-at came before this startup ended; raise it): rates are per wall second")
     span = span if span > 0 else wall
     return {name: round((link.rates.get(name, 0) - before.get(name, 0)) / span, 1) for name in MEASURED}
