@@ -157,7 +157,7 @@ sea: {height_m: 1.75, length_m: 35.0, period_s: 6.0, travel_dir_deg: -90.0}
 start: {heading_deg: 90.0}
 waypoint: {north_m: 25.0, east_m: 12.0, acceptance_radius_m: 2.0}
 t_max_s: 60.0
-controller: {q: 5, r: 0, s: 2, horizon: 20, solver: asrti}
+controller: {q: 5, r: 0, s: 2, horizon: 20, solver: nrti}
 """
 
 
