@@ -170,25 +170,11 @@ class Garbage(threading.Thread):
                 time.sleep(0.05)
 
 
-def test_balanced_rc_override_reaches_the_waypoint_like_the_experiment(sitl_lockstep: SimProcess,
-                                                                       companion_factory) -> None:
-    """Lockstep: the figures match the in-process experiment, every tick planned. (No noise here: a held tick
-    has only its repeats to get through, see the killed-companion test for garbage on the port.)"""
-    companion = companion_factory(sitl_lockstep.udp_ports[0], *LOCKSTEP)
-    assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
-    metrics = companion.metrics()
-    assert metrics["phase"] == "ARRIVED"
-    assert metrics["time_to_waypoint_s"] is not None
-    assert_lockstep_run(metrics, sitl_lockstep)
-    reference = run_scenario_metrics()
-    assert metrics["avg_roll_deg"] == pytest.approx(reference["avg_roll_deg"], rel=0.15)
-    times = np.array([float(r["t_s"]) for r in companion.rows()])
-    assert np.allclose(np.diff(times), 0.1, atol=0.001)  # every period planned, in autopilot time
-    print(f"\nSITL rc_override (lockstep): {metrics}\nin-process reference: {reference}")
-
-
-def test_lockstep_runs_repeat(tmp_path: Path, companion_factory) -> None:
-    """Two lockstep runs of Balanced over MAVLink, same seed: average roll and arrival within 1 %."""
+def test_balanced_rc_override_is_like_the_experiment_and_repeats(tmp_path: Path, companion_factory) -> None:
+    """Two lockstep runs of Balanced over MAVLink with one seed: each arrives with every tick planned, the first
+    matches the in-process experiment, and the second repeats it (average roll and arrival within 1 %). (No noise
+    here: a held tick has only its repeats to get through, see the killed-companion test for garbage on the port.)
+    One test for both, since each lockstep run costs half a minute of CI."""
     figures = []
     for run in range(2):
         with SimProcess(tmp_path / f"sim{run}", speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP],
@@ -196,12 +182,16 @@ def test_lockstep_runs_repeat(tmp_path: Path, companion_factory) -> None:
             companion = companion_factory(sim.udp_ports[0], *LOCKSTEP)
             assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
             metrics = companion.metrics()
-            assert metrics["phase"] == "ARRIVED"
+            assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] is not None, metrics
             assert_lockstep_run(metrics, sim)
+            times = np.array([float(r["t_s"]) for r in companion.rows()])
+            assert np.allclose(np.diff(times), 0.1, atol=0.001)  # every period planned, in autopilot time
             figures.append((metrics["avg_roll_deg"], metrics["time_to_waypoint_s"]))
+    reference = run_scenario_metrics()
+    assert figures[0][0] == pytest.approx(reference["avg_roll_deg"], rel=0.15), (figures, reference)
     (roll_a, time_a), (roll_b, time_b) = figures
     assert roll_b == pytest.approx(roll_a, rel=0.01) and time_b == pytest.approx(time_a, rel=0.01), figures
-    print(f"\nlockstep repeat: {figures}")
+    print(f"\nSITL rc_override (lockstep), two runs: {figures}\nin-process reference: {reference}")
 
 
 def run_scenario_metrics() -> dict:
