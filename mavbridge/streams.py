@@ -71,9 +71,10 @@ def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float 
                   warn: Callable[[str], None] | None = None) -> dict[str, float]:
     """Messages per autopilot second (``clock_ms``: the newest time_boot_ms) over ``seconds`` of listening.
 
-    Falls back to wall time when the autopilot's clock did not advance (nothing stamped arrived, or a
-    simulator held still): said through ``warn``, since rates of a held simulator are its repeats, not its
-    streams (a lockstep ``--start-at`` reached before the companion's startup ended).
+    Falls back to wall time when the autopilot's clock did not advance (nothing stamped arrived). A clock
+    that advanced less than half the wall time listened (a simulator held still for part of it, or not
+    running at all) is said through ``warn``: rates of a held simulator are its repeats, not its streams
+    (a lockstep ``--start-at`` reached before the companion's startup ended).
     """
     before = dict(link.rates)
     first_ms = clock_ms()
@@ -81,8 +82,9 @@ def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float 
     link.wait_for(lambda m: False, seconds)
     wall = time.monotonic() - start
     span = ((clock_ms() or 0) - (first_ms or 0)) / 1000.0 if first_ms is not None else 0.0
-    if span <= 0 and warn is not None:
-        warn(f"warning: the autopilot's clock did not advance in {wall:.1f} s of measuring stream rates "
-             "(time held: in lockstep, --start-at came before this startup ended; raise it): rates are per wall second")
+    if span < 0.5 * wall and warn is not None:
+        warn(f"warning: the autopilot's clock advanced {max(span, 0.0):.2f} s in {wall:.1f} s of measuring stream "
+             "rates (time held: in lockstep, --start-at came before this startup ended; raise it): the rates are "
+             "not the streams'")
     span = span if span > 0 else wall
     return {name: round((link.rates.get(name, 0) - before.get(name, 0)) / span, 1) for name in MEASURED}
