@@ -9,14 +9,21 @@ and every backend builds its own from these; nothing stateful is cached here.
 The key is (vessel parameters, the built-in wave field or None for the parametric regular wave, current,
 the ``structural`` fields of NmpcConfig). Regular waves and calm water are not part of the key: they are
 run-time parameters.
+
+Both caches are bounded (least recently used first out): a built-in wave field (an irregular sea fed as
+truth) is keyed by its identity and every run builds a new one, so without a bound a long sweep would
+keep every run's structure (about 8 MB each). Parametric structures keep ``KEEP_PARAMETRIC``, built-in
+fields ``KEEP_FIXED`` (the run in progress, and one more); an evicted structure is only rebuilt.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections import OrderedDict
+from collections.abc import Hashable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
+from typing import Generic, TypeVar
 
 import casadi as ca
 
@@ -52,9 +59,11 @@ class ProblemFunctions:
             hash(key)
         except TypeError:  # an unhashable built-in wave field: ask the disk cache every time
             return compiled_library(self.linearisation)
-        if key not in _LIBRARIES:
-            _LIBRARIES[key] = compiled_library(self.linearisation)
-        return _LIBRARIES[key]
+        cached = _libraries(self.fixed_waves).get(key)
+        if cached is None:
+            cached = compiled_library(self.linearisation)
+            _libraries(self.fixed_waves).put(key, cached)
+        return cached
 
     def load_linearisation(self, codegen: str) -> tuple[ca.Function, str]:
         """A new linearisation instance for one solver (compiled when available), and how it runs."""
@@ -64,8 +73,49 @@ class ProblemFunctions:
         return load(self.linearisation, library), how
 
 
-_FUNCTIONS: dict[tuple, ProblemFunctions] = {}
-_LIBRARIES: dict[tuple, tuple[Path | None, str]] = {}
+KEEP_PARAMETRIC = 16  # structures with the parametric wave: one per structural configuration in use
+KEEP_FIXED = 2  # structures on a built-in wave field: never the same field object in two runs
+
+V = TypeVar("V")
+
+
+class BoundedCache(Generic[V]):
+    """A mapping that keeps the ``capacity`` most recently used entries."""
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = capacity
+        self._entries: OrderedDict[Hashable, V] = OrderedDict()
+
+    def get(self, key: Hashable) -> V | None:
+        """The entry (now the most recent), or None; TypeError for an unhashable key."""
+        value = self._entries.get(key)
+        if value is not None:
+            self._entries.move_to_end(key)
+        return value
+
+    def put(self, key: Hashable, value: V) -> None:
+        """Store ``value`` as the most recent entry, dropping the least recently used beyond capacity."""
+        self._entries[key] = value
+        self._entries.move_to_end(key)
+        while len(self._entries) > self.capacity:
+            self._entries.popitem(last=False)
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+
+_FUNCTIONS: BoundedCache[ProblemFunctions] = BoundedCache(KEEP_PARAMETRIC)
+_FIXED_FUNCTIONS: BoundedCache[ProblemFunctions] = BoundedCache(KEEP_FIXED)
+_LIBRARIES: BoundedCache[tuple[Path | None, str]] = BoundedCache(KEEP_PARAMETRIC)
+_FIXED_LIBRARIES: BoundedCache[tuple[Path | None, str]] = BoundedCache(KEEP_FIXED)
+
+
+def _functions(fixed_waves: WaveField | None) -> BoundedCache[ProblemFunctions]:
+    return _FUNCTIONS if fixed_waves is None else _FIXED_FUNCTIONS
+
+
+def _libraries(fixed_waves: WaveField | None) -> BoundedCache[tuple[Path | None, str]]:
+    return _LIBRARIES if fixed_waves is None else _FIXED_LIBRARIES
 
 
 def build_key(params: OtterParameters, fixed_waves: WaveField | None, current: OceanCurrent,
@@ -85,7 +135,7 @@ def problem_functions(params: OtterParameters, waves: WaveField | None, current:
     fixed = model_waves(waves)
     key = build_key(params, fixed, current, cfg)
     try:
-        cached = _FUNCTIONS.get(key)
+        cached = _functions(fixed).get(key)
     except TypeError:  # an unhashable built-in wave field: build every time
         key, cached = None, None
     if cached is not None:
@@ -96,10 +146,10 @@ def problem_functions(params: OtterParameters, waves: WaveField | None, current:
                              nlp=MappingProxyType(dict(nlp)), layout=layout,
                              linearisation=linearisation(step, cfg))
     if key is not None:
-        _FUNCTIONS[key] = built
+        _functions(fixed).put(key, built)
     return built
 
 
 def cached_structures() -> int:
-    """How many problem structures this process has built (for tests and diagnostics)."""
-    return len(_FUNCTIONS)
+    """How many problem structures this process keeps (for tests and diagnostics)."""
+    return len(_FUNCTIONS) + len(_FIXED_FUNCTIONS)

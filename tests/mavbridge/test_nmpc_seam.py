@@ -216,3 +216,32 @@ def test_the_idle_pool_is_bounded_over_all_structures(monkeypatch: pytest.Monkey
     assert all(any(s is solver for s in ipopt._IDLE[key]) for key, solver in newer)
     with RollAwareNmpc(NmpcConfig(horizon=4, solver="ipopt"), otter_parameters(), WAVES) as again:
         assert again._backend.solver is newer[-1][1]
+
+
+def test_structures_on_fixed_wave_fields_do_not_pile_up() -> None:
+    """Every run on an irregular sea as truth builds its own field object, so its structure never comes back:
+    the build cache keeps at most KEEP_FIXED of them (a long sweep grew ≈ 8 MB per run), the newest still
+    served from the cache, and the parametric structures are untouched."""
+    from mavbridge.nmpc import functions
+    from vessel import IrregularSea
+
+    cfg = NmpcConfig(horizon=2, solver="ipopt", rti_codegen="off")
+    parametric = problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg)
+    fields = [IrregularSea(hs_m=1.75, tp_s=6.0, n_components=10, seed=seed).wave_field(otter_parameters())
+              for seed in range(functions.KEEP_FIXED + 3)]
+    built = [problem_functions(otter_parameters(), field, OceanCurrent(), cfg) for field in fields]
+    assert len(functions._FIXED_FUNCTIONS) == functions.KEEP_FIXED
+    assert problem_functions(otter_parameters(), fields[-1], OceanCurrent(), cfg) is built[-1]
+    assert problem_functions(otter_parameters(), fields[0], OceanCurrent(), cfg) is not built[0]  # evicted
+    assert problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg) is parametric
+
+
+def test_the_build_cache_drops_the_least_recently_used_entry() -> None:
+    from mavbridge.nmpc.functions import BoundedCache
+
+    cache: BoundedCache[int] = BoundedCache(2)
+    cache.put("a", 1)
+    cache.put("b", 2)
+    assert cache.get("a") == 1  # "b" is now the least recently used
+    cache.put("c", 3)
+    assert (cache.get("a"), cache.get("b"), cache.get("c"), len(cache)) == (1, None, 3, 2)
