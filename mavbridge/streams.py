@@ -71,8 +71,8 @@ def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float 
                   warn: Callable[[str], None] | None = None) -> dict[str, float]:
     """Messages per autopilot second (``clock_ms``: the newest time_boot_ms) over ``seconds`` of listening.
 
-    Falls back to wall time when the autopilot's clock did not advance (nothing stamped arrived). A clock
-    that advanced less than half the wall time listened (a simulator held still for part of it, or not
+    Falls back to wall time when the autopilot's clock did not advance (nothing stamped arrived). A known
+    clock that advanced less than half the wall time listened (a simulator held still for part of it, or not
     running at all) is said through ``warn``: rates of a held simulator are its repeats, not its streams
     (a lockstep ``--start-at`` reached before the companion's startup ended).
     """
@@ -82,7 +82,7 @@ def measure_rates(link: Any, clock_ms: Callable[[], int | None], seconds: float 
     link.wait_for(lambda m: False, seconds)
     wall = time.monotonic() - start
     span = ((clock_ms() or 0) - (first_ms or 0)) / 1000.0 if first_ms is not None else 0.0
-    if span < 0.5 * wall and warn is not None:
+    if first_ms is not None and span < 0.5 * wall and warn is not None:  # a known clock that (nearly) stood still
         warn(f"warning: the autopilot's clock advanced {max(span, 0.0):.2f} s in {wall:.1f} s of measuring stream "
              "rates (time held: in lockstep, --start-at came before this startup ended; raise it): the rates are "
              "not the streams'")

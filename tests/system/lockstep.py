@@ -26,10 +26,10 @@ def lockstep_summary(sim: SimProcess) -> str:
     return lines[-1]
 
 
-def assert_lockstep_run(metrics: dict, sim: SimProcess) -> None:
-    """A lockstep run started at START_AT_S, no tick was skipped or timed out, and the state acted on was never
+def assert_lockstep_run(metrics: dict, sim: SimProcess, start_at_s: float = START_AT_S) -> None:
+    """A lockstep run started at ``start_at_s``, no tick was skipped or timed out, and the state acted on was never
     old (time waits for each command: the age is zero by construction, nothing is predicted)."""
-    assert metrics["engaged_at_s"] == pytest.approx(START_AT_S, abs=1e-3), metrics
+    assert metrics["engaged_at_s"] == pytest.approx(start_at_s, abs=1e-3), metrics
     assert metrics["delay"]["state_age_s_max"] == 0.0 and metrics["delay"]["prediction_s_median"] == 0.0, metrics
     assert metrics["skipped_ticks"] == 0, metrics
     summary = lockstep_summary(sim)
