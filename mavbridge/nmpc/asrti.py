@@ -30,6 +30,7 @@ from .backend import SolveOutcome
 from .config import NmpcConfig
 from .functions import ProblemFunctions, problem_functions
 from .gauss_newton import GaussNewtonSqp
+from .inputs import input_space
 from .layout import PARAMS
 from .rti import RtiBackend
 
@@ -44,7 +45,7 @@ class BackgroundSolve:
         self.step = functions.step
         self.layout = functions.layout
         lin, _ = functions.load_linearisation(cfg.rti_codegen)
-        self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0)
+        self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0, input_space(cfg, functions.params))
 
     def __call__(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> BackgroundResult:
         """Predict the next state from p's under ``tau`` (p's wave), then solve from the shifted plan."""

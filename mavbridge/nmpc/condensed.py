@@ -24,6 +24,7 @@ import numpy as np
 from .codegen import compiled_library, load
 from .config import NmpcConfig
 from .gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
+from .inputs import InputSpace, input_space
 from .layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES
 from .native_lib import BoxQp, CompiledFunction, ptr
 
@@ -32,7 +33,8 @@ QP_MAX_ITER = 40  # block-principal-pivoting iterations per QP (one or two when 
 QP_TOL = 1e-9  # bound and multiplier tolerance of the box QP (N, N·m and cost units)
 
 
-def _stage_function(step: ca.Function, cfg: NmpcConfig) -> tuple[ca.Function, ca.Function]:
+def _stage_function(step: ca.Function, cfg: NmpcConfig,
+                    matrix: np.ndarray | None = None) -> tuple[ca.Function, ca.Function]:
     """(stage, terminal) block Functions of the augmented OCP (see the module docstring)."""
     z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
     on = ca.SX.sym("on")  # 0 for stage 0: no cost on the fixed initial state
@@ -40,7 +42,7 @@ def _stage_function(step: ca.Function, cfg: NmpcConfig) -> tuple[ca.Function, ca
     wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
     zu = ca.vertcat(z, u)
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
-    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights),
+    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights, matrix),
                      on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
     J = ca.jacobian(res, zu)
     reg = HESSIAN_REG * ca.SX.eye(NZU)
@@ -54,10 +56,11 @@ def _stage_function(step: ca.Function, cfg: NmpcConfig) -> tuple[ca.Function, ca
     return stage, terminal
 
 
-def block_linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
-    """(w_aug, p) -> (AB nz×N·nzu, H nzu×(N+1)·nzu, g nzu×(N+1), gap nz×N), all dense, stage-major."""
+def block_linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> ca.Function:
+    """(w_aug, p) -> (AB nz×N·nzu, H nzu×(N+1)·nzu, g nzu×(N+1), gap nz×N), all dense, stage-major
+    (``matrix``: B of propeller-thrust inputs, None when u is τ)."""
     P = cfg.horizon
-    stage, terminal = _stage_function(step, cfg)
+    stage, terminal = _stage_function(step, cfg, matrix)
     n = P * NZU + NZ
     w = ca.MX.sym("w", n)
     p = ca.MX.sym("p", NP)
@@ -78,11 +81,12 @@ def block_linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
 BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
 
 
-def load_block_linearisation(step: ca.Function, cfg: NmpcConfig) -> tuple[BlockLinearisation, str]:
+def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
+                             matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
     """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached) called through
     its C API when a compiler exists and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX
     VM (outputs converted)."""
-    fn = block_linearisation(step, cfg)
+    fn = block_linearisation(step, cfg, matrix)
     library, how = compiled_library(fn) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
     if library is not None:
         return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
@@ -122,8 +126,11 @@ class CondensedQp:
 class Condenser:
     """Linearise, condense and pre-solve at a plan (one instance per thread; holds work buffers)."""
 
-    def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers) -> None:
+    def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers,
+                 space: InputSpace | None = None) -> None:
+        """``space``: the inputs' box (default: the τ box, for τ inputs only)."""
         P = cfg.horizon
+        space = space or input_space(cfg, None)
         self.lib, self.lin, self.cfg, self.buffers = lib, lin, cfg, buffers
         n = P * NU
         self.n = n
@@ -132,8 +139,8 @@ class Condenser:
         self.c = np.zeros((P + 1) * NZ)
         self.tmp = np.zeros(NZU * (n + NZ + 1))
         self.u_index = np.array([k * NZU + NZ + i for k in range(P) for i in range(NU)])
-        self.u_low = np.tile([cfg.tau_x_min_n, -cfg.tau_n_max_nm], P)
-        self.u_high = np.tile([cfg.tau_x_max_n, cfg.tau_n_max_nm], P)
+        self.u_low = np.tile(space.low, P)
+        self.u_high = np.tile(space.high, P)
         self.box = BoxQp(lib, n, QP_MAX_ITER, QP_TOL)
 
     def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None) -> CondensedQp:

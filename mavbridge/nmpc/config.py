@@ -10,6 +10,7 @@ from vessel.config import ConfigError, bounded, validate
 
 SOLVERS = ("ipopt", "rti", "asrti", "nrti")
 INTEGRATORS = ("euler", "rk4")
+INPUTS = ("tau", "propellers")
 STRUCTURAL = "structural"  # field metadata key: the field changes the built problem
 
 
@@ -40,6 +41,10 @@ class NmpcConfig:
     period_s: float = structural(bounded(0.1, 0.01, 2.0, "s", "sampling period T"))
     substeps: int = structural(bounded(2, 1, 50, "", "integrator sub-steps per period"))
     integrator: str = structural(choice("euler", INTEGRATORS, "explicit Euler or RK4 per sub-step"))
+    inputs: str = structural(choice("tau", INPUTS, "the model's input: tau (τ_X, τ_N) in the box below, the paper's "
+                                    "setting; or propellers (left, right thrust, N) each within what its "
+                                    "propeller gives forward and in reverse (the allocation's envelope; the "
+                                    "tau_* bounds then do not apply)"))
     tau_x_max_n: float = bounded(150.0, 1.0, 1000.0, "N", "largest forward surge force")
     tau_x_min_n: float = bounded(-150.0, -1000.0, 0.0, "N", "largest reverse surge force (negative)")
     tau_n_max_nm: float = bounded(73.6, 0.1, 1000.0, "N·m", "largest |yaw moment|")

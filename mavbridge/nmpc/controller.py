@@ -7,6 +7,10 @@ wave the model predicts with and the weights are run-time parameters (``set_wave
 A solve that fails, or that finishes after the caller's deadline, is reported (``NmpcResult.fallback``)
 and answered with the next input of the previous plan when one is still within its horizon, else with
 the safe input (gentle forward surge, zero yaw moment). The answer is never NaN.
+
+The model's input u is τ or the two propeller thrusts (``NmpcConfig.inputs``, see ``inputs``); the plan,
+the previous input in p and the warm starts are in u, and the answers (``NmpcResult.tau``, ``inputs``,
+``last_input``) are converted to (τ_X, τ_N) here, so the rest of the code sees τ whatever the setting.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, Regula
 from .backend import NmpcBackend, SolveOutcome
 from .config import NmpcConfig
 from .functions import ProblemFunctions, problem_functions
+from .inputs import InputSpace, input_space
 from .layout import NU, NX, Layout
 from .model_state import on_mean_surface
 from .problem import input_bounds
@@ -133,8 +138,9 @@ class RollAwareNmpc:
         self._closed = False
         # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
         self._finalizer = weakref.finalize(self, self._backend.close)
-        self._lbw, self._ubw = input_bounds(self.config, self.layout)
-        self._safe = np.array([self.config.safe_surge_n, 0.0])
+        self.inputs: InputSpace = input_space(self.config, self.params)
+        self._lbw, self._ubw = input_bounds(self.config, self.layout, self.inputs)
+        self._safe = self.inputs.clip(self.inputs.from_tau(np.array([self.config.safe_surge_n, 0.0])))
         self.reset()
 
     # --- lifetime -------------------------------------------------------------------------------------
@@ -211,8 +217,8 @@ class RollAwareNmpc:
 
     @property
     def last_input(self) -> np.ndarray:
-        """The input returned by the last solve (zero after reset)."""
-        return self._u_applied.copy()
+        """The input (τ_X, τ_N) returned by the last solve (zero after reset)."""
+        return self.inputs.to_tau(self._u_applied).copy()
 
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
         return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._sea.wave)
@@ -244,7 +250,8 @@ class RollAwareNmpc:
             self._plan_t = t
             plan = outcome.w
         X, U = self.layout.split(plan)
-        return NmpcResult(tau=U[0].copy() if outcome.usable else self._safe.copy(), states=X, inputs=U,
+        u = U[0].copy() if outcome.usable else self._safe.copy()
+        return NmpcResult(tau=self.inputs.to_tau(u), states=X, inputs=self.inputs.to_tau(U),
                           wall_time_s=wall, iterations=outcome.iterations, status=outcome.status,
                           success=outcome.usable, fallback=None if outcome.usable else f"solver failed: "
                           f"{outcome.status}", fallback_source=None if outcome.usable else "safe",
@@ -284,16 +291,16 @@ class RollAwareNmpc:
         if fallback is None and deadline_s is not None and wall > deadline_s:
             fallback = f"late: {wall * 1e3:.1f} ms > deadline {deadline_s * 1e3:.1f} ms"
             tau, source = self._fallback_input(guess, have_plan, outcome.usable)
-        cfg = self.config
-        tau = np.clip(tau, [cfg.tau_x_min_n, -cfg.tau_n_max_nm], [cfg.tau_x_max_n, cfg.tau_n_max_nm])
-        self._u_applied = tau.copy()
+        u = self.inputs.clip(tau)  # the model's input: τ, or the propeller thrusts
+        self._u_applied = u.copy()
         if outcome.usable:
-            self._backend.advance(plan, p, tau)
+            self._backend.advance(plan, p, u)
             wall = time.perf_counter() - start - outcome.wait_s  # starting work ahead is part of the step
         X, U = self.layout.split(plan)
         stats = {"violation": outcome.violation, "background_wait_s": outcome.wait_s, **outcome.stats}
-        return NmpcResult(tau=tau, states=X, inputs=U, wall_time_s=wall, iterations=outcome.iterations,
-                          status=outcome.status, success=outcome.usable, fallback=fallback,
+        return NmpcResult(tau=self.inputs.to_tau(u), states=X, inputs=self.inputs.to_tau(U), wall_time_s=wall,
+                          iterations=outcome.iterations, status=outcome.status, success=outcome.usable,
+                          fallback=fallback,
                           fallback_source=source, stats=stats, roll_term_active=self.roll_term_active)
 
     def _choose_input(self, outcome: SolveOutcome, guess: np.ndarray, lam_w: np.ndarray | None,

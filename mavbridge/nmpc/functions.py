@@ -26,12 +26,14 @@ from types import MappingProxyType
 from typing import Generic, TypeVar
 
 import casadi as ca
+import numpy as np
 
 from vessel import OceanCurrent, OtterParameters, WaveField
 
 from .codegen import compiled_library, load
 from .config import NmpcConfig
 from .gauss_newton import linearisation
+from .inputs import model_matrix
 from .layout import Layout
 from .problem import build_nlp, discrete_model
 from .wave_model import is_parametric
@@ -49,6 +51,7 @@ class ProblemFunctions:
     nlp: Mapping[str, ca.SX]  # {x, p, f, g}, read-only
     layout: Layout
     linearisation: ca.Function  # (w_aug, p) -> (H, g, A, gap), SX virtual machine
+    input_matrix: np.ndarray | None = None  # B (τ = B·u) of propeller-thrust inputs; None when u is τ
 
     def linearisation_library(self, codegen: str) -> tuple[Path | None, str]:
         """(compiled library of the linearisation or None, how): ``codegen`` "auto" compiles (cached)."""
@@ -141,10 +144,11 @@ def problem_functions(params: OtterParameters, waves: WaveField | None, current:
     if cached is not None:
         return cached
     step = discrete_model(params, fixed, current, cfg)
-    nlp, layout = build_nlp(step, cfg)
+    matrix = model_matrix(cfg, params)
+    nlp, layout = build_nlp(step, cfg, matrix)
     built = ProblemFunctions(params=params, fixed_waves=fixed, current=current, cfg=cfg, step=step,
                              nlp=MappingProxyType(dict(nlp)), layout=layout,
-                             linearisation=linearisation(step, cfg))
+                             linearisation=linearisation(step, cfg, matrix), input_matrix=matrix)
     if key is not None:
         _functions(fixed).put(key, built)
     return built

@@ -15,6 +15,7 @@ import casadi as ca
 import numpy as np
 
 from .config import NmpcConfig
+from .inputs import InputSpace, input_space, input_tau
 from .layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES, members
 from .problem import distance, expected_roll_residuals, heading_error
 
@@ -38,14 +39,20 @@ def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig,
                       expected_roll_residuals(x, roll_spread))
 
 
-def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> list[ca.SX]:
-    """√W11·Δτ_X, √W22·Δτ_N; u_before is the augmented state's previous input z[NX:NZ]."""
+def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX,
+                            matrix: np.ndarray | None = None) -> list[ca.SX]:
+    """√W11·Δτ_X, √W22·Δτ_N; u_before is the augmented state's previous input z[NX:NZ]; Δτ = B·Δu for
+    propeller-thrust inputs (``matrix`` B), Δu itself when u is τ."""
     w = members("weights", weights)
-    return [ca.sqrt(w["w_dtau_x"]) * (u[0] - u_before[0]), ca.sqrt(w["w_dtau_n"]) * (u[1] - u_before[1])]
+    if matrix is None:
+        return [ca.sqrt(w["w_dtau_x"]) * (u[0] - u_before[0]), ca.sqrt(w["w_dtau_n"]) * (u[1] - u_before[1])]
+    dtau = input_tau(u - u_before, matrix)
+    return [ca.sqrt(w["w_dtau_x"]) * dtau[0], ca.sqrt(w["w_dtau_n"]) * dtau[1]]
 
 
-def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
-    """(w_aug, p) -> (H, g, A, gaps), one SX expression over the whole horizon (reference version)."""
+def linearisation_inlined(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> ca.Function:
+    """(w_aug, p) -> (H, g, A, gaps), one SX expression over the whole horizon (reference version);
+    ``matrix`` B of propeller-thrust inputs or None (u is τ)."""
     P = cfg.horizon
     n = P * (NZ + NU) + NZ
     w = ca.SX.sym("w", n)
@@ -63,7 +70,7 @@ def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     for k in range(P):
         z, u, z_next = z_at(k), u_at(k), z_at(k + 1)
         gaps.append(ca.vertcat(step(z[0:NX], u, t0 + k * cfg.period_s, wave), u) - z_next)
-        residuals += [*_input_change_residuals(u, z[NX:NZ], weights),
+        residuals += [*_input_change_residuals(u, z[NX:NZ], weights, matrix),
                       _state_residuals(z_next[0:NX], waypoint, weights, cfg, spread)]
     res = ca.vertcat(*residuals)
     gap = ca.vertcat(*gaps)
@@ -74,8 +81,9 @@ def linearisation_inlined(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     return ca.Function("rti_linearisation", [w, p], [H, g, A, gap], ["w", "p"], ["H", "g", "A", "gap"])
 
 
-def linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
-    """(w_aug, p) -> (H, g, A, gaps): Gauss–Newton QP data at w_aug for the augmented OCP.
+def linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> ca.Function:
+    """(w_aug, p) -> (H, g, A, gaps): Gauss–Newton QP data at w_aug for the augmented OCP (``matrix``: B of
+    propeller-thrust inputs, None when u is τ).
 
     One stage function (dynamics, its Jacobians, the stage's Gauss–Newton cost block) is written in SX
     and mapped over the horizon; the blocks are assembled in MX. Generated code holds the stage once
@@ -87,7 +95,7 @@ def linearisation(step: ca.Function, cfg: NmpcConfig) -> ca.Function:
     waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
     wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
-    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights),
+    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights, matrix),
                      on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
     zu = ca.vertcat(z, u)
     J = ca.jacobian(res, zu)
@@ -140,8 +148,11 @@ def make_qp(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int, iter_
 class GaussNewtonSqp:
     """Full-step Gauss–Newton SQP with its own linearisation and QP instances (one per thread of use)."""
 
-    def __init__(self, lin: ca.Function, cfg: NmpcConfig, qp_name: str, qp_iter_max: int) -> None:
+    def __init__(self, lin: ca.Function, cfg: NmpcConfig, qp_name: str, qp_iter_max: int,
+                 space: InputSpace | None = None) -> None:
+        """``space``: the inputs' box (default: the τ box, for τ inputs only)."""
         P = cfg.horizon
+        space = space or input_space(cfg, None)
         self.cfg = cfg
         self.lin = lin
         self.n = P * (NZ + NU) + NZ
@@ -152,8 +163,8 @@ class GaussNewtonSqp:
         for k in range(P):
             u = slice(k * (NZ + NU) + NZ, (k + 1) * (NZ + NU))
             self.u_mask[u] = True
-            self.lb[u] = (cfg.tau_x_min_n, -cfg.tau_n_max_nm)
-            self.ub[u] = (cfg.tau_x_max_n, cfg.tau_n_max_nm)
+            self.lb[u] = space.low
+            self.ub[u] = space.high
 
     def to_aug(self, w: np.ndarray, u_applied: np.ndarray) -> np.ndarray:
         """Augmented decision vector from the controller's layout."""

@@ -28,6 +28,7 @@ from .condensed import CondensedQp, Condenser, FeedbackBuffers, load_block_linea
 from .config import NmpcConfig
 from .functions import ProblemFunctions
 from .gauss_newton import NZ
+from .inputs import input_space
 from .layout import NX, PARAMS
 from .native_lib import native_library
 
@@ -127,13 +128,14 @@ class NrtiBackend(AsrtiBackend):
         if lib is None:
             say_once(f"nrti: {self.native}; running as asrti (slower)")
             return
-        lin, how = load_block_linearisation(functions.step, cfg)
+        lin, how = load_block_linearisation(functions.step, cfg, functions.input_matrix)
         if not how.startswith("compiled"):
             say_once(f"nrti: the block linearisation runs in CasADi's virtual machine ({how}); preparation is slower")
         self.lib = lib
         self.buffers = FeedbackBuffers.allocate(cfg.horizon)
         self.advanced.close()  # asrti's plain worker, replaced by the preparing one
-        self.advanced = PreparedStep(functions, cfg, Condenser(lib, lin, cfg, self.buffers))
+        self.advanced = PreparedStep(functions, cfg, Condenser(lib, lin, cfg, self.buffers,
+                                                                     input_space(cfg, functions.params)))
 
     def prepare(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray) -> SolveOutcome:
         """The cold solve (IPOPT), then the QP at its plan is prepared for the first step (and the feedback

@@ -1,7 +1,8 @@
 """The paper's optimal control problem, written once in CasADi: discrete model, cost terms, NLP.
 
 Decision vector (stage-wise, multiple shooting): w = [x_0, u_0, x_1, u_1, …, x_{P−1}, u_{P−1}, x_P],
-x_k the 12 rigid-body states, u_k = (τ_X N, τ_N N·m). Parameters p: the named blocks of
+x_k the 12 rigid-body states, u_k = (τ_X N, τ_N N·m), or the two propeller thrusts with τ_k = B·u_k in
+the model (``NmpcConfig.inputs``, see ``inputs``). Parameters p: the named blocks of
 ``layout.PARAMS`` (x̂, t, waypoint, u_prev, weights, wave), so one built solver serves any run, time,
 tuning and regular wave.
 
@@ -22,6 +23,7 @@ from vessel import OceanCurrent, OtterParameters, WaveField
 from vessel.dynamics import body_acceleration, kinematics
 
 from .config import NmpcConfig
+from .inputs import InputSpace, input_space, input_tau, model_matrix
 from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout, members
 from .wave_model import CALM_PARAMETERS, ParametricRegularWaves
 
@@ -66,7 +68,8 @@ def discrete_model(params: OtterParameters, waves: WaveField | None, current: Oc
                    cfg: NmpcConfig) -> ca.Function:
     """One control period of the NMPC model: (x[12], u[2], t, wave[7]) -> x after period_s, held input.
 
-    ``waves`` as in ``model_ode`` (None: the wave is the run-time ``wave`` input).
+    ``waves`` as in ``model_ode`` (None: the wave is the run-time ``wave`` input). u is τ, or the propeller
+    thrusts (``cfg.inputs``), τ = B·u.
     """
     ode = model_ode(params, waves, current)
     h = cfg.period_s / cfg.substeps
@@ -75,6 +78,8 @@ def discrete_model(params: OtterParameters, waves: WaveField | None, current: Oc
     t = ca.SX.sym("t")
     wave = ca.SX.sym("wave", len(WAVE_NAMES))
     xk = x
+    u_model = u
+    u = input_tau(u_model, model_matrix(cfg, params))
     for i in range(cfg.substeps):
         ti = t + i * h
         if cfg.integrator == "rk4":  # classical Runge–Kutta, as vessel.plant.rk4_step
@@ -85,7 +90,7 @@ def discrete_model(params: OtterParameters, waves: WaveField | None, current: Oc
             xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         else:
             xk = xk + h * ode(xk, u, ti, wave)
-    return ca.Function("nmpc_step", [x, u, t, wave], [xk], ["x", "u", "t", "wave"], ["x_next"])
+    return ca.Function("nmpc_step", [x, u_model, t, wave], [xk], ["x", "u", "t", "wave"], ["x_next"])
 
 
 _BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"))
@@ -121,15 +126,17 @@ def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig, roll_
             + ca.sumsqr(expected_roll_residuals(x, roll_spread)))
 
 
-def input_change_cost(u: ca.SX, u_before: ca.SX, weights: ca.SX) -> ca.SX:
-    """ΔUᵀ W ΔU with W = diag(W11, W22)."""
-    du = u - u_before
+def input_change_cost(u: ca.SX, u_before: ca.SX, weights: ca.SX, matrix: np.ndarray | None = None) -> ca.SX:
+    """ΔUᵀ W ΔU with W = diag(W11, W22), ΔU the change of τ (B·Δu for propeller-thrust inputs)."""
+    du = input_tau(u - u_before, matrix)
     w = members("weights", weights)
     return w["w_dtau_x"] * du[0] ** 2 + w["w_dtau_n"] * du[1] ** 2
 
 
-def build_nlp(step: ca.Function, cfg: NmpcConfig) -> tuple[dict, Layout]:
-    """The multiple-shooting NLP {x, p, f, g}; g = [x_0 − x̂, F(x_k, u_k, t_k, wave) − x_{k+1} …] = 0."""
+def build_nlp(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> tuple[dict, Layout]:
+    """The multiple-shooting NLP {x, p, f, g}; g = [x_0 − x̂, F(x_k, u_k, t_k, wave) − x_{k+1} …] = 0.
+
+    ``matrix``: B of propeller-thrust inputs (``inputs.model_matrix``), None when u is τ."""
     layout = Layout(cfg.horizon)
     w = ca.SX.sym("w", layout.n_w)
     p = ca.SX.sym("p", NP)
@@ -141,17 +148,18 @@ def build_nlp(step: ca.Function, cfg: NmpcConfig) -> tuple[dict, Layout]:
         xk, uk = w[layout.x_index(k)], w[layout.u_index(k)]
         x_next = w[layout.x_index(k + 1)]
         g.append(step(xk, uk, par.t + k * cfg.period_s, par.wave) - x_next)
-        f += (input_change_cost(uk, u_before, par.weights)
+        f += (input_change_cost(uk, u_before, par.weights, matrix)
               + state_cost(x_next, par.waypoint, par.weights, cfg, par.roll_spread))
         u_before = uk
     return {"x": w, "p": p, "f": f, "g": ca.vertcat(*g)}, layout
 
 
-def input_bounds(cfg: NmpcConfig, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
-    """lbw, ubw: inputs within the τ bounds, states free."""
+def input_bounds(cfg: NmpcConfig, layout: Layout, space: InputSpace | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """lbw, ubw: inputs within their box (``space``; default the τ box, for τ inputs only), states free."""
+    space = space or input_space(cfg, None)
     lbw = np.full(layout.n_w, -np.inf)
     ubw = np.full(layout.n_w, np.inf)
     for k in range(cfg.horizon):
-        lbw[layout.u_index(k)] = (cfg.tau_x_min_n, -cfg.tau_n_max_nm)
-        ubw[layout.u_index(k)] = (cfg.tau_x_max_n, cfg.tau_n_max_nm)
+        lbw[layout.u_index(k)] = space.low
+        ubw[layout.u_index(k)] = space.high
     return lbw, ubw

@@ -14,6 +14,7 @@ from .backend import SolveOutcome
 from .config import NmpcConfig
 from .functions import ProblemFunctions
 from .gauss_newton import NZ, GaussNewtonSqp, linearisation, linearisation_inlined
+from .inputs import input_space
 from .ipopt import IpoptBackend
 
 __all__ = ["NZ", "RtiBackend", "linearisation", "linearisation_inlined"]
@@ -30,7 +31,8 @@ class RtiBackend:
         self.layout = functions.layout
         self.ipopt = ipopt or IpoptBackend(functions, cfg)
         lin, self.codegen = functions.load_linearisation(cfg.rti_codegen)
-        self.sqp: GaussNewtonSqp | None = GaussNewtonSqp(lin, cfg, "rti_qp", cfg.rti_qp_iter_max)
+        self.sqp: GaussNewtonSqp | None = GaussNewtonSqp(lin, cfg, "rti_qp", cfg.rti_qp_iter_max,
+                                                            input_space(cfg, functions.params))
 
     def iteration_limits(self) -> tuple[int, int, float]:
         """(at least, at most, input-step tolerance) SQP iterations per real-time step."""

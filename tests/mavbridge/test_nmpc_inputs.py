@@ -1,0 +1,104 @@
+"""The NMPC's input space (``NmpcConfig.inputs``): τ in a box (the paper's, unchanged) or the propeller thrusts.
+
+* ``tau`` is bit-identical to the code before the setting existed: the fixture holds, as float hex, the
+  applied τ and the last planned input of every step of a 3 s Balanced run for each backend, recorded
+  with the main branch at 1cd756f (regenerate only for an intended change of the paper's setting).
+* ``propellers`` never commands a propeller beyond its limit, over whole runs on the propeller plant.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+
+import mavbridge.experiment as experiment
+from mavbridge.nmpc import NmpcConfig
+from mavbridge.nmpc.inputs import allocation_matrix, input_space, thrust_limits
+from mavbridge.scenario import scenario_from_mapping
+from vessel import otter_parameters, tau_to_shaft_speeds
+from vessel.allocation import propeller_thrust, tau_limits
+
+GOLDEN = Path(__file__).parent / "data" / "tau_inputs_golden.json"
+BALANCED = {"name": "balanced", "sea": {"height_m": 1.75, "length_m": 35.0, "period_s": 6.0,
+                                        "travel_dir_deg": -90.0},
+            "start": {"heading_deg": 90.0, "surge_mps": 0.0}, "waypoint": {"north_m": 85.0, "east_m": 75.0},
+            "controller": {"q": 5, "r": 1550, "s": 2}}
+
+
+class Watched(experiment.RunRecorder):
+    """The experiment's recorder, keeping every NmpcResult it is given."""
+
+    results: ClassVar[list[Any]] = []
+
+    def step(self, t: float, x: np.ndarray, result: Any, **columns: Any) -> None:
+        Watched.results.append(result)
+        super().step(t, x, result, **columns)
+
+
+def _run(monkeypatch: pytest.MonkeyPatch, t_max_s: float, plant: str, **controller: Any) -> tuple[list, dict]:
+    """One in-process run of Balanced: (every NmpcResult, metrics)."""
+    Watched.results = []
+    monkeypatch.setattr(experiment, "RunRecorder", Watched)
+    data = {**BALANCED, "t_max_s": t_max_s, "plant": plant,
+            "controller": {**BALANCED["controller"], **controller}}
+    result = experiment.run_scenario(scenario_from_mapping(data, "test"), None, plots=False)
+    return list(Watched.results), result.metrics
+
+
+def test_the_allocation_matrix_and_box_are_the_propellers() -> None:
+    params = otter_parameters("published")
+    space = input_space(NmpcConfig(inputs="propellers"), params)
+    reverse, forward = thrust_limits(params)
+    np.testing.assert_allclose(space.low, [reverse] * 2)
+    np.testing.assert_allclose(space.high, [forward] * 2)
+    mats = params.matrices()
+    assert forward == pytest.approx(float(propeller_thrust(params, mats.n_max)))
+    assert reverse == pytest.approx(float(propeller_thrust(params, mats.n_min)))
+    most_forward, most_reverse, most_yaw = tau_limits(params)
+    np.testing.assert_allclose(space.to_tau(space.high), [most_forward, 0.0], atol=1e-9)
+    one_ahead = space.to_tau(np.array([forward, reverse]))  # left ahead, right astern: the most yaw
+    np.testing.assert_allclose(one_ahead, [(most_forward - most_reverse) / 2, most_yaw])
+    tau = np.array([40.0, -12.0])
+    np.testing.assert_allclose(space.to_tau(space.from_tau(tau)), tau)
+    left, right = space.from_tau(tau)
+    n = tau_to_shaft_speeds(params, *tau)
+    np.testing.assert_allclose([float(propeller_thrust(params, v)) for v in n], [left, right])
+    np.testing.assert_allclose(allocation_matrix(params), [[1, 1], [0.395, -0.395]])
+
+
+def test_tau_space_is_the_config_box() -> None:
+    space = input_space(NmpcConfig(), None)
+    assert space.matrix is None
+    np.testing.assert_array_equal(space.low, [-150.0, -73.6])
+    np.testing.assert_array_equal(space.high, [150.0, 73.6])
+    with pytest.raises(ValueError, match="vessel parameters"):
+        input_space(NmpcConfig(inputs="propellers"), None)
+
+
+@pytest.mark.parametrize("solver", ["nrti", "asrti", "rti", "ipopt"])
+def test_tau_inputs_are_bit_identical_to_before(solver: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    expected = json.loads(GOLDEN.read_text(encoding="utf-8"))[solver]
+    results, _ = _run(monkeypatch, 3.0, "tau", solver=solver)
+    got = [[float(v).hex() for v in r.tau] + [float(v).hex() for v in r.inputs[-1]] for r in results]
+    assert got == expected
+
+
+@pytest.mark.parametrize("solver", ["nrti", "asrti"])
+def test_propeller_inputs_never_command_a_propeller_beyond_its_limit(solver: str,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    params = otter_parameters("published")
+    reverse, forward = thrust_limits(params)
+    B_inv = np.linalg.inv(allocation_matrix(params))
+    results, metrics = _run(monkeypatch, 180.0, "propellers", solver=solver, inputs="propellers")
+    assert metrics["time_to_waypoint_s"] is not None and metrics["failures"] == 0
+    applied = np.array([r.tau for r in results]) @ B_inv.T  # (left, right) thrust of every command
+    planned = np.vstack([r.inputs for r in results]) @ B_inv.T  # and of every planned input
+    tol = 1e-9  # N: round-off of τ = B·u and back
+    for name, thrusts in (("applied", applied), ("planned", planned)):
+        assert thrusts.min() >= reverse - tol, f"{name}: {thrusts.min():.6f} N below {reverse:.6f} N"
+        assert thrusts.max() <= forward + tol, f"{name}: {thrusts.max():.6f} N above {forward:.6f} N"
+    assert applied.max() > forward - 1.0  # the limit is used, not avoided by a margin
