@@ -1,6 +1,7 @@
 """Solve-time distribution of each NMPC solver configuration over a whole closed-loop run.
 
     python bench/nmpc_solve.py [--scenario scenarios/balanced.yaml] [--configs ipopt,rti,asrti,nrti] [--t-max 180]
+                               [--plant tau|propellers]
 
 For each configuration: median, p95, p99 and max wall time per control step (ms) over the whole run, and
 the run's closed-loop metrics (average and maximum roll, time to the waypoint), printed as a table. For
@@ -64,6 +65,9 @@ CONFIGS: dict[str, dict] = {
     "asrti-cap15": {"solver": "asrti", "as_max_iterations": 15},  # background capped at 15 SQP iterations
     # asrti's closed loop with a native preparation/feedback split: the step is one C call on a condensed QP.
     "nrti": {"solver": "nrti"},
+    # The actuator-aware model: u = the two propeller thrusts within their limits, τ = B·u (NmpcConfig.inputs).
+    "nrti-propellers": {"solver": "nrti", "inputs": "propellers"},
+    "asrti-propellers": {"solver": "asrti", "inputs": "propellers"},
     "asrti-setwave": {"solver": "asrti"},  # set_wave every step with the true wave
     "asrti-setwave-noisy": {"solver": "asrti"},  # set_wave every step, truth + noise
     "asrti-estimated": {"solver": "asrti"},  # the wave estimator in the loop (see ESTIMATED)
@@ -125,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scenario", default=str(root / "scenarios" / "balanced.yaml"))
     parser.add_argument("--configs", default="ipopt,rti,asrti,nrti", help=f"comma-separated, from {', '.join(CONFIGS)}")
     parser.add_argument("--t-max", type=float, default=None, help="override the scenario's t_max_s")
+    parser.add_argument("--plant", choices=("tau", "propellers"), default=None, help="override the scenario's plant")
     args = parser.parse_args(argv)
     names = [n.strip() for n in args.configs.split(",") if n.strip()]
     unknown = [n for n in names if n not in CONFIGS]
@@ -133,6 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     base = load_scenarios(args.scenario)[0]
     if args.t_max is not None:
         base = dataclasses.replace(base, t_max_s=args.t_max)
+    if args.plant is not None:
+        base = dataclasses.replace(base, plant=args.plant)
     rows = []
     notes = []
     for name in names:
@@ -160,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
                      m["prepare_ms"], m["iterations_median"], m["failures"], m["avg_roll_deg"], m["max_roll_deg"],
                      arrival, background, wall))
         print(f"{name}: done in {wall:.1f} s", file=sys.stderr, flush=True)
-    print(f"scenario {Path(args.scenario).name} ({base.name}), horizon {base.controller.horizon}, "
+    print(f"scenario {Path(args.scenario).name} ({base.name}), plant {base.plant}, horizon {base.controller.horizon}, "
           f"period {base.controller.period_s} s; solve ms per control step (wall clock)")
     print("| config | steps | median ms | p95 ms | p99 ms | max ms | prepare ms | iters (median) "
           "| failures | avg roll ° | max roll ° | t_wpt s | background ms median / max | run wall s |")

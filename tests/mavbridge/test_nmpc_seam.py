@@ -127,7 +127,7 @@ def test_every_backend_closes_idempotently(solver: str) -> None:
 
 def test_structural_fields_are_marked_on_the_fields_and_key_the_build() -> None:
     marked = {f.name for f in dataclasses.fields(NmpcConfig) if f.metadata.get(STRUCTURAL)}
-    assert marked == {"horizon", "period_s", "substeps", "integrator", "min_speed_mps", "min_speed_weight"}
+    assert marked == {"horizon", "period_s", "substeps", "integrator", "inputs", "min_speed_mps", "min_speed_weight"}
     cfg = NmpcConfig(horizon=5)
     assert dict(cfg.structural()) == {name: getattr(cfg, name) for name in marked}
     built = problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg)
@@ -136,6 +136,7 @@ def test_structural_fields_are_marked_on_the_fields_and_key_the_build() -> None:
                          (cfg, RegularWaves(1.0, 50.0, 7.0, 0.3, phase_rad=1.0)), (cfg, None)):
         assert problem_functions(otter_parameters(), waves, OceanCurrent(), other) is built
     assert problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg.replace(horizon=6)) is not built
+    assert problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg.replace(inputs="propellers")) is not built
 
 
 def test_parameter_layout_names_every_block() -> None:
