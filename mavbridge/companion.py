@@ -34,7 +34,7 @@ from .companion_config import CompanionConfig, load_companion_config
 from .delay_compensation import make_compensator
 from .engage_gate import far_waypoint
 from .flight_start import log_result as _log_result
-from .flight_start import start_flight, wave_step
+from .flight_start import start_flight, switch_mode_at_start, wave_step
 from .link import Link, LinkError, mavlink
 from .loop_notices import LoopNotices
 from .mission_tracker import MissionTracker
@@ -140,6 +140,7 @@ class Companion:
         self._stop_reason: str | None = None
         self._in_loop = False
         self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
+        self.mode_at_start = False  # lockstep --start-at with --set-mode: the switch waits for the first tick
 
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
@@ -302,6 +303,8 @@ class Companion:
                 continue
             self.events.skipped_ticks += missed
             self.notices.skipped(missed, self.period_s)
+            if self.mode_at_start:
+                switch_mode_at_start(self, link, now_ms)
             self._control_step(link, now_ms)
             engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:

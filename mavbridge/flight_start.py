@@ -5,10 +5,14 @@ request the streams, load the mission, measure the rates (and pin the fastest IM
 waypoints' range before anything moves, make the cold full solve so every step in the loop starts
 warm, then set the mode and arm only when the operator asked (``--set-mode``/``--arm``).
 ``wave_step`` hands the wave source's answer (and its sea statistics) to the NMPC once.
+In lockstep with ``--start-at`` the mode switch waits for the first tick (``switch_mode_at_start``): a mode
+entered at a wall-clock moment of the startup starts its autopilot controllers (GUIDED's loiter, its
+integrators) at a simulated time that differs from run to run, and the run would not repeat.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -20,6 +24,9 @@ from .nmpc import RollAwareNmpc
 from .rover_modes import mode_name
 from .seasource import SCENARIO_TRUTH, WaveSource, sea_spread
 from .streams import imu_rate, measure_rates, request_streams
+from .supervisor import Phase
+
+MODE_HEARTBEAT_WAIT_S = 5.0  # wall seconds the first lockstep tick waits for the heartbeat in the new mode
 
 
 def log_result(log: Callable[[str], None], what: str, result: int | None) -> None:
@@ -67,8 +74,27 @@ def start_flight(c: Any, link: Link) -> None:
         c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
               f"({prepared.status})")
     c.supervisor.self_commanded = c.set_mode or c.arm
-    if c.set_mode:
+    c.mode_at_start = c.set_mode and c.config.lockstep and c.config.start_at_s is not None
+    if c.set_mode and not c.mode_at_start:
         mode = c.supervisor.expected_mode = c.output.required_mode
         log_result(c.log, f"mode {mode_name(mode)}", link.set_mode(mode))
     if c.arm:
         log_result(c.log, "arming", link.arm())
+    if c.mode_at_start:
+        c.log(f"lockstep: the switch to {mode_name(c.output.required_mode)} waits for the first tick "
+              f"(t = {c.config.start_at_s:g} s), so that every run starts its autopilot mode at the same time")
+
+
+def switch_mode_at_start(c: Any, link: Link, now_ms: int) -> None:
+    """Lockstep with ``--start-at``: set the output's mode at the first tick, which the simulator holds (the
+    command is answered while time stands still), and wait for the heartbeat that shows it, so the step
+    right after it commands. Rover's GUIDED thus starts from the same state at the same time in every run."""
+    c.mode_at_start = False
+    mode = c.supervisor.expected_mode = c.output.required_mode
+    log_result(c.log, f"mode {mode_name(mode)} at t = {now_ms / 1000:.1f} s", link.set_mode(mode))
+    deadline = time.monotonic() + MODE_HEARTBEAT_WAIT_S
+    while c.supervisor.phase != Phase.ENGAGED and not c.supervisor.phase.final and time.monotonic() < deadline:
+        link.heartbeat_if_due()
+        link.recv(0.05)
+    if c.supervisor.phase != Phase.ENGAGED:
+        c.log(f"warning: no heartbeat armed in {mode_name(mode)} within {MODE_HEARTBEAT_WAIT_S:g} s of the switch")

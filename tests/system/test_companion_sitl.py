@@ -117,14 +117,6 @@ def sitl(tmp_path: Path) -> Iterator[SimProcess]:
 
 
 @pytest.fixture
-def sitl_lockstep(tmp_path: Path) -> Iterator[SimProcess]:
-    """The ``sitl`` simulator in lockstep with the companion (SYSID_MYGCS), paced at speedup 10 until it commands."""
-    with SimProcess(tmp_path / "sim", speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP],
-                    udp_outs=1) as sim:
-        yield sim
-
-
-@pytest.fixture
 def companion_factory(tmp_path: Path) -> Iterator:
     started: list[Companion] = []
 
@@ -170,16 +162,14 @@ class Garbage(threading.Thread):
                 time.sleep(0.05)
 
 
-def test_balanced_rc_override_is_like_the_experiment_and_repeats(tmp_path: Path, companion_factory) -> None:
-    """Two lockstep runs of Balanced over MAVLink with one seed: each arrives with every tick planned, the first
-    matches the in-process experiment, and the second repeats it (average roll and arrival within 1 %). (No noise
-    here: a held tick has only its repeats to get through, see the killed-companion test for garbage on the port.)
-    One test for both, since each lockstep run costs half a minute of CI."""
+def _two_lockstep_flights(tmp_path: Path, companion_factory, *extra: str) -> list[tuple[float, float]]:
+    """Two lockstep runs of Balanced over MAVLink with one seed, each checked to arrive with every tick planned;
+    (average roll in degrees, arrival in seconds) of each."""
     figures = []
     for run in range(2):
         with SimProcess(tmp_path / f"sim{run}", speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP],
                         udp_outs=1) as sim:
-            companion = companion_factory(sim.udp_ports[0], *LOCKSTEP)
+            companion = companion_factory(sim.udp_ports[0], *extra, *LOCKSTEP)
             assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
             metrics = companion.metrics()
             assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] is not None, metrics
@@ -187,11 +177,33 @@ def test_balanced_rc_override_is_like_the_experiment_and_repeats(tmp_path: Path,
             times = np.array([float(r["t_s"]) for r in companion.rows()])
             assert np.allclose(np.diff(times), 0.1, atol=0.001)  # every period planned, in autopilot time
             figures.append((metrics["avg_roll_deg"], metrics["time_to_waypoint_s"]))
-    reference = run_scenario_metrics()
-    assert figures[0][0] == pytest.approx(reference["avg_roll_deg"], rel=0.15), (figures, reference)
+    return figures
+
+
+def _assert_repeats(figures: list[tuple[float, float]]) -> None:
     (roll_a, time_a), (roll_b, time_b) = figures
     assert roll_b == pytest.approx(roll_a, rel=0.01) and time_b == pytest.approx(time_a, rel=0.01), figures
+
+
+def test_balanced_rc_override_is_like_the_experiment_and_repeats(tmp_path: Path, companion_factory) -> None:
+    """Two lockstep runs of Balanced over RC override: the first matches the in-process experiment, and the second
+    repeats it (average roll and arrival within 1 %). (No noise here: a held tick has only its repeats to get
+    through, see the killed-companion test for garbage on the port.) One test for both, since each lockstep run
+    costs half a minute of CI."""
+    figures = _two_lockstep_flights(tmp_path, companion_factory)
+    reference = run_scenario_metrics()
+    assert figures[0][0] == pytest.approx(reference["avg_roll_deg"], rel=0.15), (figures, reference)
+    _assert_repeats(figures)
     print(f"\nSITL rc_override (lockstep), two runs: {figures}\nin-process reference: {reference}")
+
+
+def test_balanced_attitude_target_arrives_and_repeats(tmp_path: Path, companion_factory) -> None:
+    """Two lockstep runs of Balanced over SET_ATTITUDE_TARGET (GUIDED): each arrives with every tick planned, and
+    they repeat within 1 %, because the companion switches to GUIDED at the first, held tick, not during its
+    startup while simulated time still runs."""
+    figures = _two_lockstep_flights(tmp_path, companion_factory, "--output", "attitude_target")
+    _assert_repeats(figures)
+    print(f"\nSITL attitude_target (lockstep), two runs: {figures}")
 
 
 def run_scenario_metrics() -> dict:
@@ -199,16 +211,6 @@ def run_scenario_metrics() -> dict:
     base = Scenario(name="balanced")
     scenario = dataclasses.replace(base, plant="propellers", controller=base.controller.replace(solver="asrti"))
     return run_scenario(scenario, None, plots=False).metrics
-
-
-def test_balanced_attitude_target_reaches_the_waypoint(sitl_lockstep: SimProcess, companion_factory) -> None:
-    companion = companion_factory(sitl_lockstep.udp_ports[0], "--output", "attitude_target", *LOCKSTEP)
-    assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
-    metrics = companion.metrics()
-    assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] is not None
-    assert_lockstep_run(metrics, sitl_lockstep)
-    print(f"\nSITL attitude_target: avg roll {metrics['avg_roll_deg']} deg, max {metrics['max_roll_deg']} deg, "
-          f"time {metrics['time_to_waypoint_s']} s")
 
 
 def test_operator_hold_stops_the_companion_within_one_period(tmp_path: Path, companion_factory) -> None:
