@@ -1,8 +1,9 @@
 """The NMPC's input space (``NmpcConfig.inputs``): τ in a box (the paper's, unchanged) or the propeller thrusts.
 
-* ``tau`` is bit-identical to the code before the setting existed: the fixture holds, as float hex, the
-  applied τ and the last planned input of every step of a 3 s Balanced run for each backend, recorded
-  with the main branch at 1cd756f (regenerate only for an intended change of the paper's setting).
+* ``tau`` is the code before the setting existed: the fixture holds, as float hex, the applied τ and the last
+  planned input of every step of a 3 s Balanced run for each backend, recorded with the main branch at 1cd756f
+  (regenerate only for an intended change of the paper's setting). On the recording machine they agree bit for
+  bit; the test allows 1e-9 relative so that another CPU's vectorised round-off does not fail it.
 * ``propellers`` never commands a propeller beyond its limit, over whole runs on the propeller plant.
 """
 
@@ -80,11 +81,13 @@ def test_tau_space_is_the_config_box() -> None:
 
 
 @pytest.mark.parametrize("solver", ["nrti", "asrti", "rti", "ipopt"])
-def test_tau_inputs_are_bit_identical_to_before(solver: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    expected = json.loads(GOLDEN.read_text(encoding="utf-8"))[solver]
+def test_tau_inputs_are_as_before(solver: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    expected = np.array([[float.fromhex(v) for v in row] for row in
+                         json.loads(GOLDEN.read_text(encoding="utf-8"))[solver]])
     results, _ = _run(monkeypatch, 3.0, "tau", solver=solver)
-    got = [[float(v).hex() for v in r.tau] + [float(v).hex() for v in r.inputs[-1]] for r in results]
-    assert got == expected
+    got = np.array([[*r.tau, *r.inputs[-1]] for r in results])
+    assert got.shape == expected.shape
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize("solver", ["nrti", "asrti"])
