@@ -33,8 +33,8 @@ from .command_channel import CommandChannel
 from .companion_config import CompanionConfig, load_companion_config
 from .delay_compensation import make_compensator
 from .engage_gate import far_waypoint
+from .flight_start import DeferredStart, start_flight, switch_mode_at_start, wave_step
 from .flight_start import log_result as _log_result
-from .flight_start import start_flight, switch_mode_at_start, wave_step
 from .link import Link, LinkError, mavlink
 from .loop_notices import LoopNotices
 from .mission_tracker import MissionTracker
@@ -140,7 +140,7 @@ class Companion:
         self._stop_reason: str | None = None
         self._in_loop = False
         self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
-        self.mode_at_start = False  # lockstep --start-at with --set-mode: the switch waits for the first tick
+        self.deferred_start: DeferredStart | None = None  # lockstep --start-at --set-mode: switch at the first tick
 
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
@@ -216,6 +216,10 @@ class Companion:
         self.supervisor.stop(reason)
         if self.commands.commanding:
             self.commands.stand_down(link, self.state)
+
+    def stop_requested(self) -> bool:
+        """True once a signal asked the companion to stop (the loop ends at its next turn)."""
+        return self._stop_reason is not None
 
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
@@ -303,7 +307,7 @@ class Companion:
                 continue
             self.events.skipped_ticks += missed
             self.notices.skipped(missed, self.period_s)
-            if self.mode_at_start:
+            if self.deferred_start is not None:
                 switch_mode_at_start(self, link, now_ms)
             self._control_step(link, now_ms)
             engaged = self.events.engaged_at_ms

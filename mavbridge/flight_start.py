@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from vessel.config import ConfigError
@@ -24,7 +25,7 @@ from .nmpc import RollAwareNmpc
 from .rover_modes import mode_name
 from .seasource import SCENARIO_TRUTH, WaveSource, sea_spread
 from .streams import imu_rate, measure_rates, request_streams
-from .supervisor import Phase
+from .supervisor import Phase, Supervisor
 
 MODE_HEARTBEAT_WAIT_S = 5.0  # wall seconds the first lockstep tick waits for the heartbeat in the new mode
 
@@ -74,27 +75,60 @@ def start_flight(c: Any, link: Link) -> None:
         c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
               f"({prepared.status})")
     c.supervisor.self_commanded = c.set_mode or c.arm
-    c.mode_at_start = c.set_mode and c.config.lockstep and c.config.start_at_s is not None
-    if c.set_mode and not c.mode_at_start:
+    if c.set_mode and c.config.lockstep and c.config.start_at_s is not None:
+        c.deferred_start = DeferredStart(c.supervisor.mode, c.arm)
+        c.log(f"lockstep: the switch to {mode_name(c.output.required_mode)}" + (" and the arming" if c.arm else "")
+              + f" wait for the first tick (t = {c.config.start_at_s:g} s), so that every run starts its "
+              "autopilot mode at the same time")
+        return
+    if c.set_mode:
         mode = c.supervisor.expected_mode = c.output.required_mode
         log_result(c.log, f"mode {mode_name(mode)}", link.set_mode(mode))
     if c.arm:
         log_result(c.log, "arming", link.arm())
-    if c.mode_at_start:
-        c.log(f"lockstep: the switch to {mode_name(c.output.required_mode)} waits for the first tick "
-              f"(t = {c.config.start_at_s:g} s), so that every run starts its autopilot mode at the same time")
+
+
+@dataclass(frozen=True)
+class DeferredStart:
+    """A mode switch (and arming) that lockstep with ``--start-at`` leaves to the first tick, and the autopilot
+    mode seen when it was deferred: a different mode at the tick is someone else's choice, not to be undone."""
+
+    mode_seen: int | None
+    arm: bool
+
+
+def deferred_start_refused(deferred: DeferredStart, supervisor: Supervisor) -> str | None:
+    """Why the deferred switch must not happen at the first tick, or None when it may: consent lapsed (a reboot
+    clears it), the run already ended, or someone changed the autopilot's mode while the companion waited."""
+    if supervisor.phase.final:
+        return f"the run ended ({supervisor.phase.value})"
+    if not supervisor.self_commanded:
+        return "consent lapsed (the autopilot rebooted since the start)"
+    if supervisor.mode != deferred.mode_seen:
+        return (f"the mode changed to {mode_name(supervisor.mode) if supervisor.mode is not None else 'none'} "
+                "while waiting: someone else's choice")
+    return None
 
 
 def switch_mode_at_start(c: Any, link: Link, now_ms: int) -> None:
-    """Lockstep with ``--start-at``: set the output's mode at the first tick, which the simulator holds (the
-    command is answered while time stands still), and wait for the heartbeat that shows it, so the step
-    right after it commands. Rover's GUIDED thus starts from the same state at the same time in every run."""
-    c.mode_at_start = False
-    mode = c.supervisor.expected_mode = c.output.required_mode
+    """Lockstep with ``--start-at``: set the output's mode (then arm, if asked) at the first tick, which the
+    simulator holds (commands are answered while time stands still), and wait for the heartbeat that shows
+    it, so the step right after it commands. Rover's GUIDED thus starts from the same state at the same time
+    in every run. Refuses (and says why) when the switch is no longer the operator's wish."""
+    deferred, c.deferred_start = c.deferred_start, None
+    refused = deferred_start_refused(deferred, c.supervisor)
+    mode = c.output.required_mode
+    if refused is not None:
+        c.log(f"lockstep: not switching to {mode_name(mode)} at t = {now_ms / 1000:.1f} s: {refused}")
+        return
+    c.supervisor.expected_mode = mode
     log_result(c.log, f"mode {mode_name(mode)} at t = {now_ms / 1000:.1f} s", link.set_mode(mode))
+    if deferred.arm:
+        log_result(c.log, f"arming at t = {now_ms / 1000:.1f} s", link.arm())
     deadline = time.monotonic() + MODE_HEARTBEAT_WAIT_S
-    while c.supervisor.phase != Phase.ENGAGED and not c.supervisor.phase.final and time.monotonic() < deadline:
+    while (c.supervisor.phase != Phase.ENGAGED and not c.supervisor.phase.final and not c.stop_requested()
+           and time.monotonic() < deadline):
         link.heartbeat_if_due()
         link.recv(0.05)
-    if c.supervisor.phase != Phase.ENGAGED:
+    if c.supervisor.phase != Phase.ENGAGED and not c.stop_requested():
         c.log(f"warning: no heartbeat armed in {mode_name(mode)} within {MODE_HEARTBEAT_WAIT_S:g} s of the switch")

@@ -97,6 +97,7 @@ def watch_reboots(link: Any, companion: Any) -> RebootWatch:
     def rebooted(reason: str) -> None:
         companion.supervisor.rebooted(reason)
         companion.events.engaged_at_ms = None
+        companion.deferred_start = None  # a lockstep start's deferred switch was consent to the old boot
 
     watch = RebootWatch(rebooted, companion.log)
     heartbeat_handler = companion._on_heartbeat

@@ -47,16 +47,17 @@ class BackgroundSolve:
         lin, _ = functions.load_linearisation(cfg.rti_codegen)
         self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0, input_space(cfg, functions.params))
 
-    def __call__(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> BackgroundResult:
-        """Predict the next state from p's under ``tau`` (p's wave), then solve from the shifted plan."""
+    def __call__(self, w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> BackgroundResult:
+        """Predict the next state from p's under ``u_applied`` (the model's input u: τ, or the propeller thrusts)
+        and p's wave, then solve from the shifted plan."""
         start = time.perf_counter()
         cfg = self.cfg
         par = PARAMS.unpack(p)
-        x_next = np.asarray(self.step(par.x0, tau, par.t, par.wave)).ravel()
+        x_next = np.asarray(self.step(par.x0, u_applied, par.t, par.wave)).ravel()
         p_next = p.copy()
         p_next[PARAMS.slice("x0")] = x_next
         p_next[PARAMS.index("t")] = par.t + cfg.period_s
-        p_next[PARAMS.slice("u_prev")] = tau
+        p_next[PARAMS.slice("u_prev")] = u_applied
         w0 = self.layout.shift(w_plan)
         w0[self.layout.x_index(0)] = x_next
         w = None
@@ -94,9 +95,10 @@ class AdvancedStep:
         """Start the worker now (a worker process takes about a second to build its solver)."""
         self._worker().submit(_noop).result()
 
-    def start(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> None:
-        """Start the converged solve for the period after the one ``p`` describes, ``tau`` applied."""
-        args = (np.array(w_plan, float), np.array(p, float), np.array(tau, float))
+    def start(self, w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> None:
+        """Start the converged solve for the period after the one ``p`` describes, ``u_applied`` (the model's
+        input u) applied."""
+        args = (np.array(w_plan, float), np.array(p, float), np.array(u_applied, float))
         target = _worker_solve if self._solve is None else self._solve
         self._pending = self._worker().submit(target, *args)
 
@@ -177,9 +179,9 @@ class AsrtiBackend(RtiBackend):
         outcome.stats.update(info, background_wait_s=wait)
         return outcome
 
-    def advance(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> None:
+    def advance(self, w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> None:
         """Start the background solve for the next period."""
-        self.advanced.start(w_plan, p, tau)
+        self.advanced.start(w_plan, p, u_applied)
 
     def reset(self) -> None:
         """Drop the job in flight."""
@@ -205,7 +207,7 @@ def _worker_init(params: OtterParameters, fixed_waves: WaveField | None, current
     _WORKER_SOLVE = BackgroundSolve(problem_functions(params, fixed_waves, current, cfg), cfg)
 
 
-def _worker_solve(w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> BackgroundResult:
+def _worker_solve(w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> BackgroundResult:
     if _WORKER_SOLVE is None:
         raise RuntimeError("asrti worker process: not initialised")
-    return _WORKER_SOLVE(w_plan, p, tau)
+    return _WORKER_SOLVE(w_plan, p, u_applied)

@@ -11,6 +11,7 @@ from vessel.config import ConfigError, bounded, validate
 SOLVERS = ("ipopt", "rti", "asrti", "nrti")
 INTEGRATORS = ("euler", "rk4")
 INPUTS = ("tau", "propellers")
+TAU_BOX = ("tau_x_max_n", "tau_x_min_n", "tau_n_max_nm")  # the τ inputs' box: not for propeller inputs
 STRUCTURAL = "structural"  # field metadata key: the field changes the built problem
 
 
@@ -84,9 +85,20 @@ class NmpcConfig:
         if self.rti_max_iterations < self.rti_iterations:
             raise ConfigError(f"rti_max_iterations: {self.rti_max_iterations} is below rti_iterations "
                               f"{self.rti_iterations}; allowed [rti_iterations, 50]")
+        self._refuse_box_with_propellers()
         if self.safe_surge_n > self.tau_x_max_n:
             raise ConfigError(f"safe_surge_n: {self.safe_surge_n:g} N exceeds tau_x_max_n "
                               f"{self.tau_x_max_n:g} N; allowed [0, tau_x_max_n] N")
+
+    def _refuse_box_with_propellers(self) -> None:
+        """A τ box set together with propeller-thrust inputs would be silently ignored: refuse it instead."""
+        if self.inputs != "propellers":
+            return
+        for name in TAU_BOX:
+            field = next(f for f in dataclasses.fields(self) if f.name == name)
+            if getattr(self, name) != field.default:
+                raise ConfigError(f"{name}: does not apply with inputs: propellers (each propeller's own thrust "
+                                  f"limits bound the inputs); remove it, or use inputs: tau")
 
     @property
     def weights(self) -> tuple[float, float, float, float, float]:

@@ -287,11 +287,11 @@ class RollAwareNmpc:
         if outcome.start is not None:  # the backend started from its own plan (asrti: the background one)
             guess = outcome.start
         wall = time.perf_counter() - start - outcome.wait_s
-        tau, plan, fallback, source = self._choose_input(outcome, guess, lam_w, lam_g, have_plan, t)
+        u_chosen, plan, fallback, source = self._choose_input(outcome, guess, lam_w, lam_g, have_plan, t)
         if fallback is None and deadline_s is not None and wall > deadline_s:
             fallback = f"late: {wall * 1e3:.1f} ms > deadline {deadline_s * 1e3:.1f} ms"
-            tau, source = self._fallback_input(guess, have_plan, outcome.usable)
-        u = self.inputs.clip(tau)  # the model's input: τ, or the propeller thrusts
+            u_chosen, source = self._fallback_input(guess, have_plan, outcome.usable)
+        u = self.inputs.clip(u_chosen)  # the model's input u: τ, or the propeller thrusts
         self._u_applied = u.copy()
         if outcome.usable:
             self._backend.advance(plan, p, u)
@@ -306,7 +306,8 @@ class RollAwareNmpc:
     def _choose_input(self, outcome: SolveOutcome, guess: np.ndarray, lam_w: np.ndarray | None,
                       lam_g: np.ndarray | None, have_plan: bool,
                       t: float) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
-        """(τ, plan, fallback reason, fallback source) after a solve; stores the plan for the next step."""
+        """(u, plan, fallback reason, fallback source) after a solve (u: the model's input); stores the plan
+        for the next step."""
         self._plan_t = t
         if outcome.usable:
             self._w, self._lam_w, self._lam_g = outcome.w, outcome.lam_w, outcome.lam_g

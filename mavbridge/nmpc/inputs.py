@@ -52,7 +52,7 @@ def input_tau(u: ca.SX, matrix: np.ndarray | None) -> ca.SX:
     return ca.vertcat(matrix[0, 0] * u[0] + matrix[0, 1] * u[1], matrix[1, 0] * u[0] + matrix[1, 1] * u[1])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # eq=False: compared and hashed by identity (its arrays are not hashable)
 class InputSpace:
     """The controller's view of u: its box, and the conversions to and from (τ_X, τ_N)."""
 

@@ -7,7 +7,7 @@ Parameter vector p (one built solver serves any run, time, tuning and regular wa
     x0 (12)        measured rigid-body state [x y z φ θ ψ u v w p q r], NED position, body velocities
     t (1)          time of stage 0, s (the wave's clock)
     waypoint (2)   target (north, east), m, NED
-    u_prev (2)     input applied in the previous period (τ_X N, τ_N N·m)
+    u_prev (2)     the model input u applied in the previous period (τ_X N, τ_N N·m; or the two thrusts, N)
     weights (5)    Q, R, S, W11, W22
     wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
     roll_spread (3) √R × the lower Cholesky factor L of the NED slope covariance the wave model does not

@@ -52,16 +52,16 @@ class Preparation:
         self.condenser = condenser
         self.buffers = FeedbackBuffers.allocate(condenser.cfg.horizon)  # this thread's own
 
-    def __call__(self, w_plan: np.ndarray, p: np.ndarray, tau: np.ndarray) -> BackgroundResult:
+    def __call__(self, w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> BackgroundResult:
         """(CondensedQp or None, p_next, seconds, SQP iterations) for the period after ``p``'s."""
         start = time.perf_counter()
         cfg, layout = self.condenser.cfg, self.solve.layout
         par = PARAMS.unpack(p)
-        x_next = np.asarray(self.solve.step(par.x0, tau, par.t, par.wave)).ravel()
+        x_next = np.asarray(self.solve.step(par.x0, u_applied, par.t, par.wave)).ravel()
         p_next = p.copy()
         p_next[PARAMS.slice("x0")] = x_next
         p_next[PARAMS.index("t")] = par.t + cfg.period_s
-        p_next[PARAMS.slice("u_prev")] = tau
+        p_next[PARAMS.slice("u_prev")] = u_applied
         w = layout.shift(w_plan)
         w[layout.x_index(0)] = x_next
         qp, iterations = None, 0

@@ -1,5 +1,6 @@
 """RebootWatch on real MAVLink messages: a reboot needs both the heartbeat gap and time_boot_ms going back;
-the heartbeat after a gap reaches the supervisor only once that is decided; consent does not survive it."""
+the heartbeat after a gap reaches the supervisor only once that is decided; consent does not survive it,
+nor does a lockstep start's deferred mode switch."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from mavbridge.flight_start import DeferredStart, deferred_start_refused
 from mavbridge.reboot import DECIDE_S, GAP_S, RebootWatch
 from mavbridge.supervisor import Phase, Supervisor
 
@@ -112,3 +114,40 @@ def test_found_armed_after_a_reboot_is_not_consent() -> None:
     sup.on_heartbeat(1.0, True, MANUAL)
     sup.rebooted("autopilot rebooted")
     assert sup.on_heartbeat(5.0, True, MANUAL) == Phase.WAITING  # armed in the mode already: switch out and back
+
+
+HOLD, GUIDED = mavlink.ROVER_MODE_HOLD, mavlink.ROVER_MODE_GUIDED
+
+
+def _waiting_in(mode: int) -> Supervisor:
+    """A companion started with --set-mode --arm in lockstep: it has consent and saw the boat disarmed in ``mode``."""
+    sup = Supervisor(required_mode=GUIDED, link_timeout_s=2.0, self_commanded=True)
+    sup.on_heartbeat(0.0, False, mode)
+    return sup
+
+
+def test_a_deferred_lockstep_switch_goes_ahead_when_nothing_changed() -> None:
+    sup = _waiting_in(HOLD)
+    assert deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=True), sup) is None
+
+
+def test_a_reboot_before_the_first_tick_cancels_the_deferred_switch() -> None:
+    sup = _waiting_in(HOLD)
+    sup.rebooted("autopilot rebooted")
+    sup.on_heartbeat(6.0, False, HOLD)  # the new boot, same mode: consent still did not carry over
+    why = deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=True), sup)
+    assert why is not None and "consent" in why
+
+
+def test_an_operators_mode_change_while_waiting_is_not_undone_at_the_first_tick() -> None:
+    sup = _waiting_in(HOLD)
+    sup.on_heartbeat(3.0, False, MANUAL)  # the pilot chose MANUAL while the companion waited for its tick
+    why = deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=False), sup)
+    assert why is not None and "MANUAL" in why
+
+
+def test_a_run_that_ended_before_the_first_tick_switches_nothing() -> None:
+    sup = _waiting_in(HOLD)
+    sup.stop("signal SIGTERM")
+    why = deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=False), sup)
+    assert why is not None and "ended" in why
