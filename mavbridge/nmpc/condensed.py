@@ -15,6 +15,7 @@ solved here too, as the feedback's starting guess. All of this runs before the m
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -143,9 +144,12 @@ class Condenser:
         self.u_high = np.tile(space.high, P)
         self.box = BoxQp(lib, n, QP_MAX_ITER, QP_TOL)
 
-    def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None) -> CondensedQp:
+    def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None,
+                 active: np.ndarray | None = None) -> CondensedQp:
         """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``; its feedback
-        call writes into ``buffers`` (default: the backend's)."""
+        call writes into ``buffers`` (default: the backend's). Without ``active`` its active set at dz0 = 0
+        is solved here (``guess_status``); with it (−1/0/+1 per input step) that is the feedback's starting
+        guess and the caller, whose feedback call at dz0 = 0 solves it, sets ``guess_status``."""
         P, n = self.cfg.horizon, self.n
         w_aug = np.ascontiguousarray(w_aug, float)
         AB, Hs, gs, gap = (a.copy() for a in self.lin(w_aug, np.ascontiguousarray(p, float)))
@@ -155,10 +159,19 @@ class Condenser:
         U = w_aug[self.u_index]
         lo = np.minimum(self.u_low - U, 0.0)
         hi = np.maximum(self.u_high - U, 0.0)
-        state0 = np.zeros(n, np.intc)
-        _, status = self.box.solve(Hc, gc, lo, hi, state0)
-        b = buffers or self.buffers
+        if active is None:
+            state0 = np.zeros(n, np.intc)
+            _, status = self.box.solve(Hc, gc, lo, hi, state0)
+        else:
+            state0, status = np.array(active, np.intc), 0
         arrays = (Hc, gc, Gc, lo, hi, state0, AB, gap, w_aug)
-        args = (P, NX, NZ, NU, *(ptr(a) for a in arrays), ptr(b.dz0), QP_MAX_ITER, QP_TOL, ptr(b.w_out),
-                ptr(b.du), ptr(b.work), ptr(b.iwork))
-        return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays, args=args, guess_status=status)
+        return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays,
+                           args=self._feedback_args(arrays, buffers or self.buffers), guess_status=status)
+
+    def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None) -> CondensedQp:
+        """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's)."""
+        return dataclasses.replace(qp, args=self._feedback_args(qp.arrays, buffers or self.buffers))
+
+    def _feedback_args(self, arrays: tuple[np.ndarray, ...], b: FeedbackBuffers) -> tuple:
+        return (self.cfg.horizon, NX, NZ, NU, *(ptr(a) for a in arrays), ptr(b.dz0), QP_MAX_ITER, QP_TOL,
+                ptr(b.w_out), ptr(b.du), ptr(b.work), ptr(b.iwork))

@@ -1,8 +1,9 @@
 """Native real-time iteration (solver ``nrti``): asrti's closed loop with its step split in two, in C.
 
 Preparation (background thread, before the measurement): asrti's converged Gauss–Newton SQP for the
-predicted next state, then the QP at that plan linearised (compiled CasADi code of the project's own
-model) and condensed to the N·nu input steps, its active set solved for the predicted state (``condensed``).
+predicted next state, each iteration's QP linearised (compiled CasADi code of the project's own model),
+condensed to the N·nu input steps (``condensed``) and solved from the previous one's active set; the last
+iteration's QP, with its solved active set, is the one prepared for the feedback.
 Feedback (the only work between measurement and input): the measured state's offset from the predicted
 one enters the condensed gradient linearly; one dense box QP from the prepared active set and the
 states by the linear dynamics — one ctypes call into ``native_source``'s kernels on preallocated
@@ -45,7 +46,7 @@ def say_once(message: str) -> None:
 
 class Preparation:
     """The background job: a converged Gauss–Newton SQP for the predicted next state, every iteration a
-    condensed QP solved natively (as asrti's, whose HPIPM iterations it replaces), then the QP at its plan."""
+    condensed QP solved natively (as asrti's, whose HPIPM iterations it replaces); its last QP is prepared."""
 
     def __init__(self, solve: BackgroundSolve, condenser: Condenser) -> None:
         self.solve = solve  # asrti's: its model step, layout and augmented-layout conversions
@@ -66,26 +67,36 @@ class Preparation:
         w[layout.x_index(0)] = x_next
         qp, iterations = None, 0
         if np.all(np.isfinite(x_next)):
-            w, iterations = self.converge(w, p_next)
-            qp = None if w is None else self._condense(w, p_next)
+            qp, iterations = self.converge(w, p_next)
         return qp, p_next, time.perf_counter() - start, iterations
 
-    def converge(self, w: np.ndarray, p: np.ndarray) -> tuple[np.ndarray | None, int]:
+    def converge(self, w: np.ndarray, p: np.ndarray) -> tuple[CondensedQp | None, int]:
         """Full-step SQP from ``w`` (controller layout, x0 in place) until every input step is at most
-        ``as_step_tol`` (at most ``as_max_iterations``): (the plan or None on a failed QP, iterations)."""
+        ``as_step_tol`` (at most ``as_max_iterations``): (the QP of its last iteration, for the backend's
+        feedback, or None when a QP failed; iterations).
+
+        The prepared QP is the last iteration's, linearised at the plan before that iteration's step (at
+        most ``as_step_tol`` away from the converged plan), not a further condensation at the converged
+        plan: the feedback is then the RTI from that point, and each step costs one condensation less.
+        Each iteration's QP starts from the previous one's active set."""
         cfg, b, sqp = self.condenser.cfg, self.buffers, self.solve.sqp
-        u_prev = PARAMS.get(p, "u_prev")
+        u_prev, n = PARAMS.get(p, "u_prev"), self.condenser.n
         b.dz0[:] = 0.0
-        for it in range(cfg.as_max_iterations):
-            qp = self.condenser.condense(sqp.to_aug(w, u_prev), p, b)
-            if qp.guess_status <= 0 or self.condenser.lib.nrti_feedback(*qp.args) < 0:
+        active = np.zeros(n, np.intc)  # all free: the first QP is solved from scratch
+        qp, it = None, 0
+        for it in range(cfg.as_max_iterations):  # as_max_iterations >= 1 (NmpcConfig)
+            qp = self.condenser.condense(sqp.to_aug(w, u_prev), p, b, active)
+            qp.guess_status = self.condenser.lib.nrti_feedback(*qp.args)
+            if qp.guess_status < 0 or not np.all(np.isfinite(b.w_out)):
                 return None, it + 1
-            if not np.all(np.isfinite(b.w_out)):
-                return None, it + 1
+            active = b.iwork[2 * n:3 * n]  # the active set the QP ended with (nrti_feedback's own copy)
+            qp.arrays[5][:] = active  # the backend's feedback starts from it
             w = b.w_out.copy()
             if np.max(np.abs(b.du)) <= cfg.as_step_tol:
-                return w, it + 1
-        return w, cfg.as_max_iterations
+                break
+        if qp is None or qp.guess_status <= 0:  # iteration cap in the QP: no prepared QP (asrti's step instead)
+            return None, it + 1
+        return self.condenser.bind(qp), it + 1
 
     def at_plan(self, w: np.ndarray, p: np.ndarray) -> BackgroundResult:
         """The condensed QP at a plan already solved for ``p`` itself (after the cold solve)."""

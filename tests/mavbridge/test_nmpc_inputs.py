@@ -2,7 +2,8 @@
 
 * ``tau`` is the code before the setting existed: the fixture holds, as float hex, the applied τ and the last
   planned input of every step of a 3 s Balanced run for each backend, recorded with the main branch at 1cd756f
-  (regenerate only for an intended change of the paper's setting). On the recording machine they agree bit for
+  (nrti's re-recorded when its prepared QP became the last SQP iteration's; regenerate an entry only for an
+  intended change of its backend or of the paper's setting). On the recording machine they agree bit for
   bit; the test allows 1e-6 (relative and absolute) so that another CPU's vectorised round-off, which IPOPT's
   iterations can amplify, does not fail it, while any change to the setting's model or cost still does.
 * ``propellers`` never commands a propeller beyond its limit, over whole runs on the propeller plant: the
