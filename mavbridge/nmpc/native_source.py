@@ -70,57 +70,101 @@ static void sensitivities(int N, int nz, int nu, const double *AB, const double 
     }
 }
 
-/* Condense the QP (see the Python docstring). tmp: nzu * (n + nz + 1) doubles. */
+/* Condense the QP (see the Python docstring) by a backward recursion, quadratic in the horizon: with
+   Q_k, S_k (nu x nz), R_k the blocks of H_k, q_k, r_k those of g_k,
+       W_N = Q_N,  W_k = Q_k + A_k' W_{k+1} A_k,   lam_N = q_N + Q_N c_N,  lam_k = q_k + Q_k c_k + A_k' lam_{k+1},
+       Y_j = S_j + B_j' W_{j+1} A_j,
+       Hc_jj = R_j + B_j' W_{j+1} B_j,  Hc_ji = Y_j Gam_{j,i} (i < j),  Gc_j = Y_j Phi_j,
+       gc_j = r_j + S_j c_j + B_j' lam_{j+1}
+   (the Hessian and gradient of the cost once the states are eliminated; Gam_{j,i} = dz_j/du_i).
+   Zero entries of A_k (the u_prev rows and columns) are skipped. tmp: 3 nz^2 + 2 nz + 2 nu nz doubles. */
 int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, const double *gs,
                   const double *gap, double *Gam, double *Phi, double *c,
                   double *Hc, double *gc, double *Gc, double *tmp) {
     int nzu = nz + nu, n = N * nu;
     sensitivities(N, nz, nu, AB, gap, Gam, Phi, c);
-    memset(Hc, 0, sizeof(double) * (size_t)n * n);
-    memset(Gc, 0, sizeof(double) * (size_t)n * nz);
-    memset(gc, 0, sizeof(double) * (size_t)n);
-    double *M = tmp, *Mh = tmp + (size_t)nzu * n, *hs = Mh + (size_t)nzu * nz;
-    for (int k = 0; k <= N; ++k) {
-        const double *Gk = Gam + (size_t)k * nz * n, *Pk = Phi + (size_t)k * nz * nz, *ck = c + (size_t)k * nz;
-        int m = k < N ? (k + 1) * nu : n;  /* columns of S_k that can be nonzero */
-        int uk = k < N ? k * nu : -1;      /* first column of u_k, none at the terminal stage */
-        for (int r = 0; r < nzu; ++r) {    /* M = H_k S_k, Mh = H_k [Phi_k; 0], hs = H_k [c_k; 0] + g_k */
-            double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
-            double h = gs[(size_t)k * nzu + r];
-            memset(mr, 0, sizeof(double) * (size_t)m);
-            memset(mh, 0, sizeof(double) * (size_t)nz);
-            for (int s = 0; s < nz; ++s) {
-                double a = H_(k, r, s);
-                if (a == 0.0) continue;
-                const double *gs_row = Gk + (size_t)s * n, *ps = Pk + (size_t)s * nz;
-                for (int col = 0; col < m; ++col) mr[col] += a * gs_row[col];
-                for (int col = 0; col < nz; ++col) mh[col] += a * ps[col];
-                h += a * ck[s];
-            }
-            if (uk >= 0) for (int i = 0; i < nu; ++i) mr[uk + i] += H_(k, r, nz + i);
-            hs[r] = h;
+    double *W = tmp, *WA = W + nz * nz, *W1 = WA + nz * nz, *lam = W1 + nz * nz, *lam1 = lam + nz;
+    double *BW = lam1 + nz, *Y = BW + nu * nz;
+    const double *cN = c + (size_t)N * nz;
+    for (int r = 0; r < nz; ++r) {
+        double l = gs[(size_t)N * nzu + r];
+        for (int q = 0; q < nz; ++q) {
+            W[r * nz + q] = H_(N, r, q);
+            l += H_(N, r, q) * cN[q];
         }
-        for (int a = 0; a < m; ++a) {      /* Hc += S_k^T M, Gc += S_k^T Mh, gc += S_k^T hs (S_k's rows) */
-            double *ha = Hc + (size_t)a * n, *ga = Gc + (size_t)a * nz;
-            for (int r = 0; r < nz; ++r) {
-                double s = Gk[(size_t)r * n + a];
-                if (s == 0.0) continue;
-                const double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
-                for (int b = a; b < m; ++b) ha[b] += s * mr[b];  /* upper triangle; mirrored below */
-                for (int b = 0; b < nz; ++b) ga[b] += s * mh[b];
-                gc[a] += s * hs[r];
-            }
-            if (uk >= 0 && a >= uk && a < uk + nu) {
-                int r = nz + a - uk;
-                const double *mr = M + (size_t)r * n, *mh = Mh + (size_t)r * nz;
-                for (int b = a; b < m; ++b) ha[b] += mr[b];
-                for (int b = 0; b < nz; ++b) ga[b] += mh[b];
-                gc[a] += hs[r];
-            }
-        }
+        lam[r] = l;
     }
-    for (int a = 0; a < n; ++a)
-        for (int b = 0; b < a; ++b) Hc[(size_t)a * n + b] = Hc[(size_t)b * n + a];
+    for (int j = N - 1; j >= 0; --j) {
+        const double *cj = c + (size_t)j * nz, *Gj = Gam + (size_t)j * nz * n, *Pj = Phi + (size_t)j * nz * nz;
+        memset(BW, 0, sizeof(double) * (size_t)nu * nz);     /* BW = B_j' W_{j+1} */
+        for (int r = 0; r < nz; ++r)
+            for (int i = 0; i < nu; ++i) {
+                double b = AB_(j, r, nz + i);
+                if (b == 0.0) continue;
+                for (int q = 0; q < nz; ++q) BW[i * nz + q] += b * W[r * nz + q];
+            }
+        for (int i = 0; i < nu; ++i) {                       /* Hc_jj, gc_j */
+            double *hrow = Hc + (size_t)(j * nu + i) * n;
+            for (int l = 0; l < nu; ++l) {
+                double h = H_(j, nz + i, nz + l);
+                for (int q = 0; q < nz; ++q) h += BW[i * nz + q] * AB_(j, q, nz + l);
+                hrow[j * nu + l] = h;
+            }
+            double g = gs[(size_t)j * nzu + nz + i];
+            for (int q = 0; q < nz; ++q) g += H_(j, nz + i, q) * cj[q] + AB_(j, q, nz + i) * lam[q];
+            gc[j * nu + i] = g;
+        }
+        for (int i = 0; i < nu; ++i)                         /* Y = S_j + BW A_j */
+            for (int q = 0; q < nz; ++q) Y[i * nz + q] = H_(j, nz + i, q);
+        for (int r = 0; r < nz; ++r)
+            for (int q = 0; q < nz; ++q) {
+                double a = AB_(j, r, q);
+                if (a == 0.0) continue;
+                for (int i = 0; i < nu; ++i) Y[i * nz + q] += BW[i * nz + r] * a;
+            }
+        for (int i = 0; i < nu; ++i) {                       /* Hc_ji (i < j) and Gc_j */
+            double *hrow = Hc + (size_t)(j * nu + i) * n, *grow = Gc + (size_t)(j * nu + i) * nz;
+            int m = j * nu;
+            memset(hrow, 0, sizeof(double) * (size_t)m);
+            memset(grow, 0, sizeof(double) * (size_t)nz);
+            for (int q = 0; q < nz; ++q) {
+                double y = Y[i * nz + q];
+                if (y == 0.0) continue;
+                const double *gq = Gj + (size_t)q * n, *pq = Pj + (size_t)q * nz;
+                for (int col = 0; col < m; ++col) hrow[col] += y * gq[col];
+                for (int col = 0; col < nz; ++col) grow[col] += y * pq[col];
+            }
+        }
+        if (j == 0) break;                                   /* W_0 and lam_0 are not needed */
+        memset(WA, 0, sizeof(double) * (size_t)nz * nz);     /* WA = W_{j+1} A_j */
+        for (int t = 0; t < nz; ++t)
+            for (int q = 0; q < nz; ++q) {
+                double a = AB_(j, t, q);
+                if (a == 0.0) continue;
+                for (int r = 0; r < nz; ++r) WA[r * nz + q] += W[r * nz + t] * a;
+            }
+        for (int r = 0; r < nz; ++r) {                       /* W1 = Q_j + A_j' WA, lam1 */
+            double l = gs[(size_t)j * nzu + r];
+            for (int q = 0; q < nz; ++q) {
+                W1[r * nz + q] = H_(j, r, q);
+                l += H_(j, r, q) * cj[q];
+            }
+            lam1[r] = l;
+        }
+        for (int t = 0; t < nz; ++t)
+            for (int r = 0; r < nz; ++r) {
+                double a = AB_(j, t, r);
+                if (a == 0.0) continue;
+                const double *wat = WA + (size_t)t * nz;
+                double *w1r = W1 + (size_t)r * nz;
+                for (int q = 0; q < nz; ++q) w1r[q] += a * wat[q];
+                lam1[r] += a * lam[t];
+            }
+        memcpy(W, W1, sizeof(double) * (size_t)nz * nz);
+        memcpy(lam, lam1, sizeof(double) * (size_t)nz);
+    }
+    for (int a = 0; a < n; ++a)                              /* the upper triangle from the lower */
+        for (int b = a + 1; b < n; ++b) Hc[(size_t)a * n + b] = Hc[(size_t)b * n + a];
     return 0;
 }
 

@@ -20,7 +20,7 @@ from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
 from mavbridge.nmpc.codegen import compiler
 from mavbridge.nmpc.gauss_newton import NZ
 from mavbridge.nmpc.layout import NU, NX
-from mavbridge.nmpc.native_lib import BoxQp, native_library
+from mavbridge.nmpc.native_lib import BoxQp, native_library, ptr
 from mavbridge.scenario import load_scenarios
 from vessel import RegularWaves, otter_parameters
 
@@ -56,6 +56,58 @@ def test_box_qp_solves_random_problems_from_a_wrong_guess() -> None:
         reference = _qrqp(ca.DM(H), g, None, None, lo, hi)
         np.testing.assert_allclose(x, reference, atol=1e-6)
         assert np.sum(state != 0) > 0  # some bounds are active, so the pivoting had work to do
+
+
+def _eliminated(AB: np.ndarray, Hs: np.ndarray, gs: np.ndarray, gap: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Hc, gc, Gc) by eliminating the states explicitly: Δz_k = Γ_k ΔU + Φ_k dz0 + c_k, then the stage
+    costs summed over v_k = T_k ΔU + ... (the textbook construction, cubic in the horizon)."""
+    N, nzu, nz = AB.shape
+    nu, n = nzu - nz, AB.shape[0] * (nzu - nz)
+    Gam, Phi, c = np.zeros((nz, n)), np.eye(nz), np.zeros(nz)
+    Hc, gc, Gc = np.zeros((n, n)), np.zeros(n), np.zeros((n, nz))
+    for k in range(N + 1):
+        E = np.zeros((nu, n))
+        if k < N:
+            E[:, k * nu:(k + 1) * nu] = np.eye(nu)
+        T, F, v0 = np.vstack([Gam, E]), np.vstack([Phi, np.zeros((nu, nz))]), np.concatenate([c, np.zeros(nu)])
+        H = Hs[k].T
+        Hc += T.T @ H @ T
+        gc += T.T @ (H @ v0 + gs[k])
+        Gc += T.T @ H @ F
+        if k < N:
+            M = AB[k].T  # nz x nzu, [A_k B_k]
+            Gam = M[:, :nz] @ Gam + M[:, nz:] @ E
+            Phi, c = M[:, :nz] @ Phi, M[:, :nz] @ c + gap[k]
+    return Hc, gc, Gc
+
+
+@needs_compiler
+def test_condensing_equals_the_explicit_elimination_on_a_random_problem() -> None:
+    """The C recursion (quadratic in N) against the cubic textbook elimination, with A's zero rows and
+    columns (as u_prev's) and dense ones elsewhere, a terminal cost, and a nonzero gap."""
+    lib, how = native_library()
+    assert lib is not None, how
+    rng = np.random.default_rng(11)
+    N, nz, nu = 7, 6, 2
+    nzu, n = nz + nu, N * nu
+    AB = rng.normal(scale=0.5, size=(N, nzu, nz))  # [k, column, row]: CasADi's column-major blocks
+    AB[:, :, 4] = 0.0  # a zero row of A (and of B) ...
+    AB[:, 5, :] = 0.0  # ... and a zero column of A, as the augmented u_prev's
+    L = rng.normal(size=(N + 1, nzu, nzu))
+    Hs = np.einsum("kij,klj->kil", L, L) + 0.1 * np.eye(nzu)  # symmetric positive definite
+    Hs[N, nz:, :] = Hs[N, :, nz:] = 0.0  # the terminal block: states only
+    gs, gap = rng.normal(size=(N + 1, nzu)), rng.normal(size=(N, nz))
+    gs[N, nz:] = 0.0
+    arrays = [np.ascontiguousarray(a.ravel()) for a in (AB, Hs, gs, gap)]
+    Gam, Phi, c = np.zeros((N + 1) * nz * n), np.zeros((N + 1) * nz * nz), np.zeros((N + 1) * nz)
+    Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * nz)
+    tmp = np.zeros(3 * nz * nz + 2 * nz + 2 * nu * nz)
+    assert lib.nrti_condense(N, nz, nu, *(ptr(a) for a in (*arrays, Gam, Phi, c, Hc, gc, Gc, tmp))) == 0
+    want_H, want_g, want_G = _eliminated(AB, Hs, gs, gap)
+    np.testing.assert_allclose(Hc.reshape(n, n), want_H, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(gc, want_g, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(Gc.reshape(n, nz), want_G, rtol=1e-10, atol=1e-9)
 
 
 @needs_compiler
