@@ -4,7 +4,9 @@
 
 A fixed sweep of Balanced-like cases (R around 1550, four wave directions; each case's R = 0 reference
 runs too) in the paper's sea, each run on a fresh output folder so nothing is skipped. Prints runs per
-minute and per hour for each executor and the speed-up of 2 workers over 1.
+minute and per hour for each executor and the speed-up of 2 workers over 1, and the share of the machine's
+CPU time the hypervisor gave to other guests meanwhile (Linux's "steal" in /proc/stat): on a shared host a
+run with much steal measures the neighbours, not the code.
 """
 
 from __future__ import annotations
@@ -31,16 +33,29 @@ def write_spec(folder: Path, cases: int, solver: str) -> Path:
     return spec
 
 
-def measure(spec_path: Path, executor: str, jobs: int, out: Path) -> tuple[int, float]:
-    """(runs, wall seconds) for the whole sweep, executor start-up included."""
+def cpu_ticks() -> tuple[int, int]:
+    """(steal, total) CPU ticks of all cores since boot, from /proc/stat; (0, 0) where there is none."""
+    try:
+        fields = [int(v) for v in Path("/proc/stat").read_text(encoding="ascii").split("\n", 1)[0].split()[1:]]
+    except (OSError, ValueError):
+        return 0, 0
+    steal = fields[7] if len(fields) > 7 else 0
+    return steal, sum(fields[:8])
+
+
+def measure(spec_path: Path, executor: str, jobs: int, out: Path) -> tuple[int, float, float]:
+    """(runs, wall seconds, steal fraction) for the whole sweep, executor start-up included."""
     spec = load_spec(spec_path)
+    steal_0, total_0 = cpu_ticks()
     start = time.perf_counter()
     with open_executor(executor, jobs) as pool:
         outcome = run_sweep(spec, pool, out, say=lambda line: None)
     wall = time.perf_counter() - start
+    steal_1, total_1 = cpu_ticks()
+    stolen = (steal_1 - steal_0) / (total_1 - total_0) if total_1 > total_0 else 0.0
     if outcome.failed:
         raise SystemExit(f"{executor}: {len(outcome.failed)} runs failed: {next(iter(outcome.failed.values()))}")
-    return outcome.ran, wall
+    return outcome.ran, wall, stolen
 
 
 def main() -> None:
@@ -55,14 +70,15 @@ def main() -> None:
         rows = []
         for label, executor, jobs in (("local, 1 worker", "local", 1), ("local, 2 workers", "local", 2),
                                       ("dask-local:2", "dask-local:2", 2)):
-            runs, wall = measure(spec, executor, jobs, folder / label.replace(" ", "_").replace(",", ""))
-            rows.append((label, runs, wall))
-            print(f"  {label}: {runs} runs in {wall:.1f} s", flush=True)
+            runs, wall, stolen = measure(spec, executor, jobs, folder / label.replace(" ", "_").replace(",", ""))
+            rows.append((label, runs, wall, stolen))
+            print(f"  {label}: {runs} runs in {wall:.1f} s, steal {100 * stolen:.0f} %", flush=True)
     base = rows[0][2]
-    print("\n| executor | runs | wall s | runs/min | runs/hour | speed-up vs 1 worker |\n|---|---|---|---|---|---|")
-    for label, runs, wall in rows:
+    print("\n| executor | runs | wall s | runs/min | runs/hour | speed-up vs 1 worker | CPU stolen |\n"
+          "|---|---|---|---|---|---|---|")
+    for label, runs, wall, stolen in rows:
         print(f"| {label} | {runs} | {wall:.1f} | {60 * runs / wall:.1f} | {3600 * runs / wall:.0f} "
-              f"| {base / wall:.2f}× |")
+              f"| {base / wall:.2f}× | {100 * stolen:.0f} % |")
 
 
 if __name__ == "__main__":

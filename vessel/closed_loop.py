@@ -11,7 +11,6 @@ States are NED/body as everywhere: x = [N, E, D, φ, θ, ψ, u, v, w, p, q, r] (
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
 from .config import ConfigError
@@ -38,6 +37,7 @@ class TauPlant:
         self.dt = dt_s
         self.substeps = substeps_per_period(period_s, dt_s)
         self._period = rk4_step(ode, self.dt).mapaccum(self.substeps)
+        self._offsets = (self.dt * np.arange(self.substeps))[np.newaxis, :]  # substep start times after t (s)
         self.x = world.rigid_state()
 
     @property
@@ -52,8 +52,8 @@ class TauPlant:
 
     def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:
         """One control period from time t with τ = (τ_X N, τ_N N·m) held; ``n_cmd`` is not used."""
-        times = ca.DM(t + self.dt * np.arange(self.substeps)).T
-        out = np.asarray(self._period(self.x, ca.repmat(ca.DM(tau), 1, self.substeps), times))
+        held = np.repeat(np.asarray(tau, dtype=float).reshape(-1, 1), self.substeps, axis=1)
+        out = np.asarray(self._period(self.x, held, t + self._offsets))
         x_next = out[:, -1]
         if not np.all(np.isfinite(x_next)):
             raise FloatingPointError(f"plant state became non-finite at t = {t:.2f} s")

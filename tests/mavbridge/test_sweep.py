@@ -118,7 +118,7 @@ def dask_scheduler(tmp_path: Path):
 @pytest.mark.integration
 def test_local_dask_local_and_scheduler_agree_bit_for_bit(tmp_path: Path, dask_scheduler: str) -> None:
     """The same cases give identical metrics on a process pool, a LocalCluster and a scheduler + worker."""
-    spec = _spec(tmp_path, "axes: {controller.q: [3, 5], controller.r: [0, 40], controller.solver: [asrti]}\n")
+    spec = _spec(tmp_path, "axes: {controller.q: [3, 5], controller.r: [0, 40], controller.solver: [nrti]}\n")
     local = _results(spec, "local", tmp_path / "local")
     dask_local = _results(spec, "dask-local:2", tmp_path / "dask-local")
     remote = _results(spec, dask_scheduler, tmp_path / "remote")
@@ -129,7 +129,7 @@ def test_local_dask_local_and_scheduler_agree_bit_for_bit(tmp_path: Path, dask_s
 @pytest.mark.integration
 def test_interrupted_sweep_resumes_with_only_the_missing_cases(tmp_path: Path) -> None:
     """SIGTERM after the first case: exit 130 naming what remains; the rerun keeps finished files as they were."""
-    spec = _spec(tmp_path, "axes: {controller.q: [2, 3, 4, 5, 6], controller.solver: [asrti]}\n")
+    spec = _spec(tmp_path, "axes: {controller.q: [2, 3, 4, 5, 6], controller.solver: [nrti]}\n")
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "mavbridge.cli", "sweep", str(spec), "--jobs", "1", "--out", str(out)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -203,7 +203,7 @@ def test_cases_equal_but_for_the_sea_seed_both_run_on_dask(tmp_path: Path) -> No
     spec = tmp_path / "seeds.yaml"
     spectrum = "{kind: jonswap, hs_m: 0.3, tp_s: 4.0, n_components: 20}"
     spec.write_text(f"base: {CALM}\naxes:\n  sea.spectrum: [{spectrum}]\n  sea.spectrum.seed: [1, 2]\n"
-                    "  controller.r: [0]\n  controller.solver: [asrti]\n", encoding="utf-8")
+                    "  controller.r: [0]\n  controller.solver: [nrti]\n", encoding="utf-8")
     sweep = load_spec(spec)
     assert len({c.case_id for c in sweep.cases}) == 2
     with open_executor("dask-local:2") as pool:
