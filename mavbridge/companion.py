@@ -114,6 +114,13 @@ def write_run_config(out_dir: Path, config: CompanionConfig, scenario: Scenario,
                                                          "wave_source": wave_source}))
 
 
+def wave_source_line(name: str) -> str:
+    """What the run says at its start about where its waves come from."""
+    if name == SCENARIO_TRUTH:
+        return "waves: the scenario's sea (simulation truth); a real boat is told nothing about the sea"
+    return f"waves: {name} from the boat's own motion; the roll term waits for a confident estimate"
+
+
 class Companion:
     """One run of the companion against one autopilot."""
 
@@ -229,11 +236,7 @@ class Companion:
     def run(self) -> int:
         """Connect, prepare, fly until a final phase; always releases and writes logs. Returns an exit code."""
         write_run_config(self.out_dir, self.config, self.scenario, self.waves.name)
-        if self.waves.name == SCENARIO_TRUTH:
-            self.log("waves: the scenario's sea (simulation truth); a real boat is told nothing about the sea")
-        else:
-            self.log(f"waves: {self.waves.name} from the boat's own motion; the roll term waits for a confident "
-                     "estimate")
+        self.log(wave_source_line(self.waves.name))
         try:
             refuse_if_taken(self.config.connect)  # one companion per UDP port
             link = Link(self.config.connect, self.config.system_id, self.config.component_id,
