@@ -25,7 +25,7 @@ from .nmpc import RollAwareNmpc
 from .rover_modes import mode_name
 from .seasource import SCENARIO_TRUTH, WaveSource, sea_spread
 from .streams import imu_rate, measure_rates, request_streams
-from .supervisor import Phase, Supervisor
+from .supervisor import Supervisor
 
 MODE_HEARTBEAT_WAIT_S = 5.0  # wall seconds the first lockstep tick waits for the heartbeat in the new mode
 
@@ -52,7 +52,10 @@ def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, f
 
 def start_flight(c: Any, link: Link) -> None:
     """Autopilot, output path, streams, mission, rates, the cold solve; then mode and arming if asked
-    (``c``: the ``Companion`` whose parts this prepares)."""
+    (``c``: the ``Companion`` whose parts this prepares). The operator's consent (``--set-mode``/``--arm``) is
+    given to the boot the companion meets: a reboot during this start (the reboot watch is already on)
+    clears it, and then nothing is switched or armed, now or at the first tick."""
+    consent = c.supervisor.self_commanded = c.set_mode or c.arm
     sysid, compid = link.wait_autopilot(c.config.connect_timeout_s)
     c.log(f"autopilot {sysid}/{compid} on {c.config.connect}; we are {c.config.system_id}/"
           f"{c.config.component_id}; output {c.config.output}" + ("" if c.output.sends else " (dry run)"))
@@ -74,9 +77,12 @@ def start_flight(c: Any, link: Link) -> None:
         prepared = c.nmpc.prepare(c.state.vector(), t_s, c.mission.waypoints[0])
         c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
               f"({prepared.status})")
-    c.supervisor.self_commanded = c.set_mode or c.arm
+    if consent and not c.supervisor.self_commanded:
+        c.log("the autopilot rebooted during the start: not switching its mode or arming (consent was given to "
+              "the previous boot); waiting for the pilot")
+        return
     if c.set_mode and c.config.lockstep and c.config.start_at_s is not None:
-        c.deferred_start = DeferredStart(c.supervisor.mode, c.arm)
+        c.deferred_start = DeferredStart(c.supervisor.mode, c.supervisor.mode_changes, c.arm)
         c.log(f"lockstep: the switch to {mode_name(c.output.required_mode)}" + (" and the arming" if c.arm else "")
               + f" wait for the first tick (t = {c.config.start_at_s:g} s), so that every run starts its "
               "autopilot mode at the same time")
@@ -94,18 +100,30 @@ class DeferredStart:
     mode seen when it was deferred: a different mode at the tick is someone else's choice, not to be undone."""
 
     mode_seen: int | None
+    mode_changes_seen: int  # the supervisor's count of mode changes then: HOLD → MANUAL → HOLD is a change too
     arm: bool
 
 
-def deferred_start_refused(deferred: DeferredStart, supervisor: Supervisor) -> str | None:
-    """Why the deferred switch must not happen at the first tick, or None when it may: consent lapsed (a reboot
-    clears it), the run already ended, or someone changed the autopilot's mode while the companion waited."""
+def consent_lapsed(supervisor: Supervisor, stop_requested: bool) -> str | None:
+    """Why the companion may no longer switch or arm on its own, or None: the run ended, a stop was asked
+    for (a signal seen before the loop could end the run), or a reboot cleared the consent."""
     if supervisor.phase.final:
         return f"the run ended ({supervisor.phase.value})"
+    if stop_requested:
+        return "a stop was requested"
     if not supervisor.self_commanded:
         return "consent lapsed (the autopilot rebooted since the start)"
-    if supervisor.mode != deferred.mode_seen:
-        return (f"the mode changed to {mode_name(supervisor.mode) if supervisor.mode is not None else 'none'} "
+    return None
+
+
+def deferred_start_refused(deferred: DeferredStart, supervisor: Supervisor, stop_requested: bool) -> str | None:
+    """Why the deferred switch must not happen at the first tick, or None when it may: ``consent_lapsed``, or
+    someone changed the autopilot's mode (even and back) while the companion waited."""
+    lapsed = consent_lapsed(supervisor, stop_requested)
+    if lapsed is not None:
+        return lapsed
+    if supervisor.mode != deferred.mode_seen or supervisor.mode_changes != deferred.mode_changes_seen:
+        return (f"the mode changed (now {mode_name(supervisor.mode) if supervisor.mode is not None else 'none'}) "
                 "while waiting: someone else's choice")
     return None
 
@@ -116,19 +134,33 @@ def switch_mode_at_start(c: Any, link: Link, now_ms: int) -> None:
     it, so the step right after it commands. Rover's GUIDED thus starts from the same state at the same time
     in every run. Refuses (and says why) when the switch is no longer the operator's wish."""
     deferred, c.deferred_start = c.deferred_start, None
-    refused = deferred_start_refused(deferred, c.supervisor)
-    mode = c.output.required_mode
+    refused = deferred_start_refused(deferred, c.supervisor, c.stop_requested())
+    mode, at = c.output.required_mode, f"at t = {now_ms / 1000:.1f} s"
     if refused is not None:
-        c.log(f"lockstep: not switching to {mode_name(mode)} at t = {now_ms / 1000:.1f} s: {refused}")
+        c.log(f"lockstep: not switching to {mode_name(mode)} {at}: {refused}")
         return
     c.supervisor.expected_mode = mode
-    log_result(c.log, f"mode {mode_name(mode)} at t = {now_ms / 1000:.1f} s", link.set_mode(mode))
+    result = link.set_mode(mode)
+    log_result(c.log, f"mode {mode_name(mode)} {at}", result)
     if deferred.arm:
-        log_result(c.log, f"arming at t = {now_ms / 1000:.1f} s", link.arm())
+        lapsed = consent_lapsed(c.supervisor, c.stop_requested())  # the answer's wait ran the handlers
+        if result != mavlink.MAV_RESULT_ACCEPTED or lapsed is not None:
+            c.log(f"lockstep: not arming {at}: " + (lapsed or f"the switch to {mode_name(mode)} was not accepted"))
+            return
+        log_result(c.log, f"arming {at}", link.arm())
+    _await_heartbeat_in(c, link, mode, deferred.arm)
+
+
+def _await_heartbeat_in(c: Any, link: Link, mode: int, armed: bool) -> None:
+    """Wait (at most MODE_HEARTBEAT_WAIT_S wall) for a heartbeat in ``mode`` (and armed, when the companion
+    armed), so the step right after commands; ends early on a stop or an ended run."""
+    def shown() -> bool:
+        return c.supervisor.mode == mode and (c.supervisor.armed or not armed)
+
     deadline = time.monotonic() + MODE_HEARTBEAT_WAIT_S
-    while (c.supervisor.phase != Phase.ENGAGED and not c.supervisor.phase.final and not c.stop_requested()
-           and time.monotonic() < deadline):
+    while not (shown() or c.supervisor.phase.final or c.stop_requested()) and time.monotonic() < deadline:
         link.heartbeat_if_due()
         link.recv(0.05)
-    if c.supervisor.phase != Phase.ENGAGED and not c.stop_requested():
-        c.log(f"warning: no heartbeat armed in {mode_name(mode)} within {MODE_HEARTBEAT_WAIT_S:g} s of the switch")
+    if not (shown() or c.stop_requested() or c.supervisor.phase.final):
+        c.log(f"warning: no heartbeat {'armed ' if armed else ''}in {mode_name(mode)} within "
+              f"{MODE_HEARTBEAT_WAIT_S:g} s of the switch")

@@ -47,11 +47,13 @@ class Supervisor:
     expected_mode: int | None = None  # a mode change the companion itself asked for
     self_commanded: bool = False  # the companion arms / sets the mode itself: that is consent
     seen_not_ready: bool = False  # a heartbeat not armed-in-mode was seen since the start
+    mode_changes: int = 0  # heartbeats whose mode differed from the one before (any cause)
 
     def on_heartbeat(self, now_s: float, armed: bool, mode: int) -> Phase:
         """Feed the autopilot's HEARTBEAT; returns the phase after it."""
         self.last_heartbeat_s = now_s
         changed_by_other = (self.mode is not None and mode != self.mode and mode != self.expected_mode)
+        self.mode_changes += int(self.mode is not None and mode != self.mode)
         self.armed, self.mode = armed, mode
         if self.phase.final:
             return self.phase

@@ -8,8 +8,9 @@ once into the disk cache (``codegen``).
 
 ``Condenser.condense(w_aug, p)`` evaluates it at a plan and hands the blocks to ``nrti_condense`` (C),
 which eliminates the states: the result, a ``CondensedQp``, is a dense QP in the N·nu input steps whose
-gradient is affine in the initial-state offset dz0. Its active set at dz0 = 0 (the plan itself) is
-solved here too, as the feedback's starting guess. All of this runs before the measurement arrives.
+gradient is affine in the initial-state offset dz0. Without a given active set, its active set at dz0 = 0
+(the plan itself) is solved here too, as the feedback's starting guess; with one (``active``, the SQP's
+previous iteration's), the caller solves it. All of this runs before the measurement arrives.
 """
 
 from __future__ import annotations
@@ -123,9 +124,16 @@ class CondensedQp:
     args: tuple  # nrti_feedback's arguments, pointers into ``arrays`` and the backend's FeedbackBuffers
     guess_status: int  # the box QP's answer at dz0 = 0 (> 0 solved)
 
+    @property
+    def state0(self) -> np.ndarray:
+        """The active set the feedback's box QP starts from (−1 lower, 0 free, 1 upper; ``arrays[5]``)."""
+        return self.arrays[5]
+
 
 class Condenser:
-    """Linearise, condense and pre-solve at a plan (one instance per thread; holds work buffers)."""
+    """Linearise, condense and pre-solve at a plan; holds work buffers, so one thread at a time: nrti's
+    background preparation, and before the loop its first QP on the main thread (``prepare_now``, while no
+    preparation is in flight: ``warm_up`` waits for the worker)."""
 
     def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers,
                  space: InputSpace | None = None) -> None:

@@ -87,11 +87,13 @@ class NmpcConfig:
                               f"{self.rti_iterations}; allowed [rti_iterations, 50]")
         self._refuse_box_with_propellers()
         if self.safe_surge_n > self.tau_x_max_n:
-            raise ConfigError(f"safe_surge_n: {self.safe_surge_n:g} N exceeds tau_x_max_n "
-                              f"{self.tau_x_max_n:g} N; allowed [0, tau_x_max_n] N")
+            bound = "tau_x_max_n" if self.inputs == "tau" else "the default τ box"
+            raise ConfigError(f"safe_surge_n: {self.safe_surge_n:g} N exceeds {bound} "
+                              f"{self.tau_x_max_n:g} N; allowed [0, {self.tau_x_max_n:g}] N")
 
     def _refuse_box_with_propellers(self) -> None:
-        """A τ box set together with propeller-thrust inputs would be silently ignored: refuse it instead."""
+        """A τ box set together with propeller-thrust inputs would be silently ignored: refuse it instead.
+        (A box equal to the defaults cannot be told apart from none here: it is not used either.)"""
         if self.inputs != "propellers":
             return
         for name in TAU_BOX:

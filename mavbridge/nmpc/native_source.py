@@ -246,7 +246,8 @@ int nrti_box_qp(int n, const double *H, const double *g, const double *lo, const
 
 /* The feedback step: g = gc + Gc dz0, the box QP from the guess state0, then the states by the linear
    dynamics; w_out (the controller's layout, x of nx per stage) = the plan w_aug (augmented layout) + step.
-   Returns nrti_box_qp's answer. work: n*n + 2n + 2nz doubles; iwork: 3n ints. */
+   Returns nrti_box_qp's answer. work: n*n + 2n + 2nz doubles; iwork: 3n ints, of which iwork[2n..3n) holds
+   the active set the QP ended with (its own copy of state0, updated; the caller may read it back). */
 int nrti_feedback(int N, int nx, int nz, int nu, const double *Hc, const double *gc, const double *Gc,
                   const double *lo, const double *hi, const int *state0, const double *AB, const double *gap,
                   const double *w_aug, const double *dz0, int max_iter, double tol, double *w_out,

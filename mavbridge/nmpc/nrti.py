@@ -78,7 +78,9 @@ class Preparation:
         The prepared QP is the last iteration's, linearised at the plan before that iteration's step (at
         most ``as_step_tol`` away from the converged plan), not a further condensation at the converged
         plan: the feedback is then the RTI from that point, and each step costs one condensation less.
-        Each iteration's QP starts from the previous one's active set."""
+        Each iteration's QP starts from the previous one's active set. An intermediate QP at its iteration cap
+        (status 0) still gives a step within the box, which the next iteration corrects; only the last QP
+        must be solved (status > 0) to be prepared."""
         cfg, b, sqp = self.condenser.cfg, self.buffers, self.solve.sqp
         u_prev, n = PARAMS.get(p, "u_prev"), self.condenser.n
         b.dz0[:] = 0.0
@@ -90,7 +92,7 @@ class Preparation:
             if qp.guess_status < 0 or not np.all(np.isfinite(b.w_out)):
                 return None, it + 1
             active = b.iwork[2 * n:3 * n]  # the active set the QP ended with (nrti_feedback's own copy)
-            qp.arrays[5][:] = active  # the backend's feedback starts from it
+            qp.state0[:] = active  # the backend's feedback starts from it
             w = b.w_out.copy()
             if np.max(np.abs(b.du)) <= cfg.as_step_tol:
                 break

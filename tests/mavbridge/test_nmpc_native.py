@@ -9,7 +9,6 @@ import csv
 import dataclasses
 import logging
 import math
-import os
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from pathlib import Path
@@ -150,14 +149,14 @@ def _run_metrics(scenario: Scenario, out: str | None) -> dict:
 
 @needs_compiler
 @pytest.mark.slow
-def test_nrti_balanced_run_is_within_one_percent_of_asrti(tmp_path: Path) -> None:
+def test_nrti_balanced_run_is_within_one_percent_of_asrti(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The same closed loop as asrti (whose run matches converged IPOPT to 0.4 % roll and 0.2 % arrival:
     bench/nmpc_solve.py prints all three side by side; IPOPT's run takes minutes, so CI compares with asrti).
     The two runs side by side, one process each (as Table III's test)."""
     balanced = next(s for s in load_scenarios(ROOT / "scenarios" / "balanced.yaml") if s.name == "balanced")
     nrti = dataclasses.replace(balanced, controller=balanced.controller.replace(solver="nrti"))
     asrti = dataclasses.replace(balanced, controller=balanced.controller.replace(solver="asrti"))
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")  # the children's (spawned: they read it at start)
     with ProcessPoolExecutor(max_workers=2, mp_context=get_context("spawn")) as pool:
         reference_run = pool.submit(_run_metrics, asrti, None)
         m = pool.submit(_run_metrics, nrti, str(tmp_path)).result()

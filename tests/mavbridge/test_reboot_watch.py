@@ -9,8 +9,8 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavbridge.flight_start import DeferredStart, deferred_start_refused
-from mavbridge.reboot import DECIDE_S, GAP_S, RebootWatch
+from mavbridge.flight_start import DeferredStart, deferred_start_refused, switch_mode_at_start
+from mavbridge.reboot import DECIDE_S, GAP_S, RebootWatch, watch_reboots
 from mavbridge.supervisor import Phase, Supervisor
 
 ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED | mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
@@ -126,28 +126,133 @@ def _waiting_in(mode: int) -> Supervisor:
     return sup
 
 
+def _deferred(sup: Supervisor, arm: bool = True) -> DeferredStart:
+    return DeferredStart(mode_seen=sup.mode, mode_changes_seen=sup.mode_changes, arm=arm)
+
+
 def test_a_deferred_lockstep_switch_goes_ahead_when_nothing_changed() -> None:
     sup = _waiting_in(HOLD)
-    assert deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=True), sup) is None
+    deferred = _deferred(sup)
+    sup.on_heartbeat(1.0, False, HOLD)
+    assert deferred_start_refused(deferred, sup, stop_requested=False) is None
 
 
 def test_a_reboot_before_the_first_tick_cancels_the_deferred_switch() -> None:
     sup = _waiting_in(HOLD)
+    deferred = _deferred(sup)
     sup.rebooted("autopilot rebooted")
     sup.on_heartbeat(6.0, False, HOLD)  # the new boot, same mode: consent still did not carry over
-    why = deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=True), sup)
+    why = deferred_start_refused(deferred, sup, stop_requested=False)
     assert why is not None and "consent" in why
 
 
 def test_an_operators_mode_change_while_waiting_is_not_undone_at_the_first_tick() -> None:
     sup = _waiting_in(HOLD)
+    deferred = _deferred(sup, arm=False)
     sup.on_heartbeat(3.0, False, MANUAL)  # the pilot chose MANUAL while the companion waited for its tick
-    why = deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=False), sup)
+    why = deferred_start_refused(deferred, sup, stop_requested=False)
     assert why is not None and "MANUAL" in why
 
 
-def test_a_run_that_ended_before_the_first_tick_switches_nothing() -> None:
+def test_a_mode_change_and_back_while_waiting_is_a_change_too() -> None:
     sup = _waiting_in(HOLD)
-    sup.stop("signal SIGTERM")
-    why = deferred_start_refused(DeferredStart(mode_seen=HOLD, arm=False), sup)
-    assert why is not None and "ended" in why
+    deferred = _deferred(sup, arm=False)
+    sup.on_heartbeat(3.0, False, MANUAL)
+    sup.on_heartbeat(4.0, False, HOLD)  # back where it was: still someone else's hands on the modes
+    why = deferred_start_refused(deferred, sup, stop_requested=False)
+    assert why is not None and "changed" in why
+
+
+def test_a_stop_request_before_the_first_tick_switches_nothing() -> None:
+    sup = _waiting_in(HOLD)
+    why = deferred_start_refused(_deferred(sup), sup, stop_requested=True)  # a signal the loop has not seen yet
+    assert why is not None and "stop" in why
+
+
+class FakeLink:
+    """What switch_mode_at_start calls on the link; ``on_set_mode`` runs inside the answer's wait, as the
+    real link's message handlers do."""
+
+    def __init__(self, result: int, on_set_mode: Any = None, on_arm: Any = None) -> None:
+        self.calls: list[str] = []
+        self.result, self.on_set_mode, self.on_arm = result, on_set_mode, on_arm
+
+    def set_mode(self, mode: int) -> int:
+        self.calls.append(f"set_mode {mode}")
+        if self.on_set_mode is not None:
+            self.on_set_mode()
+        return self.result
+
+    def arm(self) -> int:
+        self.calls.append("arm")
+        if self.on_arm is not None:
+            self.on_arm()
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def heartbeat_if_due(self) -> None:
+        pass
+
+    def recv(self, timeout: float) -> None:
+        self.calls.append("recv")
+
+
+class FakeCompanion:
+    """The parts of the Companion that switch_mode_at_start reads and writes."""
+
+    def __init__(self, sup: Supervisor, stop: bool = False) -> None:
+        self.supervisor, self.stop = sup, stop
+        self.deferred_start: DeferredStart | None = _deferred(sup)
+        self.output = type("Output", (), {"required_mode": GUIDED})()
+        self.lines: list[str] = []
+
+    def log(self, line: str) -> None:
+        self.lines.append(line)
+
+    def stop_requested(self) -> bool:
+        return self.stop
+
+
+def test_the_first_tick_switches_then_arms_and_waits_for_the_heartbeat_showing_both() -> None:
+    sup = _waiting_in(HOLD)
+    companion = FakeCompanion(sup)
+    link = FakeLink(mavlink.MAV_RESULT_ACCEPTED, on_arm=lambda: sup.on_heartbeat(2.0, True, GUIDED))
+    switch_mode_at_start(companion, link, 162_000)
+    assert link.calls[:2] == [f"set_mode {GUIDED}", "arm"] and companion.deferred_start is None
+    assert sup.phase == Phase.ENGAGED and not any("warning" in line for line in companion.lines)
+
+
+def test_a_stop_request_at_the_first_tick_neither_switches_nor_arms() -> None:
+    companion = FakeCompanion(_waiting_in(HOLD), stop=True)
+    link = FakeLink(mavlink.MAV_RESULT_ACCEPTED)
+    switch_mode_at_start(companion, link, 162_000)
+    assert link.calls == [] and "stop" in companion.lines[-1]
+
+
+def test_a_refused_mode_switch_is_not_followed_by_arming() -> None:
+    companion = FakeCompanion(_waiting_in(HOLD))
+    link = FakeLink(mavlink.MAV_RESULT_DENIED)
+    switch_mode_at_start(companion, link, 162_000)
+    assert link.calls == [f"set_mode {GUIDED}"] and "not arming" in companion.lines[-1]
+
+
+def test_a_reboot_seen_while_the_switch_is_answered_stops_the_arming() -> None:
+    sup = _waiting_in(HOLD)
+    companion = FakeCompanion(sup)
+    link = FakeLink(mavlink.MAV_RESULT_ACCEPTED, on_set_mode=lambda: sup.rebooted("autopilot rebooted"))
+    switch_mode_at_start(companion, link, 162_000)
+    assert "arm" not in link.calls and "consent" in companion.lines[-1]
+
+
+def test_the_reboot_watch_cancels_a_deferred_switch() -> None:
+    """watch_reboots' callback forgets the lockstep start's deferred switch (consent given to the old boot)."""
+    sup = _waiting_in(HOLD)
+    companion = FakeCompanion(sup)
+    companion.events = type("Events", (), {"engaged_at_ms": None})()  # type: ignore[attr-defined]
+    companion._on_heartbeat = lambda msg: None  # type: ignore[attr-defined]
+    companion.period_s = 0.1  # type: ignore[attr-defined]
+    link = type("LinkParts", (), {})()
+    link.handlers, link.counts, link.idle_hooks = [companion._on_heartbeat], {}, []
+    watch = watch_reboots(link, companion)
+    assert companion.deferred_start is not None
+    watch.on_reboot("autopilot rebooted")
+    assert companion.deferred_start is None and not sup.self_commanded
