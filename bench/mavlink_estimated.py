@@ -37,10 +37,11 @@ def seeds(text: str) -> list[int]:
     return values
 
 
-def run_demo(seed: int, direct: bool, speedup: float, out: Path, output: str) -> dict[str, Any]:
-    """One lockstep demo; the companion's metrics.json (its phase says whether it arrived)."""
+def run_demo(seed: int, direct: bool, speedup: float, out: Path, output: str, *extra: str) -> dict[str, Any]:
+    """One lockstep demo (``extra``: more demo flags); the companion's metrics.json (its phase says whether it
+    arrived)."""
     cmd = [sys.executable, "-m", "mavbridge.cli", "demo", "--lockstep", "--seed", str(seed), "--speedup",
-           f"{speedup:g}", "--out", str(out), "--output", output, *(["--direct"] if direct else [])]
+           f"{speedup:g}", "--out", str(out), "--output", output, *(["--direct"] if direct else []), *extra]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
     metrics_file = out / "companion" / "metrics.json"
     if not metrics_file.exists():
@@ -62,16 +63,29 @@ def row(seed: int, output: str, balanced: dict[str, Any], direct: dict[str, Any]
                                                                    "  n/a (not arrived)"), cut
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--seeds", type=seeds, default=[1, 2, 3], help="simulator seeds (default 1,2,3)")
-    p.add_argument("--output", choices=("rc_override", "attitude_target", "both"), default="rc_override",
-                   help="the companion's output path (default rc_override)")
+def demo_parser(description: str, default_seeds: list[int]) -> argparse.ArgumentParser:
+    """The flags every lockstep-demo bench takes: --seeds, --speedup, --keep."""
+    p = argparse.ArgumentParser(description=description)
+    p.add_argument("--seeds", type=seeds, default=default_seeds,
+                   help=f"simulator seeds (default {','.join(map(str, default_seeds))})")
     p.add_argument("--speedup", type=float, default=10.0, help="the demo's speedup (default 10)")
     p.add_argument("--keep", type=Path, help="keep the run folders under this (new) folder")
+    return p
+
+
+def parse_demo_flags(p: argparse.ArgumentParser) -> argparse.Namespace:
+    """Parsed flags; --speedup outside [0.5, 50] is one line and exit 2."""
     args = p.parse_args()
     if not 0.5 <= args.speedup <= 50:
         p.error(f"--speedup: {args.speedup:g} is outside [0.5, 50]")
+    return args
+
+
+def main() -> int:
+    p = demo_parser(__doc__.splitlines()[0], [1, 2, 3])
+    p.add_argument("--output", choices=("rc_override", "attitude_target", "both"), default="rc_override",
+                   help="the companion's output path (default rc_override)")
+    args = parse_demo_flags(p)
     root = args.keep or Path(tempfile.mkdtemp(prefix="mavlink-estimated-"))
     outputs = ("rc_override", "attitude_target") if args.output == "both" else (args.output,)
     print("    output      seed | Balanced: roll deg, arrival s, roll term, IMU | Direct (same)         | cut")

@@ -18,28 +18,17 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 from typing import Any
 
+from mavlink_estimated import demo_parser, parse_demo_flags, run_demo  # this folder is on sys.path when run as a script
+
 from mavbridge.experiment import run_scenario
 from mavbridge.scenario import Scenario
 
 PATHS = ("rc_override", "attitude_target")
-
-
-def seed_list(text: str) -> list[int]:
-    """--seeds: comma-separated whole numbers >= 0."""
-    try:
-        values = [int(part) for part in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated whole numbers, got {text!r}") from None
-    if not values or min(values) < 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: seeds are whole numbers >= 0")
-    return values
 
 
 def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
@@ -50,16 +39,8 @@ def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
 
 
 def over_mavlink(output: str, direct: bool, seed: int, args: argparse.Namespace, out: Path) -> dict[str, Any]:
-    """One lockstep demo; the companion's metrics.json (RuntimeError with its output when there is none)."""
-    cmd = [sys.executable, "-m", "mavbridge.cli", "demo", "--lockstep", "--seed", str(seed), "--speedup",
-           f"{args.speedup:g}", "--solver", args.solver, "--waves", args.waves, "--output", output,
-           "--out", str(out), *(["--direct"] if direct else [])]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
-    metrics_file = out / "companion" / "metrics.json"
-    if not metrics_file.exists():
-        raise RuntimeError(f"demo ({output}, seed {seed}, {'direct' if direct else 'balanced'}) left no metrics: "
-                           f"exit {done.returncode}\n{done.stdout[-1500:]}{done.stderr[-1500:]}")
-    return json.loads(metrics_file.read_text())
+    """One lockstep demo with this bench's solver and waves; the companion's metrics.json."""
+    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves)
 
 
 def arrival(metrics: dict[str, Any]) -> float | None:
@@ -82,16 +63,11 @@ def table_row(label: str, balanced: dict[str, Any], direct: dict[str, Any], refe
 
 def main() -> int:
     """Print the comparison table; exit 1 when a run left no figures."""
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--seeds", type=seed_list, default=[1, 2], help="simulator seeds (default 1,2)")
+    p = demo_parser(__doc__.splitlines()[0], [1, 2])
     p.add_argument("--solver", choices=("asrti", "nrti"), default="asrti", help="NMPC solver (default asrti)")
     p.add_argument("--waves", choices=("scenario", "estimated"), default="scenario",
                    help="the companion's waves over MAVLink (default scenario: the simulator's truth)")
-    p.add_argument("--speedup", type=float, default=10.0, help="the demo's speedup (default 10)")
-    p.add_argument("--keep", type=Path, help="keep the run folders under this (new) folder")
-    args = p.parse_args()
-    if not 0.5 <= args.speedup <= 50:
-        p.error(f"--speedup: {args.speedup:g} is outside [0.5, 50]")
+    args = parse_demo_flags(p)
     root = args.keep or Path(tempfile.mkdtemp(prefix="mavlink-vs-inprocess-"))
     print("| path | Balanced avg roll ° | max roll ° | arrival s | Direct avg roll ° | Direct arrival s | cut | "
           "arrival vs in-process propellers | step ms median / p99 |\n|---|---|---|---|---|---|---|---|---|",
