@@ -77,6 +77,13 @@ def start_flight(c: Any, link: Link) -> None:
         prepared = c.nmpc.prepare(c.state.vector(), t_s, c.mission.waypoints[0])
         c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
               f"({prepared.status})")
+    switch_and_arm_if_asked(c, link, consent)
+
+
+def switch_and_arm_if_asked(c: Any, link: Link, consent: bool) -> None:
+    """The end of the start: the mode switch and arming the operator asked for (``consent``: --set-mode or
+    --arm), now or, in lockstep with --start-at, deferred to the first tick; nothing when a reboot during the
+    start cleared the supervisor's consent."""
     if consent and not c.supervisor.self_commanded:
         c.log("the autopilot rebooted during the start: not switching its mode or arming (consent was given to "
               "the previous boot); waiting for the pilot")

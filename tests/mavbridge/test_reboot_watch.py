@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavbridge.flight_start import DeferredStart, deferred_start_refused, switch_mode_at_start
+from mavbridge.flight_start import DeferredStart, deferred_start_refused, switch_and_arm_if_asked, switch_mode_at_start
 from mavbridge.reboot import DECIDE_S, GAP_S, RebootWatch, watch_reboots
 from mavbridge.supervisor import Phase, Supervisor
 
@@ -256,3 +256,32 @@ def test_the_reboot_watch_cancels_a_deferred_switch() -> None:
     assert companion.deferred_start is not None
     watch.on_reboot("autopilot rebooted")
     assert companion.deferred_start is None and not sup.self_commanded
+
+
+def _starting(sup: Supervisor, lockstep: bool) -> FakeCompanion:
+    """A companion at the end of start_flight, launched with --set-mode --arm (``lockstep``: and --start-at)."""
+    companion = FakeCompanion(sup)
+    companion.deferred_start = None
+    companion.set_mode = companion.arm = True  # type: ignore[attr-defined]
+    companion.config = type("Config", (), {"lockstep": lockstep, "start_at_s": 162.0 if lockstep else None})()  # type: ignore[attr-defined]
+    return companion
+
+
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_a_reboot_during_the_start_cancels_the_switch_and_the_arming(lockstep: bool) -> None:
+    sup = _waiting_in(HOLD)  # consent taken at the start of start_flight ...
+    sup.rebooted("autopilot rebooted")  # ... and cleared by a reboot seen during it
+    companion, link = _starting(sup, lockstep), FakeLink(mavlink.MAV_RESULT_ACCEPTED)
+    switch_and_arm_if_asked(companion, link, consent=True)
+    assert link.calls == [] and companion.deferred_start is None and "rebooted" in companion.lines[-1]
+
+
+@pytest.mark.parametrize("lockstep", [False, True])
+def test_without_a_reboot_the_start_switches_and_arms_or_defers_both(lockstep: bool) -> None:
+    sup = _waiting_in(HOLD)
+    companion, link = _starting(sup, lockstep), FakeLink(mavlink.MAV_RESULT_ACCEPTED)
+    switch_and_arm_if_asked(companion, link, consent=True)
+    if lockstep:
+        assert link.calls == [] and companion.deferred_start == DeferredStart(HOLD, sup.mode_changes, True)
+    else:
+        assert link.calls == [f"set_mode {GUIDED}", "arm"] and companion.deferred_start is None
