@@ -161,13 +161,14 @@ def switch_mode_at_start(c: Any, link: Link, now_ms: int) -> None:
 def _await_heartbeat_in(c: Any, link: Link, mode: int, armed: bool) -> None:
     """Wait (at most MODE_HEARTBEAT_WAIT_S wall) for a heartbeat in ``mode`` (and armed, when the companion
     armed), so the step right after commands; ends early on a stop or an ended run."""
-    def shown() -> bool:
-        return c.supervisor.mode == mode and (c.supervisor.armed or not armed)
+    def settled() -> bool:  # the heartbeat shows it, or there is nothing left to wait for
+        shown = c.supervisor.mode == mode and (c.supervisor.armed or not armed)
+        return shown or c.supervisor.phase.final or c.stop_requested()
 
     deadline = time.monotonic() + MODE_HEARTBEAT_WAIT_S
-    while not (shown() or c.supervisor.phase.final or c.stop_requested()) and time.monotonic() < deadline:
+    while not settled() and time.monotonic() < deadline:
         link.heartbeat_if_due()
         link.recv(0.05)
-    if not (shown() or c.stop_requested() or c.supervisor.phase.final):
+    if not settled():
         c.log(f"warning: no heartbeat {'armed ' if armed else ''}in {mode_name(mode)} within "
               f"{MODE_HEARTBEAT_WAIT_S:g} s of the switch")

@@ -263,7 +263,8 @@ def _starting(sup: Supervisor, lockstep: bool) -> FakeCompanion:
     companion = FakeCompanion(sup)
     companion.deferred_start = None
     companion.set_mode = companion.arm = True  # type: ignore[attr-defined]
-    companion.config = type("Config", (), {"lockstep": lockstep, "start_at_s": 162.0 if lockstep else None})()  # type: ignore[attr-defined]
+    config = {"lockstep": lockstep, "start_at_s": 162.0 if lockstep else None}
+    companion.config = type("Config", (), config)()  # type: ignore[attr-defined]
     return companion
 
 

@@ -165,11 +165,15 @@ class Garbage(threading.Thread):
                 time.sleep(0.05)
 
 
-def _lockstep_flight(workdir: Path, companion_factory, *extra: str) -> tuple[float, float]:
+def _lockstep_flight(workdir: Path, companion_factory, *extra: str,
+                     prepared: threading.Event | None = None) -> tuple[float, float]:
     """One lockstep run of Balanced over MAVLink, checked to arrive with every tick planned; (average roll in
-    degrees, arrival in seconds)."""
+    degrees, arrival in seconds). ``prepared`` is set once the companion's startup has made its cold solve."""
     with SimProcess(workdir, speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP], udp_outs=1) as sim:
         companion = companion_factory(sim.udp_ports[0], *extra, *LOCKSTEP)
+        if prepared is not None:
+            companion.wait_line(" prepared in ", 120)  # (a companion that never prepares fails below)
+            prepared.set()
         assert companion.wait(400) == 0, "\n".join(companion.lines[-20:])
         metrics = companion.metrics()
         assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] is not None, metrics
@@ -179,17 +183,16 @@ def _lockstep_flight(workdir: Path, companion_factory, *extra: str) -> tuple[flo
         return metrics["avg_roll_deg"], metrics["time_to_waypoint_s"]
 
 
-SECOND_FLIGHT_AFTER_S = 8.0  # wall: the first companion's startup (imports, solver build) is done by then
-
-
 def _two_lockstep_flights(tmp_path: Path, companion_factory, *extra: str) -> list[tuple[float, float]]:
     """Two lockstep runs with one seed, side by side (each its own simulator and companion on its own ports):
     lockstep makes a run independent of the machine's load, so the second need not wait for the first; it
-    starts a little later only so that the two startups do not compete for the CPU before the held start
-    (a late startup fails assert_lockstep_run, it cannot pass unnoticed)."""
+    starts once the first companion has made its cold solve, only so that the two startups do not compete
+    for the CPU before the held start (a late startup fails assert_lockstep_run, it cannot pass unnoticed)."""
+    first_prepared = threading.Event()
     with ThreadPoolExecutor(max_workers=2) as pool:
-        first = pool.submit(_lockstep_flight, tmp_path / "sim0", companion_factory, *extra)
-        time.sleep(SECOND_FLIGHT_AFTER_S)
+        first = pool.submit(_lockstep_flight, tmp_path / "sim0", companion_factory, *extra, prepared=first_prepared)
+        while not (first_prepared.wait(0.5) or first.done()):
+            pass
         second = pool.submit(_lockstep_flight, tmp_path / "sim1", companion_factory, *extra)
         return [first.result(), second.result()]
 
