@@ -1,12 +1,12 @@
-"""Sweep throughput: closed-loop Balanced-like runs per minute on local (1 and 2 workers) and dask-local:2.
+"""Sweep throughput: closed-loop Balanced-like runs per minute on local and dask-local, 1 and 2 workers.
 
     OMP_NUM_THREADS=1 python bench/sweep_throughput.py [--cases 32] [--solver asrti]
 
 A fixed sweep of Balanced-like cases (R around 1550, four wave directions; each case's R = 0 reference
 runs too) in the paper's sea, each run on a fresh output folder so nothing is skipped. Prints runs per
-minute and per hour for each executor and the speed-up of 2 workers over 1, and the share of the machine's
-CPU time the hypervisor gave to other guests meanwhile (Linux's "steal" in /proc/stat): on a shared host a
-run with much steal measures the neighbours, not the code.
+minute and per hour for each executor, the speed-up of 2 workers over 1 of the same kind (and over local
+with 1 worker), and the share of the machine's CPU time the hypervisor gave to other guests meanwhile
+(Linux's "steal" in /proc/stat): on a shared host a run with much steal measures the neighbours, not the code.
 """
 
 from __future__ import annotations
@@ -69,17 +69,27 @@ def main() -> None:
         spec = write_spec(folder, args.cases, args.solver)
         rows = []
         for label, executor, jobs in (("local, 1 worker", "local", 1), ("local, 2 workers", "local", 2),
-                                      ("dask-local:2", "dask-local:2", 2)):
+                                      ("dask-local:1", "dask-local:1", 1), ("dask-local:2", "dask-local:2", 2)):
             runs, wall, stolen = measure(spec, executor, jobs, folder / label.replace(" ", "_").replace(",", ""))
             rows.append((label, runs, wall, stolen))
             print(f"  {label}: {runs} runs in {wall:.1f} s, steal {100 * stolen:.0f} %", flush=True)
-    base = rows[0][2]
-    print("\n| executor | runs | wall s | runs/min | runs/hour | speed-up vs 1 worker | CPU stolen |\n"
-          "|---|---|---|---|---|---|---|")
-    for label, runs, wall, stolen in rows:
-        print(f"| {label} | {runs} | {wall:.1f} | {60 * runs / wall:.1f} | {3600 * runs / wall:.0f} "
-              f"| {base / wall:.2f}× | {100 * stolen:.0f} % |")
+    print_table(rows)
 
+
+def print_table(rows: list[tuple[str, int, float, float]]) -> None:
+    """Markdown table; the speed-up of each executor over the 1-worker run of its own kind (local or Dask),
+    and over local with 1 worker."""
+    def kind(label: str) -> str:
+        return label.split(",")[0].split(":")[0]
+
+    one_worker = {kind(label): wall for label, _, wall, _ in rows if label.endswith(("1 worker", ":1"))}
+    base = rows[0][2]
+    print("\n| executor | runs | wall s | runs/min | runs/hour | speed-up vs its 1 worker | vs local 1 worker "
+          "| CPU stolen |\n|---|---|---|---|---|---|---|---|")
+    for label, runs, wall, stolen in rows:
+        own = one_worker.get(kind(label), base)
+        print(f"| {label} | {runs} | {wall:.1f} | {60 * runs / wall:.1f} | {3600 * runs / wall:.0f} "
+              f"| {own / wall:.2f}× | {base / wall:.2f}× | {100 * stolen:.0f} % |")
 
 if __name__ == "__main__":
     main()

@@ -23,6 +23,18 @@ from vessel import ConfigError
 DASK_LOCAL = re.compile(r"^dask-local:(\d+)$")
 DASK_ADDRESS = re.compile(r"^tcp://[A-Za-z0-9_.\-\[\]:]+:\d+$")
 CONNECT_TIMEOUT_S = 10.0
+# What a Dask worker does besides the task takes the GIL from the closed loop (a one-thread worker runs its
+# task beside the event loop): a stack sample every 10 ms for the dashboard's profile, an event-loop tick
+# every 20 ms, a memory check every 100 ms, a system monitor every 500 ms. On the clusters we start these
+# are off or slowed, and glibc's default malloc trimming is kept (Dask's 64 KiB threshold returns memory to
+# the OS on every few frees); a user's own workers keep their own configuration.
+LOCAL_WORKER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+}
 
 
 def parse_executor(text: str) -> tuple[str, int | None, str | None]:
@@ -53,6 +65,12 @@ def _import_distributed():
     return distributed
 
 
+def _import_dask():
+    import dask
+
+    return dask
+
+
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
     """Cancel queued cases and end the worker processes: a case still running after an interrupt is stopped,
     not left to finish (or be orphaned) after the sweep has said what remains. The pool keeps its processes
@@ -79,8 +97,9 @@ def open_executor(text: str, jobs: int | None = None) -> Iterator[Executor]:
         return
     distributed = _import_distributed()
     if kind == "dask-local":
-        cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                           dashboard_address=":0", silence_logs=40)  # no fixed 8787
+        with _import_dask().config.set(LOCAL_WORKER_CONFIG):  # a Nanny hands its worker the config of now
+            cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                               dashboard_address=":0", silence_logs=40)  # no fixed 8787
         with cluster, distributed.Client(cluster) as client:
             yield client.get_executor(pure=False)
         return
