@@ -31,6 +31,14 @@ from mavbridge.scenario import Scenario
 PATHS = ("rc_override", "attitude_target")
 
 
+def paths(text: str) -> list[str]:
+    """--paths: a comma-separated subset of the output paths."""
+    chosen = [part.strip() for part in text.split(",") if part.strip()]
+    if not chosen or any(part not in PATHS for part in chosen):
+        raise argparse.ArgumentTypeError(f"expected a comma-separated subset of {','.join(PATHS)}, got {text!r}")
+    return chosen
+
+
 def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
     """The experiment runner's metrics for Balanced (or Direct, R = 0) on ``plant``."""
     base = Scenario(name="direct" if direct else "balanced")
@@ -40,7 +48,8 @@ def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
 
 def over_mavlink(output: str, direct: bool, seed: int, args: argparse.Namespace, out: Path) -> dict[str, Any]:
     """One lockstep demo with this bench's solver and waves; the companion's metrics.json."""
-    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves)
+    form = ["--attitude-form", args.attitude_form] if output == "attitude_target" and args.attitude_form else []
+    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves, *form)
 
 
 def arrival(metrics: dict[str, Any]) -> float | None:
@@ -67,17 +76,22 @@ def main() -> int:
     p.add_argument("--solver", choices=("asrti", "nrti"), default="asrti", help="NMPC solver (default asrti)")
     p.add_argument("--waves", choices=("scenario", "estimated"), default="scenario",
                    help="the companion's waves over MAVLink (default scenario: the simulator's truth)")
+    p.add_argument("--paths", type=paths, default=list(PATHS),
+                   help="output paths over MAVLink, comma-separated (default rc_override,attitude_target)")
+    p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
+                   help="the GUIDED path's target (default: the companion's)")
+    p.add_argument("--no-in-process", dest="in_process", action="store_false", help="skip the in-process rows")
     args = parse_demo_flags(p)
     root = args.keep or Path(tempfile.mkdtemp(prefix="mavlink-vs-inprocess-"))
     print("| path | Balanced avg roll ° | max roll ° | arrival s | Direct avg roll ° | Direct arrival s | cut | "
           "arrival vs in-process propellers | step ms median / p99 |\n|---|---|---|---|---|---|---|---|---|",
           flush=True)
     reference_s = None
-    for plant in ("tau", "propellers"):
+    for plant in ("tau", "propellers") if args.in_process else ():
         balanced, direct = in_process(plant, False, args.solver), in_process(plant, True, args.solver)
         reference_s = arrival(balanced) if plant == "propellers" else reference_s
         print(table_row(f"in-process, {plant} plant", balanced, direct, reference_s), flush=True)
-    for output in PATHS:
+    for output in args.paths:
         for seed in args.seeds:
             balanced = over_mavlink(output, False, seed, args, root / f"{output}-seed{seed}-balanced")
             direct = over_mavlink(output, True, seed, args, root / f"{output}-seed{seed}-direct")

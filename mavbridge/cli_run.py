@@ -24,7 +24,12 @@ from .cli_args import (
     single_scenario,
 )
 from .nmpc.config import SOLVERS
+from .outputs import ATTITUDE_FORMS
 from .signing import add_link_arguments
+
+ATTITUDE_FORM_HELP = ("attitude_target: send the plan's heading (Rover's heading P loop, then its rate loop), its "
+                      "body yaw rate (the rate loop only), or tau: the rate and speed targets that give the plan's "
+                      "steering and throttle through Rover's loops (their gains read at start)")
 
 
 def _speedup(text: str) -> float:
@@ -51,6 +56,7 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--sysid", type=int, help="our system id (default 255 = ArduPilot's SYSID_MYGCS)")
     run.add_argument("--compid", type=int, help="our component id (default 191, onboard computer)")
     run.add_argument("--output", choices=OUTPUTS, help="rc_override (MANUAL) or attitude_target (GUIDED)")
+    run.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
     run.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
@@ -85,6 +91,7 @@ def add_demo_parser(sub: Any) -> None:
                                                                          "the ipopt solver)")
     demo.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
+    demo.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
                       help="the companion's waves: estimated (default) or scenario (fly on the simulator's truth)")
@@ -113,7 +120,8 @@ def run_command(args: argparse.Namespace) -> int:
         **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
         "waves": ("--waves", args.waves), "lockstep": ("--lockstep", args.lockstep),
         "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
-        "delay_compensation": ("--delay-compensation", args.delay_compensation)})
+        "delay_compensation": ("--delay-compensation", args.delay_compensation),
+        "attitude_form": ("--attitude-form", args.attitude_form)})
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
@@ -144,4 +152,4 @@ def demo_command(args: argparse.Namespace) -> int:
     scenario = demo_scenario(args.scenario, args.solver, args.direct)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed)
+    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form)

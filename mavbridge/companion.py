@@ -132,7 +132,8 @@ class Companion:
         self.period_s = scenario.controller.period_s
         self.period_ms = round(self.period_s * 1000)
         ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m)
-        self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log)
+        self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log,
+                                  config.attitude_form)
         self.commands = CommandChannel(self.output, log)
         self.supervisor = Supervisor(self.output.required_mode, config.link_timeout_s, dry_run)
         self.state = StateEstimate(max_distance_m=config.max_distance_m)

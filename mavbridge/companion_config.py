@@ -13,6 +13,7 @@ from vessel.geo import DEFAULT_MAX_RANGE_M
 from .cli_args import OUTPUTS, WAVE_SOURCES
 from .link import MAV_COMP_ID_ONBOARD_COMPUTER
 from .nmpc.config import choice
+from .outputs import ATTITUDE_FORMS
 from .signing import LinkSettings
 
 ARRIVAL_ACTIONS = ("hold", "release")
@@ -35,7 +36,11 @@ class CompanionConfig(LinkSettings):
                                  "this from home or from the boat", lo_open=True)
     connect_timeout_s: float = bounded(30.0, 0.5, 600.0, "s", "wait this long for the autopilot at start")
     stale_state_s: float = bounded(0.5, 0.05, 10.0, "s", "state older than this (autopilot time) is not used")
-    lookahead_steps: int = bounded(5, 1, 400, "steps", "attitude_target: plan step whose heading/speed is sent")
+    lookahead_steps: int = bounded(8, 1, 400, "steps", "attitude_target: plan step whose heading or yaw rate "
+                                   "and speed are sent (8 measured best for the rate form)")
+    attitude_form: str = choice("rate", ATTITUDE_FORMS, "attitude_target: send the plan's heading, its body "
+                                "yaw rate (Rover's rate loop only), or tau (the rate and speed targets that give the "
+                                "plan's steering and throttle through Rover's loops)")
     on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
     max_time_s: float | None = bounded(None, 0.1, 1e6, "s", "end the run after this much autopilot time engaged")
     waves: str = choice("estimated", WAVE_SOURCES, "estimated (from the boat's motion) or scenario (simulation "
@@ -58,7 +63,8 @@ class CompanionConfig(LinkSettings):
     def __post_init__(self) -> None:
         if self.wave_roll_sign not in (-1.0, 1.0):
             raise ConfigError(f"wave_roll_sign: {self.wave_roll_sign!r} is not one of -1, 1")
-        for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS), ("waves", WAVE_SOURCES)):
+        for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS), ("waves", WAVE_SOURCES),
+                              ("attitude_form", ATTITUDE_FORMS)):
             if getattr(self, name) not in choices:
                 raise ConfigError(f"{name}: {getattr(self, name)!r} is not one of {', '.join(choices)}")
 

@@ -231,8 +231,9 @@ class Link:
         self.send("rc_channels_override", self.target[0], self.target[1], *values)
 
     def attitude_target(self, time_boot_ms: int, quaternion: tuple[float, float, float, float], thrust: float,
-                        type_mask: int) -> None:
-        """SET_ATTITUDE_TARGET (GUIDED): heading from the quaternion, thrust as a fraction of WP_SPEED."""
+                        type_mask: int, body_yaw_rate: float = 0.0) -> None:
+        """SET_ATTITUDE_TARGET (GUIDED): heading from the quaternion or the body yaw rate (rad/s), as
+        ``type_mask`` says; thrust as a fraction of WP_SPEED."""
         assert self.target is not None
         self.send("set_attitude_target", time_boot_ms, self.target[0], self.target[1], type_mask,
-                  list(quaternion), 0.0, 0.0, 0.0, thrust)
+                  list(quaternion), 0.0, 0.0, body_yaw_rate, thrust)

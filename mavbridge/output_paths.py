@@ -16,8 +16,17 @@ from typing import Any, Protocol
 
 from vessel import OtterParameters
 
+from .guided_inverse import RoverLoops, loop_targets
 from .link import LinkError, mavlink
-from .outputs import ATTITUDE_TYPE_MASK_HEADING, RcCalibration, RcSetup, attitude_command, neutral_pwm, rc_command
+from .outputs import (
+    ATTITUDE_TYPE_MASK_HEADING,
+    AttitudeCommand,
+    RcCalibration,
+    RcSetup,
+    attitude_command,
+    neutral_pwm,
+    rc_command,
+)
 from .preflight.rules import OPTIONAL_PARAMETERS, Context, override_violations
 
 MODE_MANUAL, MODE_HOLD, MODE_GUIDED = mavlink.ROVER_MODE_MANUAL, mavlink.ROVER_MODE_HOLD, mavlink.ROVER_MODE_GUIDED
@@ -143,13 +152,15 @@ class RcOverride(_Sending):
 
 
 class AttitudeTarget(_Sending):
-    """GUIDED: the plan's heading and speed a few steps ahead, as SET_ATTITUDE_TARGET."""
+    """GUIDED: the plan's heading (or yaw rate) and speed a few steps ahead, as SET_ATTITUDE_TARGET."""
 
     name, required_mode = "attitude_target", MODE_GUIDED
 
-    def __init__(self, lookahead_steps: int, log: Log) -> None:
-        self.lookahead_steps, self.log = lookahead_steps, log
+    def __init__(self, lookahead_steps: int, log: Log, form: str = "heading",
+                 params: OtterParameters | None = None) -> None:
+        self.lookahead_steps, self.log, self.form, self.params = lookahead_steps, log, form, params
         self.wp_speed_mps = 2.0
+        self.loops: RoverLoops | None = None
 
     def prepare(self, link: Any) -> None:
         """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s)."""
@@ -157,13 +168,32 @@ class AttitudeTarget(_Sending):
         if not (speed and speed > 0):
             speed = link.read_parameter("CRUISE_SPEED")
         self.wp_speed_mps = speed if speed and speed > 0 else 2.0
+        if self.form == "tau":
+            assert self.params is not None, "the tau form needs the vessel's parameters"
+            self.loops = loops = RoverLoops.read(link)
+            self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
+                     f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
+
+    def _attitude(self, result: Any) -> AttitudeCommand:
+        """The target for this answer in this path's form."""
+        if self.form != "tau":
+            return attitude_command(result.states, self.wp_speed_mps, self.lookahead_steps, self.form)
+        assert self.loops is not None and self.params is not None, "prepare() first"
+        x0 = result.states[0]
+        rate, speed = loop_targets(self.params, self.loops, float(result.tau[0]), float(result.tau[1]),
+                                   float(x0[6]), float(x0[11]))
+        if not (math.isfinite(rate) and math.isfinite(speed)):
+            raise ValueError("plan: non-finite turn-rate or speed target")
+        return AttitudeCommand(float(x0[5]), max(-1.0, min(1.0, speed / self.wp_speed_mps)), speed, rate)
 
     def compute(self, result: Any, now_ms: int) -> Command:
-        """Heading quaternion and thrust fraction of the plan ``lookahead_steps`` ahead."""
-        att = attitude_command(result.states, self.wp_speed_mps, self.lookahead_steps)
-        return Command({"yaw_target_rad": att.yaw_rad, "thrust_frac": att.thrust},
-                       lambda link: link.attitude_target(now_ms, att.quaternion(), att.thrust,
-                                                         ATTITUDE_TYPE_MASK_HEADING))
+        """Heading quaternion (or body yaw rate) and thrust fraction of the plan ``lookahead_steps`` ahead."""
+        att = self._attitude(result)
+        columns = {"yaw_target_rad": att.yaw_rad, "thrust_frac": att.thrust}
+        if att.yaw_rate_rad_s is not None:
+            columns["yaw_rate_target_rad_s"] = att.yaw_rate_rad_s
+        return Command(columns, lambda link: link.attitude_target(now_ms, att.quaternion(), att.thrust,
+                                                                  att.type_mask, att.yaw_rate_rad_s or 0.0))
 
     def neutral(self, link: Any, state: Any) -> None:
         """Hold the present heading with zero thrust: no pivot towards north."""
@@ -204,10 +234,11 @@ class DryRun:
 
 
 def make_output(output: str, dry_run: bool, params: OtterParameters, ctx: Context, lookahead_steps: int,
-                log: Log) -> Output:
-    """The strategy for ``output`` (rc_override or attitude_target), wrapped in DryRun if asked."""
-    paths: dict[str, Callable[[], Output]] = {"rc_override": lambda: RcOverride(params, ctx, log),
-                                              "attitude_target": lambda: AttitudeTarget(lookahead_steps, log)}
+                log: Log, attitude_form: str = "heading") -> Output:
+    """The strategy for ``output`` (rc_override or attitude_target, in ``attitude_form``), in DryRun if asked."""
+    paths: dict[str, Callable[[], Output]] = {
+        "rc_override": lambda: RcOverride(params, ctx, log),
+        "attitude_target": lambda: AttitudeTarget(lookahead_steps, log, attitude_form, params)}
     if output not in paths:
         raise ValueError(f"output: {output!r} is not one of {', '.join(paths)}")
     path = paths[output]()

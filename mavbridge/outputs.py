@@ -16,7 +16,9 @@ import numpy as np
 from vessel import OtterParameters, tau_to_shaft_speeds
 
 # SET_ATTITUDE_TARGET type_mask: ignore body roll rate (1), pitch rate (2) and yaw rate (4) -> heading mode.
-ATTITUDE_TYPE_MASK_HEADING = 0b0000_0111
+ATTITUDE_TYPE_MASK_HEADING = 0b0000_0111  # roll, pitch and yaw rates ignored: heading from q, thrust
+ATTITUDE_TYPE_MASK_RATE = 0b1000_0011  # roll/pitch rates and q ignored: body yaw rate and thrust
+ATTITUDE_FORMS = ("heading", "rate", "tau")  # tau: mavbridge.guided_inverse
 
 
 @dataclass(frozen=True)
@@ -133,24 +135,36 @@ def neutral_pwm(setup: RcSetup) -> tuple[int, int]:
 
 @dataclass(frozen=True)
 class AttitudeCommand:
-    """A GUIDED heading/speed target: yaw (rad, NED, 0 = North) and thrust = speed / WP_SPEED in [-1, 1]."""
+    """A GUIDED target: yaw (rad, NED, 0 = North) or, in the rate form, a body yaw rate (rad/s, positive
+    turning right), and thrust = speed / WP_SPEED in [-1, 1]."""
 
     yaw_rad: float
     thrust: float
     speed_mps: float
+    yaw_rate_rad_s: float | None = None
 
     def quaternion(self) -> tuple[float, float, float, float]:
         """(w, x, y, z) of a pure yaw rotation, as SET_ATTITUDE_TARGET carries it."""
         return (math.cos(self.yaw_rad / 2), 0.0, 0.0, math.sin(self.yaw_rad / 2))
 
+    @property
+    def type_mask(self) -> int:
+        """SET_ATTITUDE_TARGET's type_mask: heading from q, or the body yaw rate field."""
+        return ATTITUDE_TYPE_MASK_HEADING if self.yaw_rate_rad_s is None else ATTITUDE_TYPE_MASK_RATE
 
-def attitude_command(states: np.ndarray, wp_speed_mps: float, lookahead_steps: int = 5) -> AttitudeCommand:
-    """Heading and surge speed of the NMPC plan ``lookahead_steps`` ahead (rows of [η, ν])."""
+
+def attitude_command(states: np.ndarray, wp_speed_mps: float, lookahead_steps: int = 5,
+                     form: str = "heading") -> AttitudeCommand:
+    """Heading (or yaw rate, ``form`` "rate") and surge speed of the NMPC plan ``lookahead_steps`` ahead
+    (rows of [η, ν]: ψ at column 5, u at 6, r at 11)."""
     if not wp_speed_mps > 0:
         raise ValueError(f"WP_SPEED: {wp_speed_mps!r} m/s must be > 0 to scale thrust")
+    if form not in ("heading", "rate"):
+        raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)}")
     k = min(max(lookahead_steps, 1), len(states) - 1)
-    if not (math.isfinite(states[k, 5]) and math.isfinite(states[k, 6])):
-        raise ValueError(f"plan: non-finite heading or speed at step {k}")
+    if not (math.isfinite(states[k, 5]) and math.isfinite(states[k, 6]) and math.isfinite(states[k, 11])):
+        raise ValueError(f"plan: non-finite heading, speed or yaw rate at step {k}")
     yaw = math.atan2(math.sin(states[k, 5]), math.cos(states[k, 5]))
     speed = float(states[k, 6])
-    return AttitudeCommand(yaw, float(np.clip(speed / wp_speed_mps, -1.0, 1.0)), speed)
+    rate = float(states[k, 11]) if form == "rate" else None
+    return AttitudeCommand(yaw, float(np.clip(speed / wp_speed_mps, -1.0, 1.0)), speed, rate)

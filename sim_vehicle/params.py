@@ -63,8 +63,10 @@ def _defs() -> list[ParamDef]:
         ("PILOT_STEER_TYPE", i8, 0),
         ("ARMING_CHECK", i32, 1),
         ("ARMING_REQUIRE", i8, 1),
-        ("CRUISE_SPEED", r, 2.0),
-        ("CRUISE_THROTTLE", i8, 50),
+        # The speed feed-forward matched to the Otter (deploy/otter-json-sitl.parm: 80 % shaft speed gives
+        # 2.08 m/s in calm water); Rover's 2 m/s at 50 % would leave a third of the throttle to the PI.
+        ("CRUISE_SPEED", r, 2.08),
+        ("CRUISE_THROTTLE", i8, 80),
         ("WP_SPEED", r, 2.0),
         ("WP_RADIUS", r, 2.0),
         ("RTL_SPEED", r, 0.0),
@@ -98,7 +100,7 @@ def _defs() -> list[ParamDef]:
         # Steering and speed controllers: names as ArduPilot's, gains tuned for the Otter's thrusters.
         ("ATC_STR_ANG_P", r, 2.0),
         ("ATC_STR_RAT_MAX", r, 20.0),
-        ("ATC_STR_RAT_FF", r, 2.0),
+        ("ATC_STR_RAT_FF", r, 2.85),  # 1 / the hull's turn rate at full steering (0.3503 rad/s)
         ("ATC_STR_RAT_P", r, 1.0),
         ("ATC_STR_RAT_I", r, 0.5),
         ("ATC_STR_RAT_IMAX", r, 1.0),

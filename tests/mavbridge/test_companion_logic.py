@@ -92,6 +92,34 @@ def test_attitude_command_wraps_heading_and_clips_thrust() -> None:
         attitude_command(states, wp_speed_mps=0.0)
 
 
+def test_rate_form_sends_the_plans_yaw_rate_as_rover_reads_it() -> None:
+    """The rate form carries the plan's r at the look-ahead step in body_yaw_rate with q ignored; Rover's
+    reading of the packed message (sim_vehicle.guided) is a turn-rate target, not a heading."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    from sim_vehicle.guided import from_attitude
+
+    states = np.zeros((41, 12))
+    states[:, 5] = 1.0
+    states[:, 6] = 1.5
+    states[:, 11] = np.linspace(0.0, 0.2, 41)
+    command = attitude_command(states, wp_speed_mps=2.0, lookahead_steps=10, form="rate")
+    assert command.yaw_rate_rad_s == pytest.approx(0.05)
+    heading_only = attitude_command(states, wp_speed_mps=2.0, lookahead_steps=10)
+    assert heading_only.yaw_rate_rad_s is None
+    mav = mavlink.MAVLink(None, srcSystem=255, srcComponent=191)
+    for cmd, want_heading, want_rate in ((command, None, 0.05), (heading_only, 1.0, None)):
+        packed = mav.set_attitude_target_encode(0, 1, 1, cmd.type_mask, list(cmd.quaternion()), 0.0, 0.0,
+                                                cmd.yaw_rate_rad_s or 0.0, cmd.thrust).pack(mav)
+        msg = mav.decode(bytearray(packed))
+        target = from_attitude(msg.type_mask, list(msg.q), msg.body_yaw_rate, msg.thrust, 2.0, 0.0)
+        assert target is not None and target.speed == pytest.approx(1.5)
+        assert (target.heading is None) == (want_heading is None) and (target.rate is None) == (want_rate is None)
+        assert (target.rate or target.heading) == pytest.approx(want_rate or want_heading, rel=1e-6)
+    with pytest.raises(ValueError, match="attitude_form"):
+        attitude_command(states, wp_speed_mps=2.0, form="yaw")
+
+
 def test_supervisor_engages_only_armed_in_its_mode() -> None:
     sup = Supervisor(required_mode=0)
     assert sup.on_heartbeat(0.0, armed=False, mode=0) == Phase.WAITING

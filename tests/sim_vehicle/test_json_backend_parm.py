@@ -16,7 +16,7 @@ from sim_vehicle.json_backend_protocol import (
     SERVO_MIN_US,
     SERVO_TRIM_US,
 )
-from sim_vehicle.params import read_parm
+from sim_vehicle.params import ParamTable, read_parm
 from vessel import CalmWater, Plant, otter_parameters
 
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
@@ -112,3 +112,11 @@ def test_the_readme_commands_parse() -> None:
         else:
             assert "--model" in argv and "JSON:127.0.0.1" in argv
             assert f"--add-param-file=/path/to/this/repo/deploy/{JSON_PARM.name}" in argv
+
+
+def test_simulators_defaults_have_the_same_feed_forwards(parm: dict[str, float]) -> None:
+    """sim-vehicle's GUIDED/AUTO speed and turn feed-forwards are the ones matched to the model here, so a
+    companion in GUIDED meets the same loops on our simulator as on the firmware with this file."""
+    defaults = ParamTable()
+    for name in ("CRUISE_SPEED", "CRUISE_THROTTLE", "ATC_STR_RAT_FF", "ATC_STR_RAT_MAX", "WP_SPEED"):
+        assert defaults[name] == pytest.approx(parm[name], rel=1e-6), name

@@ -1,0 +1,65 @@
+"""The GUIDED path's tau form: targets that make Rover's loops (our simulator's copy of them) give the
+plan's steering and throttle."""
+
+from __future__ import annotations
+
+import pytest
+
+from mavbridge.guided_inverse import LOOP_PARAMETERS, RoverLoops, loop_targets
+from mavbridge.outputs import inverse_skid_mix, motor_output
+from sim_vehicle.control import NavState, SpeedControl, SteeringControl
+from sim_vehicle.params import ParamTable
+from vessel import otter_parameters, tau_to_shaft_speeds
+
+PARAMS = otter_parameters()
+
+
+def _loops(table: ParamTable) -> RoverLoops:
+    return RoverLoops.from_values({name: table[name] for name in LOOP_PARAMETERS})
+
+
+@pytest.mark.parametrize(("tau_x", "tau_n", "u", "r"), [
+    (150.0, 0.0, 1.8, 0.0), (120.0, 20.0, 1.5, 0.1), (80.0, -30.0, 1.0, -0.15), (0.0, 10.0, 0.2, 0.05),
+    (-40.0, 0.0, -0.3, 0.0), (140.0, -5.0, 2.4, 0.02)])
+def test_rovers_loops_fed_the_targets_output_the_plans_steering_and_throttle(
+        tau_x: float, tau_n: float, u: float, r: float) -> None:
+    table = ParamTable()
+    rate, speed = loop_targets(PARAMS, _loops(table), tau_x, tau_n, u, r)
+    mats = PARAMS.matrices()
+    n_left, n_right = tau_to_shaft_speeds(PARAMS, tau_x, tau_n)
+    throttle, steering = inverse_skid_mix(motor_output(n_left, mats.n_max, mats.n_min),
+                                          motor_output(n_right, mats.n_max, mats.n_min))
+    nav = NavState(yaw=0.0, yaw_rate=r, vn=u)
+    speed_loop = SpeedControl(table)
+    speed_loop.reset(speed)  # the ramp already at the target; dt 0: integrators untouched
+    assert speed_loop.throttle_for_speed(speed, nav, 0.0) == pytest.approx(throttle, abs=1e-9)
+    assert SteeringControl(table).steering_for_rate(rate, nav, 0.0) == pytest.approx(steering, abs=1e-9)
+
+
+def test_turn_rate_target_is_held_within_the_autopilots_limit() -> None:
+    table = ParamTable()
+    loops = _loops(table)
+    assert loops.rate_for_steering(1.0, 0.35) == pytest.approx(loops.rate_max_rad_s)
+    assert loops.rate_for_steering(-1.0, -0.35) == pytest.approx(-loops.rate_max_rad_s)
+
+
+@pytest.mark.parametrize(("name", "value"), [("CRUISE_SPEED", 0.0), ("CRUISE_THROTTLE", None),
+                                             ("ATC_SPEED_P", float("nan")), ("ATC_STR_RAT_MAX", -1.0)])
+def test_unusable_gains_are_refused_by_name(name: str, value: float | None) -> None:
+    table = ParamTable()
+    values: dict[str, float | None] = {n: table[n] for n in LOOP_PARAMETERS}
+    values[name] = value
+    with pytest.raises(ValueError, match=name):
+        RoverLoops.from_values(values)
+
+
+
+def test_an_integrator_on_is_refused_by_name() -> None:
+    """Rover's integrators would wind up against the inverted targets: the tau form needs both at 0."""
+    table = ParamTable()
+    values = {name: table[name] for name in LOOP_PARAMETERS}
+    assert "ATC_STR_RAT_I" in (_loops(table).integrator_problem() or "")
+    values.update(ATC_STR_RAT_I=0.0, ATC_SPEED_I=0.0)
+    assert RoverLoops.from_values(values).integrator_problem() is None
+    values["ATC_SPEED_I"] = 0.2
+    assert "ATC_SPEED_I is 0.2" in (RoverLoops.from_values(values).integrator_problem() or "")
