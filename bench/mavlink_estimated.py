@@ -22,6 +22,7 @@ import json
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +80,16 @@ def parse_demo_flags(p: argparse.ArgumentParser) -> argparse.Namespace:
     if not 0.5 <= args.speedup <= 50:
         p.error(f"--speedup: {args.speedup:g} is outside [0.5, 50]")
     return args
+
+
+def exit_with(main: Callable[[], int]) -> None:
+    """Run a bench's ``main`` and exit with its status; a run that left no figures (RuntimeError) is one
+    message on stderr and exit 1."""
+    try:
+        sys.exit(main())
+    except RuntimeError as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(1)
 
 
 def main() -> int:

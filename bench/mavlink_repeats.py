@@ -11,11 +11,15 @@ work: lockstep makes simulated time wait for every command, so load slows a run 
 
 from __future__ import annotations
 
-import sys
 import tempfile
 from pathlib import Path
 
-from mavlink_estimated import demo_parser, parse_demo_flags, run_demo  # this folder is on sys.path when run as a script
+from mavlink_estimated import (  # this folder is on sys.path when run as a script
+    demo_parser,
+    exit_with,
+    parse_demo_flags,
+    run_demo,
+)
 from mavlink_vs_inprocess import PATHS, arrival, paths
 
 
@@ -61,8 +65,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except RuntimeError as exc:
-        print(exc, file=sys.stderr)
-        sys.exit(1)
+    exit_with(main)

@@ -18,12 +18,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import tempfile
 from pathlib import Path
 from typing import Any
 
-from mavlink_estimated import demo_parser, parse_demo_flags, run_demo  # this folder is on sys.path when run as a script
+from mavlink_estimated import (  # this folder is on sys.path when run as a script
+    demo_parser,
+    exit_with,
+    parse_demo_flags,
+    run_demo,
+)
 
 from mavbridge.experiment import run_scenario
 from mavbridge.scenario import Scenario
@@ -49,6 +53,8 @@ def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
 def over_mavlink(output: str, direct: bool, seed: int, args: argparse.Namespace, out: Path) -> dict[str, Any]:
     """One lockstep demo with this bench's solver and waves; the companion's metrics.json."""
     form = ["--attitude-form", args.attitude_form] if output == "attitude_target" and args.attitude_form else []
+    if output == "attitude_target" and args.attitude_form == "tau":  # Rover's integrators off, as that form needs
+        form += ["--sim-params", str(Path(__file__).resolve().parents[1] / "deploy" / "otter-guided-tau.parm")]
     return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves, *form)
 
 
@@ -101,8 +107,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except RuntimeError as exc:
-        print(exc, file=sys.stderr)
-        sys.exit(1)
+    exit_with(main)

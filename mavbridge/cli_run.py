@@ -92,6 +92,8 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
+    demo.add_argument("--sim-params", metavar="FILE", help="a .parm file of the simulator's defaults (e.g. "
+                      "deploy/otter-guided-tau.parm for --attitude-form tau)")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
                       help="the companion's waves: estimated (default) or scenario (fly on the simulator's truth)")
@@ -152,4 +154,7 @@ def demo_command(args: argparse.Namespace) -> int:
     scenario = demo_scenario(args.scenario, args.solver, args.direct)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()
-    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form)
+    if args.sim_params and not Path(args.sim_params).is_file():
+        raise ConfigError(f"--sim-params: {args.sim_params} is not a readable file")
+    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form,
+                    args.sim_params)

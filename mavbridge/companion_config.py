@@ -37,7 +37,8 @@ class CompanionConfig(LinkSettings):
     connect_timeout_s: float = bounded(30.0, 0.5, 600.0, "s", "wait this long for the autopilot at start")
     stale_state_s: float = bounded(0.5, 0.05, 10.0, "s", "state older than this (autopilot time) is not used")
     lookahead_steps: int = bounded(8, 1, 400, "steps", "attitude_target: plan step whose heading or yaw rate "
-                                   "and speed are sent (8 measured best for the rate form)")
+                                   "and speed are sent (8 measured best for the rate form; the heading form was "
+                                   "measured at 5; tau uses the first step)")
     attitude_form: str = choice("rate", ATTITUDE_FORMS, "attitude_target: send the plan's heading, its body "
                                 "yaw rate (Rover's rate loop only), or tau (the rate and speed targets that give the "
                                 "plan's steering and throttle through Rover's loops)")

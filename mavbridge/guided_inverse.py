@@ -5,7 +5,9 @@ target s into throttle = (CRUISE_THROTTLE / 100 / CRUISE_SPEED)·s + P_s·(s −
 our simulator's ``sim_vehicle/control.py`` likewise). The RC path sends the steering and throttle that give
 the plan's τ through the skid mixer; this form sends the ρ and s for which those two expressions, with the
 measured r and u, equal that steering and throttle. The gains are read from the autopilot at start; the
-speed target's ramp (ATC_ACCEL_MAX) is not inverted.
+speed target's ramp (ATC_ACCEL_MAX) is not inverted, nor the D terms, ATC_SPEED_FF or ATC_STR_ACC_MAX of
+real firmware (0, 0 and a limit the plan's rates stay under in our simulator); a speed target above WP_SPEED
+is sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds.
 
 The integrators must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0): these targets differ from r and u whenever
 the plan accelerates or turns, so Rover's integrators would wind up against them. Following them in the
@@ -103,7 +105,8 @@ def steering_and_throttle(params: OtterParameters, tau_x: float, tau_n: float) -
 
 def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n: float, speed_mps: float,
                  yaw_rate: float) -> tuple[float, float]:
-    """(turn-rate target rad/s, speed target m/s) for the plan's τ (N, N·m) at the measured u (m/s) and r."""
+    """(turn-rate target rad/s, speed target m/s) for the plan's first τ (N, N·m) at the plan's initial u (m/s)
+    and r (rad/s): the state as measured, or as predicted to when the command acts with delay compensation."""
     steering, throttle = steering_and_throttle(params, tau_x, tau_n)
     return loops.rate_for_steering(steering, yaw_rate), loops.speed_for_throttle(throttle, speed_mps)
 

@@ -19,6 +19,7 @@ from vessel import OtterParameters
 from .guided_inverse import RoverLoops, loop_targets
 from .link import LinkError, mavlink
 from .outputs import (
+    ATTITUDE_FORMS,
     ATTITUDE_TYPE_MASK_HEADING,
     AttitudeCommand,
     RcCalibration,
@@ -152,24 +153,29 @@ class RcOverride(_Sending):
 
 
 class AttitudeTarget(_Sending):
-    """GUIDED: the plan's heading (or yaw rate) and speed a few steps ahead, as SET_ATTITUDE_TARGET."""
+    """GUIDED: SET_ATTITUDE_TARGET in one of three forms: the plan's body yaw rate and speed ``lookahead_steps``
+    ahead (rate), its heading and speed there (heading), or the rate and speed targets for which Rover's loops
+    give the plan's first thrusts (tau, ``mavbridge.guided_inverse``)."""
 
     name, required_mode = "attitude_target", MODE_GUIDED
 
-    def __init__(self, lookahead_steps: int, log: Log, form: str = "heading",
+    def __init__(self, lookahead_steps: int, log: Log, form: str = "rate",
                  params: OtterParameters | None = None) -> None:
+        if form not in ATTITUDE_FORMS or (form == "tau" and params is None):
+            raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)} (tau needs the "
+                             "vessel's parameters)")
         self.lookahead_steps, self.log, self.form, self.params = lookahead_steps, log, form, params
         self.wp_speed_mps = 2.0
         self.loops: RoverLoops | None = None
 
     def prepare(self, link: Any) -> None:
-        """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s)."""
+        """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
+        also reads Rover's loop gains and refuses them with an integrator on (LinkError)."""
         speed = link.read_parameter("WP_SPEED")
         if not (speed and speed > 0):
             speed = link.read_parameter("CRUISE_SPEED")
         self.wp_speed_mps = speed if speed and speed > 0 else 2.0
         if self.form == "tau":
-            assert self.params is not None, "the tau form needs the vessel's parameters"
             self.loops = loops = RoverLoops.read(link)
             self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
                      f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
@@ -187,7 +193,7 @@ class AttitudeTarget(_Sending):
         return AttitudeCommand(float(x0[5]), max(-1.0, min(1.0, speed / self.wp_speed_mps)), speed, rate)
 
     def compute(self, result: Any, now_ms: int) -> Command:
-        """Heading quaternion (or body yaw rate) and thrust fraction of the plan ``lookahead_steps`` ahead."""
+        """The target in this path's form (see the class docstring) and its log columns."""
         att = self._attitude(result)
         columns = {"yaw_target_rad": att.yaw_rad, "thrust_frac": att.thrust}
         if att.yaw_rate_rad_s is not None:
@@ -234,7 +240,7 @@ class DryRun:
 
 
 def make_output(output: str, dry_run: bool, params: OtterParameters, ctx: Context, lookahead_steps: int,
-                log: Log, attitude_form: str = "heading") -> Output:
+                log: Log, attitude_form: str = "rate") -> Output:
     """The strategy for ``output`` (rc_override or attitude_target, in ``attitude_form``), in DryRun if asked."""
     paths: dict[str, Callable[[], Output]] = {
         "rc_override": lambda: RcOverride(params, ctx, log),

@@ -35,7 +35,7 @@ LOG_COLUMNS = (
     "n1_cmd_rad_s", "n2_cmd_rad_s",  # shaft-speed commands (experiment)
     "steering_pwm_us", "throttle_pwm_us",  # rc_override: what went out on the steering/throttle channels
     "yaw_target_rad", "thrust_frac",  # attitude_target: heading (NED) and thrust as a fraction of WP_SPEED
-    "yaw_rate_target_rad_s",  # attitude_target, rate form: the body yaw rate sent (heading form: empty)
+    "yaw_rate_target_rad_s",  # attitude_target, rate and tau forms: the body yaw rate sent (heading form: empty)
     "wave_slope_rad", "wave_force_n",  # the true sea at the boat (experiment: it knows the truth)
     *WAVE_COLUMNS,
     "solve_ms", "iterations", "status", "fallback", "fallback_reason", "sent",

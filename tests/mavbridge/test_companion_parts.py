@@ -94,7 +94,8 @@ def test_dry_run_is_the_null_output_of_the_path_it_wraps() -> None:
     assert isinstance(guided, DryRun) and isinstance(guided.inner, AttitudeTarget)
     assert guided.required_mode == MODE_GUIDED
     columns = guided.command(None, result, 1000)
-    assert columns == {"yaw_target_rad": pytest.approx(0.4), "thrust_frac": pytest.approx(0.75)}
+    assert columns == {"yaw_target_rad": pytest.approx(0.4), "thrust_frac": pytest.approx(0.75),
+                       "yaw_rate_target_rad_s": 0.0}  # the default rate form: the plan's r (0 here)
     bad = _result((0.0, 0.0))
     bad.states[:, 5] = math.nan
     with pytest.raises(ValueError, match="non-finite"):
