@@ -5,8 +5,9 @@ target s into throttle = (CRUISE_THROTTLE / 100 / CRUISE_SPEED)·s + P_s·(s −
 our simulator's ``sim_vehicle/control.py`` likewise). The RC path sends the steering and throttle that give
 the plan's τ through the skid mixer; this form sends the ρ and s for which those two expressions, with the
 measured r and u, equal that steering and throttle. The gains are read from the autopilot at start; the
-speed target's ramp (ATC_ACCEL_MAX) is not inverted, nor the D terms, ATC_SPEED_FF or ATC_STR_ACC_MAX of
-real firmware (0, 0 and a limit the plan's rates stay under in our simulator); a speed target above WP_SPEED
+speed target's ramp (ATC_ACCEL_MAX) is not inverted, nor real firmware's D terms, ATC_SPEED_FF and
+ATC_STR_ACC_MAX (our simulator has none of them), nor the difference between the body yaw rate r used here
+and the earth-frame yaw rate Rover's loop measures (small at this boat's roll). A speed target above WP_SPEED
 is sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds.
 
 The integrators must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0): these targets differ from r and u whenever
@@ -25,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from vessel import OtterParameters, tau_to_shaft_speeds
+from vessel import OtterParameters
 
 from .link import LinkError
-from .outputs import inverse_skid_mix, motor_output
+from .outputs import skid_fractions
 
 LOOP_PARAMETERS = ("CRUISE_THROTTLE", "CRUISE_SPEED", "ATC_SPEED_P", "ATC_STR_RAT_FF", "ATC_STR_RAT_P",
                    "ATC_STR_RAT_MAX", "ATC_SPEED_I", "ATC_SPEED_IMAX", "ATC_STR_RAT_I", "ATC_STR_RAT_IMAX")
@@ -94,19 +95,10 @@ class RoverLoops:
         return float(np.clip(rate, -self.rate_max_rad_s, self.rate_max_rad_s))
 
 
-def steering_and_throttle(params: OtterParameters, tau_x: float, tau_n: float) -> tuple[float, float]:
-    """(steering, throttle) fractions that give τ (N, N·m) through the allocation and the skid mixer."""
-    mats = params.matrices()
-    n_left, n_right = tau_to_shaft_speeds(params, tau_x, tau_n)
-    throttle, steering = inverse_skid_mix(motor_output(n_left, mats.n_max, mats.n_min),
-                                          motor_output(n_right, mats.n_max, mats.n_min))
-    return steering, throttle
-
-
 def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n: float, speed_mps: float,
                  yaw_rate: float) -> tuple[float, float]:
     """(turn-rate target rad/s, speed target m/s) for the plan's first τ (N, N·m) at the plan's initial u (m/s)
     and r (rad/s): the state as measured, or as predicted to when the command acts with delay compensation."""
-    steering, throttle = steering_and_throttle(params, tau_x, tau_n)
+    _, _, throttle, steering = skid_fractions(params, tau_x, tau_n)
     return loops.rate_for_steering(steering, yaw_rate), loops.speed_for_throttle(throttle, speed_mps)
 

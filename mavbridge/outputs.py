@@ -115,14 +115,20 @@ class RcCommand:
     steering: float
 
 
+def skid_fractions(params: OtterParameters, tau_x: float, tau_n: float) -> tuple[float, float, float, float]:
+    """(left, right) shaft speeds (rad/s) for τ_X (N) and τ_N (N·m) through the vessel's allocation, and the
+    (throttle, steering) fractions that ArduPilot's skid mixer turns into those motor outputs."""
+    mats = params.matrices()
+    n_left, n_right = tau_to_shaft_speeds(params, tau_x, tau_n)
+    throttle, steering = inverse_skid_mix(motor_output(n_left, mats.n_max, mats.n_min),
+                                          motor_output(n_right, mats.n_max, mats.n_min))
+    return n_left, n_right, throttle, steering
+
+
 def rc_command(params: OtterParameters, tau_x: float, tau_n: float, setup: RcSetup) -> RcCommand:
     """Steering/throttle PWM for a surge force (N) and yaw moment (N·m), through the vessel's allocation and
     the exact inverse of how ArduPilot reads the sticks and mixes them for skid steering."""
-    mats = params.matrices()
-    n_left, n_right = tau_to_shaft_speeds(params, tau_x, tau_n)
-    left = motor_output(n_left, mats.n_max, mats.n_min)
-    right = motor_output(n_right, mats.n_max, mats.n_min)
-    throttle, steering = inverse_skid_mix(left, right)
+    n_left, n_right, throttle, steering = skid_fractions(params, tau_x, tau_n)
     stick = -steering if (setup.steer_type in STEER_TYPES_REVERSING and throttle < 0) else steering
     return RcCommand(_pwm(stick, setup.steering, setup.steering_reversed),
                      _pwm(throttle, setup.throttle, setup.throttle_reversed), n_left, n_right, throttle, steering)
@@ -160,7 +166,7 @@ def attitude_command(states: np.ndarray, wp_speed_mps: float, lookahead_steps: i
     if not wp_speed_mps > 0:
         raise ValueError(f"WP_SPEED: {wp_speed_mps!r} m/s must be > 0 to scale thrust")
     if form not in ("heading", "rate"):
-        raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)}")
+        raise ValueError(f"attitude_form: {form!r} is not heading or rate (tau: mavbridge.guided_inverse)")
     k = min(max(lookahead_steps, 1), len(states) - 1)
     if not (math.isfinite(states[k, 5]) and math.isfinite(states[k, 6]) and math.isfinite(states[k, 11])):
         raise ValueError(f"plan: non-finite heading, speed or yaw rate at step {k}")

@@ -65,12 +65,6 @@ def _import_distributed():
     return distributed
 
 
-def _import_dask():
-    import dask
-
-    return dask
-
-
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
     """Cancel queued cases and end the worker processes: a case still running after an interrupt is stopped,
     not left to finish (or be orphaned) after the sweep has said what remains. The pool keeps its processes
@@ -97,7 +91,9 @@ def open_executor(text: str, jobs: int | None = None) -> Iterator[Executor]:
         return
     distributed = _import_distributed()
     if kind == "dask-local":
-        with _import_dask().config.set(LOCAL_WORKER_CONFIG):  # a Nanny hands its worker the config of now
+        import dask  # installed with distributed
+
+        with dask.config.set(LOCAL_WORKER_CONFIG):  # a Nanny hands its worker the config of now
             cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                                dashboard_address=":0", silence_logs=40)  # no fixed 8787
         with cluster, distributed.Client(cluster) as client:
