@@ -1,7 +1,7 @@
 """Benchmark: how well lockstep MAVLink runs repeat — the same seed flown N times on each output path.
 
 Run: OMP_NUM_THREADS=1 python bench/mavlink_repeats.py [--runs 5] [--seeds 1] [--paths rc_override,attitude_target]
-     [--solver asrti] [--speedup 10] [--keep DIR]
+     [--solver asrti] [--attitude-form heading|rate|tau] [--speedup 10] [--keep DIR]
 
 Each run is `mavbridge demo --lockstep --seed N --waves scenario` (a real `sim-vehicle`, MAVSDK's upload,
 `mavbridge run`), Balanced. Prints every run's average roll and arrival, then per path the spread
@@ -20,7 +20,7 @@ from mavlink_estimated import (  # this folder is on sys.path when run as a scri
     parse_demo_flags,
     run_demo,
 )
-from mavlink_vs_inprocess import PATHS, arrival, paths
+from mavlink_vs_inprocess import PATHS, arrival, form_flags, paths
 
 
 def spread(values: list[float]) -> float:
@@ -35,6 +35,9 @@ def main() -> int:
     p.add_argument("--runs", type=int, default=5, help="runs per path and seed (default 5)")
     p.add_argument("--paths", type=paths, default=list(PATHS), help="output paths, comma-separated")
     p.add_argument("--solver", choices=("asrti", "nrti"), default="asrti", help="NMPC solver (default asrti)")
+    p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
+                   help="the GUIDED path's target (default: the companion's; tau also gives the simulator "
+                        "deploy/otter-guided-tau.parm)")
     args = parse_demo_flags(p)
     if not 2 <= args.runs <= 50:
         p.error(f"--runs: {args.runs} is outside [2, 50]")
@@ -46,7 +49,8 @@ def main() -> int:
             rolls, times = [], []
             for run in range(1, args.runs + 1):
                 m = run_demo(seed, False, args.speedup, root / f"{output}-seed{seed}-run{run}", output,
-                             "--solver", args.solver, "--waves", "scenario")
+                             "--solver", args.solver, "--waves", "scenario",
+                             *form_flags(output, args.attitude_form))
                 t = arrival(m)
                 print(f"| {output} | {seed} | {run} | {m['avg_roll_deg']:.4f} | {t if t is not None else 'n/a'} |",
                       flush=True)

@@ -50,12 +50,21 @@ def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
     return run_scenario(dataclasses.replace(base, plant=plant, controller=controller), None, plots=False).metrics
 
 
+def form_flags(output: str, attitude_form: str | None) -> list[str]:
+    """The demo flags for the GUIDED path's ``attitude_form`` (None: the companion's default); the tau form also
+    gives the simulator deploy/otter-guided-tau.parm (integrators off, WP_SPEED 3), as that form needs."""
+    if output != "attitude_target" or not attitude_form:
+        return []
+    form = ["--attitude-form", attitude_form]
+    if attitude_form == "tau":
+        form += ["--sim-params", str(Path(__file__).resolve().parents[1] / "deploy" / "otter-guided-tau.parm")]
+    return form
+
+
 def over_mavlink(output: str, direct: bool, seed: int, args: argparse.Namespace, out: Path) -> dict[str, Any]:
     """One lockstep demo with this bench's solver and waves; the companion's metrics.json."""
-    form = ["--attitude-form", args.attitude_form] if output == "attitude_target" and args.attitude_form else []
-    if output == "attitude_target" and args.attitude_form == "tau":  # Rover's integrators off, as that form needs
-        form += ["--sim-params", str(Path(__file__).resolve().parents[1] / "deploy" / "otter-guided-tau.parm")]
-    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves, *form)
+    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves,
+                    *form_flags(output, args.attitude_form))
 
 
 def arrival(metrics: dict[str, Any]) -> float | None:

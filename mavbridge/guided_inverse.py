@@ -7,8 +7,12 @@ the plan's τ through the skid mixer; this form sends the ρ and s for which tho
 measured r and u, equal that steering and throttle. The gains are read from the autopilot at start; the
 speed target's ramp (ATC_ACCEL_MAX) is not inverted, nor real firmware's D terms, ATC_SPEED_FF and
 ATC_STR_ACC_MAX (our simulator has none of them), nor the difference between the body yaw rate r used here
-and the earth-frame yaw rate Rover's loop measures (small at this boat's roll). A speed target above WP_SPEED
-is sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds.
+and the earth-frame yaw rate Rover's loop measures (small at this boat's roll). Rover's speed target is
+SET_ATTITUDE_TARGET's thrust × WP_SPEED, at most WP_SPEED: a target above it is sent as thrust 1 (the log's
+thrust_frac shows it), where the inversion no longer holds, so the companion says at start when WP_SPEED is
+below what full throttle needs (``wp_speed_problem``); ``deploy/otter-guided-tau.parm`` sets 3 m/s. With
+Rover's 2 m/s the plan's full thrust became 77 % throttle and Balanced arrived 24 % late (116.8 s against
+94.6 s with 3 m/s, lockstep, seed 1).
 
 The integrators must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0): these targets differ from r and u whenever
 the plan accelerates or turns, so Rover's integrators would wind up against them. Following them in the
@@ -84,6 +88,21 @@ class RoverLoops:
                 return (f"{name} is {gain:g}; set ATC_STR_RAT_I and ATC_SPEED_I to 0 (Rover's integrators wind up "
                         "against the inverted targets), or use attitude_form rate")
         return None
+
+    def full_throttle_target_mps(self) -> float:
+        """The largest speed target (m/s) full throttle needs at a forward speed up to the feed-forward's own full
+        speed 1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE): (1 + P·u) / (FF + P) grows with u to 1 / FF."""
+        return 1.0 / self.speed_ff
+
+    def wp_speed_problem(self, wp_speed_mps: float) -> str | None:
+        """What a WP_SPEED below ``full_throttle_target_mps`` does to this form (its cap on Rover's speed target
+        cuts the plan's full thrust), or None."""
+        needed = self.full_throttle_target_mps()
+        if wp_speed_mps >= needed:
+            return None
+        return (f"WP_SPEED {wp_speed_mps:g} m/s caps Rover's speed target below the {needed:.2f} m/s full throttle "
+                f"needs (CRUISE_SPEED x 100 / CRUISE_THROTTLE): the plan's thrust is cut near full speed; set "
+                f"WP_SPEED >= {needed:.2f} (deploy/otter-guided-tau.parm)")
 
     def speed_for_throttle(self, throttle: float, speed_mps: float) -> float:
         """The speed target (m/s) whose feed-forward + P output is ``throttle`` at forward speed ``speed_mps``."""

@@ -170,7 +170,8 @@ class AttitudeTarget(_Sending):
 
     def prepare(self, link: Any) -> None:
         """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
-        also reads Rover's loop gains and refuses them with an integrator on (LinkError)."""
+        also reads Rover's loop gains, refuses them with an integrator on (LinkError) and says when WP_SPEED
+        cuts full throttle."""
         speed = link.read_parameter("WP_SPEED")
         if not (speed and speed > 0):
             speed = link.read_parameter("CRUISE_SPEED")
@@ -179,6 +180,9 @@ class AttitudeTarget(_Sending):
             self.loops = loops = RoverLoops.read(link)
             self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
                      f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
+            capped = loops.wp_speed_problem(self.wp_speed_mps)
+            if capped:
+                self.log(f"GUIDED: {capped}")
 
     def _attitude(self, result: Any) -> AttitudeCommand:
         """The target for this answer in this path's form."""

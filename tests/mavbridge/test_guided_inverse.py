@@ -3,12 +3,14 @@ plan's steering and throttle."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from mavbridge.guided_inverse import LOOP_PARAMETERS, RoverLoops, loop_targets
 from mavbridge.outputs import inverse_skid_mix, motor_output
 from sim_vehicle.control import NavState, SpeedControl, SteeringControl
-from sim_vehicle.params import ParamTable
+from sim_vehicle.params import ParamTable, read_parm
 from vessel import otter_parameters, tau_to_shaft_speeds
 
 PARAMS = otter_parameters()
@@ -63,3 +65,31 @@ def test_an_integrator_on_is_refused_by_name() -> None:
     assert RoverLoops.from_values(values).integrator_problem() is None
     values["ATC_SPEED_I"] = 0.2
     assert "ATC_SPEED_I is 0.2" in (RoverLoops.from_values(values).integrator_problem() or "")
+
+
+def test_full_throttle_needs_at_most_the_feed_forwards_full_speed() -> None:
+    """Rover caps its speed target at WP_SPEED: the form needs WP_SPEED >= 1 / speed_ff for full throttle to pass,
+    and says so below it (not at the parm file's 3 m/s)."""
+    loops = _loops(ParamTable())
+    needed = loops.full_throttle_target_mps()
+    assert needed == pytest.approx(2.08 * 100 / 80)
+    for u in (0.0, 0.5, 1.0, 2.0, needed):
+        assert loops.speed_for_throttle(1.0, u) <= needed + 1e-12
+    assert loops.speed_for_throttle(1.0, needed) == pytest.approx(needed)
+    assert "WP_SPEED 2 m/s caps" in (loops.wp_speed_problem(2.0) or "")
+    assert ">= 2.60" in (loops.wp_speed_problem(2.0) or "")
+    assert loops.wp_speed_problem(3.0) is None and loops.wp_speed_problem(needed) is None
+
+
+def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:
+    """otter-rover.parm with otter-guided-tau.parm over Rover's defaults (our simulator's): integrators off and a
+    WP_SPEED that lets full throttle through, so the companion neither refuses the form nor warns."""
+    deploy = Path(__file__).resolve().parents[2] / "deploy"
+    table = ParamTable()
+    files = {**read_parm(deploy / "otter-rover.parm"), **read_parm(deploy / "otter-guided-tau.parm")}
+    for name, value in files.items():
+        if name in LOOP_PARAMETERS or name == "WP_SPEED":
+            table.set(name, value, save=False)
+    loops = _loops(table)
+    assert loops.integrator_problem() is None
+    assert loops.wp_speed_problem(table["WP_SPEED"]) is None

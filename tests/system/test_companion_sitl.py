@@ -165,11 +165,13 @@ class Garbage(threading.Thread):
                 time.sleep(0.05)
 
 
-def _lockstep_flight(workdir: Path, companion_factory, *extra: str,
-                     prepared: threading.Event | None = None) -> tuple[float, float]:
+def _lockstep_flight(workdir: Path, companion_factory, *extra: str, prepared: threading.Event | None = None,
+                     sim_extra: tuple[str, ...] = ()) -> tuple[float, float]:
     """One lockstep run of Balanced over MAVLink, checked to arrive with every tick planned; (average roll in
-    degrees, arrival in seconds). ``prepared`` is set once the companion's startup has made its cold solve."""
-    with SimProcess(workdir, speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP], udp_outs=1) as sim:
+    degrees, arrival in seconds). ``prepared`` is set once the companion's startup has made its cold solve;
+    ``sim_extra`` are more simulator flags."""
+    with SimProcess(workdir, speedup=10, waves="paper", extra=[HOME, "--wipe", *SIM_LOCKSTEP, *sim_extra],
+                    udp_outs=1) as sim:
         companion = companion_factory(sim.udp_ports[0], *extra, *LOCKSTEP)
         if prepared is not None:
             companion.wait_line(" prepared in ", 120)  # (a companion that never prepares fails below)
@@ -221,6 +223,19 @@ def test_balanced_attitude_target_arrives_and_repeats(tmp_path: Path, companion_
     figures = _two_lockstep_flights(tmp_path, companion_factory, "--output", "attitude_target")
     _assert_repeats(figures)
     print(f"\nSITL attitude_target (lockstep), two runs: {figures}")
+
+
+def test_balanced_attitude_target_tau_form_flies_like_the_rc_path(tmp_path: Path, companion_factory) -> None:
+    """GUIDED with Rover's loops inverted (the tau form; the simulator given deploy/otter-guided-tau.parm, as a
+    boat would be): Balanced arrives within 10 % of the in-process propeller-plant run and rolls within 10 % of it,
+    as the RC path does (issue 15's bar for each path). The default rate form is 13 % late."""
+    parm = Path(__file__).resolve().parents[2] / "deploy" / "otter-guided-tau.parm"
+    roll, arrival = _lockstep_flight(tmp_path / "sim", companion_factory, "--output", "attitude_target",
+                                     "--attitude-form", "tau", sim_extra=("--params", str(parm)))
+    reference = run_scenario_metrics()
+    assert arrival == pytest.approx(reference["time_to_waypoint_s"], rel=0.10), (roll, arrival, reference)
+    assert roll == pytest.approx(reference["avg_roll_deg"], rel=0.10), (roll, arrival, reference)
+    print(f"\nSITL attitude_target tau form (lockstep): {roll:.3f} deg, {arrival} s; in-process: {reference}")
 
 
 def run_scenario_metrics() -> dict:
