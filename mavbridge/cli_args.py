@@ -14,7 +14,7 @@ from vessel.argtypes import positive_metres as positive_metres  # re-exported fo
 from vessel.config import ConfigError, describe_range
 
 OUTPUTS = ("rc_override", "attitude_target")  # mirrors mavbridge.companion (kept import-light)
-REAL_TIME_SOLVER = "asrti"  # the default of run, check, demo and the service; ipopt (the paper's) only by name
+REAL_TIME_SOLVER = "nrti"  # the default of run, check, demo and the service; ipopt (the paper's) only by name
 SOLVER_HELP = (f"NMPC solver (default {REAL_TIME_SOLVER}, the real-time one, whatever the scenario file says; "
                "ipopt is the paper's reference: too slow for real time here)")
 WAVE_SOURCES = ("estimated", "scenario")  # estimated from the boat's motion, or the scenario's sea (simulation)

@@ -1,21 +1,23 @@
 """GUIDED targets that make Rover's own loops give the NMPC's steering and throttle: its loops inverted.
 
-In GUIDED, Rover turns a body-yaw-rate target ρ into steering = FF_r·ρ + P_r·(ρ − r) + I_r and a speed
-target s into throttle = (CRUISE_THROTTLE / 100 / CRUISE_SPEED)·s + P_s·(s − u) + I_s (``AR_AttitudeControl``;
-our simulator's ``sim_vehicle/control.py`` likewise). The RC path sends the steering and throttle that give
-the plan's τ through the skid mixer; this form sends the ρ and s for which those two expressions, with the
-measured r and u, equal that steering and throttle. The gains are read from the autopilot at start; the
-speed target's ramp (ATC_ACCEL_MAX) is not inverted, nor real firmware's D terms, ATC_SPEED_FF and
-ATC_STR_ACC_MAX (our simulator has none of them), nor the difference between the body yaw rate r used here
-and the earth-frame yaw rate Rover's loop measures (small at this boat's roll). Rover's speed target is
-SET_ATTITUDE_TARGET's thrust × WP_SPEED, at most WP_SPEED: a target above it is sent as thrust 1 (the log's
-thrust_frac shows it), where the inversion no longer holds, so the companion says at start when WP_SPEED is
-below what full throttle needs (``wp_speed_problem``); ``deploy/otter-guided-tau.parm`` sets 3 m/s. With
-Rover's 2 m/s the plan's full thrust became 77 % throttle and Balanced arrived 24 % late (116.8 s against
-94.6 s with 3 m/s, lockstep, seed 1).
+In GUIDED, Rover turns a body-yaw-rate target ρ into steering = FF_r·ρ + P_r·(ρ − r) + I_r + D_r and a
+speed target s into throttle = (CRUISE_THROTTLE / 100 / CRUISE_SPEED + ATC_SPEED_FF)·s + P_s·(s − u) + I_s +
+D_s (``AR_AttitudeControl``; our simulator's ``sim_vehicle/control.py`` likewise, without ATC_SPEED_FF and
+the D terms). The RC path sends the steering and throttle that give the plan's τ through the skid mixer;
+this form sends the ρ and s for which those expressions, with the measured r and u, equal that steering
+and throttle. The gains are read from the autopilot at start (ATC_SPEED_FF and the D gains where the
+firmware has them; absent they are 0, ATC_STR_RAT_MAX 0 is no limit, as in Rover). Not inverted: the speed
+target's ramp (ATC_ACCEL_MAX), the turn-rate target's (ATC_STR_ACC_MAX: real firmware only), and the
+difference between the body yaw rate r used here and the earth-frame yaw rate Rover's loop measures (small
+at this boat's roll). Rover's speed target is SET_ATTITUDE_TARGET's thrust × WP_SPEED, at most WP_SPEED: a
+target above it is sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds,
+so the companion says at start when WP_SPEED is below what full throttle needs (``wp_speed_problem``);
+``deploy/otter-guided-tau.parm`` sets 3 m/s. With Rover's 2 m/s the plan's full thrust became 77 % throttle
+and Balanced arrived 24 % late (116.8 s against 94.6 s with 3 m/s, lockstep, seed 1).
 
-The integrators must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0): these targets differ from r and u whenever
-the plan accelerates or turns, so Rover's integrators would wind up against them. Following them in the
+The integrators and D terms must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0, and the D gains): these targets
+differ from r and u whenever the plan accelerates or turns, so Rover's integrators would wind up against
+them, and they jump every 0.1 s, where a D term kicks. Following them in the
 companion (the same errors integrated over its 0.1 s period, with Rover's anti-windup) was tried against
 our simulator: Balanced took 175.6 s and Direct 130.6 s, against 116.8 s and 63.2 s with the integrators
 off, since a copy at 10 Hz drifts from the autopilot's own (100 Hz in the simulator). The companion's
@@ -37,61 +39,77 @@ from .outputs import skid_fractions
 
 LOOP_PARAMETERS = ("CRUISE_THROTTLE", "CRUISE_SPEED", "ATC_SPEED_P", "ATC_STR_RAT_FF", "ATC_STR_RAT_P",
                    "ATC_STR_RAT_MAX", "ATC_SPEED_I", "ATC_SPEED_IMAX", "ATC_STR_RAT_I", "ATC_STR_RAT_IMAX")
+# Newer firmware's PID terms (0 by default; our simulator has none): absent reads as 0.
+OPTIONAL_LOOP_PARAMETERS = ("ATC_SPEED_FF", "ATC_SPEED_D", "ATC_STR_RAT_D")
+_MUST_BE_ZERO = {"ATC_STR_RAT_I": "Rover's integrators wind up against the inverted targets",
+                 "ATC_SPEED_I": "Rover's integrators wind up against the inverted targets",
+                 "ATC_STR_RAT_D": "a D term kicks at every new target, which the inversion does not give",
+                 "ATC_SPEED_D": "a D term kicks at every new target, which the inversion does not give"}
+
+
+def _checked(values: dict[str, float | None]) -> dict[str, float]:
+    """The gains by name, the optional ones 0 when absent; ValueError naming the first unreadable or negative."""
+    checked: dict[str, float] = {}
+    for name in (*LOOP_PARAMETERS, *OPTIONAL_LOOP_PARAMETERS):
+        value = values.get(name)
+        if value is None and name in OPTIONAL_LOOP_PARAMETERS:
+            value = 0.0
+        if value is None or not math.isfinite(value) or value < 0:
+            raise ValueError(f"{name}: {value!r} is not readable or not >= 0")
+        checked[name] = value
+    for name in ("CRUISE_THROTTLE", "CRUISE_SPEED"):
+        if not checked[name] > 0:
+            raise ValueError(f"{name}: {checked[name]!r} must be > 0 for the loops to be inverted")
+    if not checked["ATC_STR_RAT_FF"] + checked["ATC_STR_RAT_P"] > 0:
+        raise ValueError("ATC_STR_RAT_FF + ATC_STR_RAT_P must be > 0 for the turn-rate loop to be inverted")
+    return checked
 
 
 @dataclass(frozen=True)
 class RoverLoops:
     """The gains of Rover's turn-rate and speed loops that the inversion needs (SI: rad/s, m/s)."""
 
-    speed_ff: float  # throttle fraction per m/s: CRUISE_THROTTLE / 100 / CRUISE_SPEED
+    speed_ff: float  # throttle fraction per m/s of target: CRUISE_THROTTLE / 100 / CRUISE_SPEED + ATC_SPEED_FF
     speed_p: float
     rate_ff: float
     rate_p: float
-    rate_max_rad_s: float
-    speed_i: float = 0.0
-    speed_imax: float = 0.0
-    rate_i: float = 0.0
-    rate_imax: float = 0.0
+    rate_max_rad_s: float  # ATC_STR_RAT_MAX; 0 there is Rover's "no limit", inf here
+    must_be_zero: tuple[tuple[str, float], ...] = ()  # (name, value) of the I and D gains
 
     @classmethod
     def from_values(cls, values: dict[str, float | None]) -> RoverLoops:
-        """From parameter values by name; ValueError naming the first one missing or out of range."""
-        for name in LOOP_PARAMETERS:
-            value = values.get(name)
-            if value is None or not math.isfinite(value) or value < 0:
-                raise ValueError(f"{name}: {value!r} is not readable or not >= 0")
-        for name in ("CRUISE_THROTTLE", "CRUISE_SPEED", "ATC_STR_RAT_MAX"):
-            if not values[name] > 0:
-                raise ValueError(f"{name}: {values[name]!r} must be > 0 for the loops to be inverted")
-        if not values["ATC_STR_RAT_FF"] + values["ATC_STR_RAT_P"] > 0:
-            raise ValueError("ATC_STR_RAT_FF + ATC_STR_RAT_P must be > 0 for the turn-rate loop to be inverted")
-        return cls(values["CRUISE_THROTTLE"] / 100.0 / values["CRUISE_SPEED"], values["ATC_SPEED_P"],
-                   values["ATC_STR_RAT_FF"], values["ATC_STR_RAT_P"], math.radians(values["ATC_STR_RAT_MAX"]),
-                   values["ATC_SPEED_I"], values["ATC_SPEED_IMAX"], values["ATC_STR_RAT_I"], values["ATC_STR_RAT_IMAX"])
+        """From parameter values by name (``OPTIONAL_LOOP_PARAMETERS`` may be None: absent); ValueError naming the
+        first one missing or out of range."""
+        v = _checked(values)
+        rate_max = math.radians(v["ATC_STR_RAT_MAX"]) if v["ATC_STR_RAT_MAX"] > 0 else math.inf
+        return cls(v["CRUISE_THROTTLE"] / 100.0 / v["CRUISE_SPEED"] + v["ATC_SPEED_FF"], v["ATC_SPEED_P"],
+                   v["ATC_STR_RAT_FF"], v["ATC_STR_RAT_P"], rate_max, tuple((n, v[n]) for n in _MUST_BE_ZERO))
 
     @classmethod
     def read(cls, link: Any) -> RoverLoops:
-        """Read the gains over the link; LinkError when one is unreadable or unusable, or an integrator is on."""
+        """Read the gains over the link; LinkError when one is unreadable or unusable, or an I or D term is on."""
+        values = {name: link.read_parameter(name) for name in LOOP_PARAMETERS}
+        values.update({name: link.read_optional_parameter(name) for name in OPTIONAL_LOOP_PARAMETERS})
         try:
-            loops = cls.from_values({name: link.read_parameter(name) for name in LOOP_PARAMETERS})
+            loops = cls.from_values(values)
         except ValueError as exc:
             raise LinkError(f"attitude_form tau: {exc}") from None
-        problem = loops.integrator_problem()
+        problem = loops.gain_problem()
         if problem:
             raise LinkError(f"attitude_form tau: {problem}")
         return loops
 
-    def integrator_problem(self) -> str | None:
-        """Why the inversion cannot be used with these gains (an integrator on), or None."""
-        for name, gain in (("ATC_STR_RAT_I", self.rate_i), ("ATC_SPEED_I", self.speed_i)):
+    def gain_problem(self) -> str | None:
+        """Why the inversion cannot be used with these gains (an integrator or a D term on), or None."""
+        for name, gain in self.must_be_zero:
             if gain != 0:
-                return (f"{name} is {gain:g}; set ATC_STR_RAT_I and ATC_SPEED_I to 0 (Rover's integrators wind up "
-                        "against the inverted targets), or use attitude_form rate")
+                return f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}), or use attitude_form rate"
         return None
 
     def full_throttle_target_mps(self) -> float:
-        """The largest speed target (m/s) full throttle needs at a forward speed up to the feed-forward's own full
-        speed 1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE): (1 + P·u) / (FF + P) grows with u to 1 / FF."""
+        """The largest speed target (m/s) full throttle needs at a forward speed up to the feed-forwards' own full
+        speed 1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE with ATC_SPEED_FF 0): (1 + P·u) / (FF + P) grows
+        with u to 1 / FF."""
         return 1.0 / self.speed_ff
 
     def wp_speed_problem(self, wp_speed_mps: float) -> str | None:
@@ -101,7 +119,7 @@ class RoverLoops:
         if wp_speed_mps >= needed:
             return None
         return (f"WP_SPEED {wp_speed_mps:g} m/s caps Rover's speed target below the {needed:.2f} m/s full throttle "
-                f"needs (CRUISE_SPEED x 100 / CRUISE_THROTTLE): the plan's thrust is cut near full speed; set "
+                f"needs (1 / the speed feed-forwards): the plan's thrust is cut near full speed; set "
                 f"WP_SPEED >= {needed:.2f} (deploy/otter-guided-tau.parm)")
 
     def speed_for_throttle(self, throttle: float, speed_mps: float) -> float:
@@ -109,7 +127,8 @@ class RoverLoops:
         return (throttle + self.speed_p * speed_mps) / (self.speed_ff + self.speed_p)
 
     def rate_for_steering(self, steering: float, yaw_rate: float) -> float:
-        """The turn-rate target (rad/s, within ±ATC_STR_RAT_MAX) whose FF + P output is ``steering``."""
+        """The turn-rate target (rad/s, within ±ATC_STR_RAT_MAX, which Rover applies too) whose FF + P output is
+        ``steering``."""
         rate = (steering + self.rate_p * yaw_rate) / (self.rate_ff + self.rate_p)
         return float(np.clip(rate, -self.rate_max_rad_s, self.rate_max_rad_s))
 

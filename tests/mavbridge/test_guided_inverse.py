@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from mavbridge.guided_inverse import LOOP_PARAMETERS, RoverLoops, loop_targets
+from mavbridge.guided_inverse import LOOP_PARAMETERS, OPTIONAL_LOOP_PARAMETERS, RoverLoops, loop_targets
 from mavbridge.outputs import inverse_skid_mix, motor_output
 from sim_vehicle.control import NavState, SpeedControl, SteeringControl
 from sim_vehicle.params import ParamTable, read_parm
@@ -46,7 +46,8 @@ def test_turn_rate_target_is_held_within_the_autopilots_limit() -> None:
 
 
 @pytest.mark.parametrize(("name", "value"), [("CRUISE_SPEED", 0.0), ("CRUISE_THROTTLE", None),
-                                             ("ATC_SPEED_P", float("nan")), ("ATC_STR_RAT_MAX", -1.0)])
+                                             ("ATC_SPEED_P", float("nan")), ("ATC_STR_RAT_MAX", -1.0),
+                                             ("ATC_SPEED_FF", -0.1)])
 def test_unusable_gains_are_refused_by_name(name: str, value: float | None) -> None:
     table = ParamTable()
     values: dict[str, float | None] = {n: table[n] for n in LOOP_PARAMETERS}
@@ -56,15 +57,44 @@ def test_unusable_gains_are_refused_by_name(name: str, value: float | None) -> N
 
 
 
-def test_an_integrator_on_is_refused_by_name() -> None:
-    """Rover's integrators would wind up against the inverted targets: the tau form needs both at 0."""
+def test_an_integrator_or_d_term_on_is_refused_by_name() -> None:
+    """Rover's integrators would wind up against the inverted targets, and a D term kicks at each new one: the tau
+    form needs all four at 0 (the D gains absent, as in our simulator, read as 0)."""
     table = ParamTable()
-    values = {name: table[name] for name in LOOP_PARAMETERS}
-    assert "ATC_STR_RAT_I" in (_loops(table).integrator_problem() or "")
+    values: dict[str, float | None] = {name: table[name] for name in LOOP_PARAMETERS}
+    assert "ATC_STR_RAT_I" in (_loops(table).gain_problem() or "")
     values.update(ATC_STR_RAT_I=0.0, ATC_SPEED_I=0.0)
-    assert RoverLoops.from_values(values).integrator_problem() is None
+    assert RoverLoops.from_values(values).gain_problem() is None
     values["ATC_SPEED_I"] = 0.2
-    assert "ATC_SPEED_I is 0.2" in (RoverLoops.from_values(values).integrator_problem() or "")
+    assert "ATC_SPEED_I is 0.2" in (RoverLoops.from_values(values).gain_problem() or "")
+    values.update(ATC_SPEED_I=0.0, ATC_STR_RAT_D=0.01)
+    assert "ATC_STR_RAT_D is 0.01" in (RoverLoops.from_values(values).gain_problem() or "")
+    values.update(ATC_STR_RAT_D=None, ATC_SPEED_D=float("nan"))
+    with pytest.raises(ValueError, match="ATC_SPEED_D"):
+        RoverLoops.from_values(values)
+
+
+def test_newer_firmwares_speed_feed_forward_is_inverted_too() -> None:
+    """Real Rover adds ATC_SPEED_FF x target to the cruise feed-forward: the speed target accounts for it."""
+    table = ParamTable()
+    values: dict[str, float | None] = {name: table[name] for name in LOOP_PARAMETERS}
+    values["ATC_SPEED_FF"] = 0.1
+    loops = RoverLoops.from_values(values)
+    cruise = table["CRUISE_THROTTLE"] / 100 / table["CRUISE_SPEED"]
+    target = loops.speed_for_throttle(0.7, 1.4)
+    throttle = (cruise + 0.1) * target + table["ATC_SPEED_P"] * (target - 1.4)  # AR_AttitudeControl's sum
+    assert throttle == pytest.approx(0.7, abs=1e-12)
+    assert loops.full_throttle_target_mps() == pytest.approx(1 / (cruise + 0.1))
+
+
+def test_a_turn_rate_limit_of_zero_is_no_limit_as_in_rover() -> None:
+    table = ParamTable()
+    values: dict[str, float | None] = {name: table[name] for name in LOOP_PARAMETERS}
+    values["ATC_STR_RAT_MAX"] = 0.0
+    loops = RoverLoops.from_values(values)
+    assert loops.rate_for_steering(1.0, 0.35) == pytest.approx((1.0 + loops.rate_p * 0.35) / (loops.rate_ff +
+                                                                                              loops.rate_p))
+    assert loops.rate_for_steering(1.0, 0.35) > _loops(table).rate_max_rad_s
 
 
 def test_full_throttle_needs_at_most_the_feed_forwards_full_speed() -> None:
@@ -87,9 +117,8 @@ def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:
     deploy = Path(__file__).resolve().parents[2] / "deploy"
     table = ParamTable()
     files = {**read_parm(deploy / "otter-rover.parm"), **read_parm(deploy / "otter-guided-tau.parm")}
-    for name, value in files.items():
-        if name in LOOP_PARAMETERS or name == "WP_SPEED":
-            table.set(name, value, save=False)
-    loops = _loops(table)
-    assert loops.integrator_problem() is None
-    assert loops.wp_speed_problem(table["WP_SPEED"]) is None
+    values = {name: files.get(name, table[name]) for name in LOOP_PARAMETERS}
+    values.update({name: files.get(name) for name in OPTIONAL_LOOP_PARAMETERS})
+    loops = RoverLoops.from_values(values)
+    assert loops.gain_problem() is None
+    assert loops.wp_speed_problem(files["WP_SPEED"]) is None

@@ -184,3 +184,19 @@ def test_run_and_check_default_to_the_real_time_solver(tmp_path: Path) -> None:
                          capture_output=True, text=True, timeout=180)
     assert run.returncode == 1, run.stdout + run.stderr  # nobody answered
     assert "solver: asrti" in (tmp_path / "run" / "config.yaml").read_text()
+
+
+def test_tau_form_against_rovers_integrators_is_refused_before_arming(tmp_path: Path, runs: list[Run]) -> None:
+    """`--attitude-form tau` against an autopilot with Rover's default turn-rate integrator on: one line naming the
+    parameter and the fix, exit 1, neither armed nor moded and no SET_ATTITUDE_TARGET sent."""
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+        run = Run(sim.udp_ports[0], tmp_path / "tau", "--output", "attitude_target", "--attitude-form", "tau",
+                  "--arm", "--set-mode", "--waypoint", "85,75")
+        runs.append(run)
+        assert run.wait(180) == 1, run.text()
+    refusal = [line for line in run.lines if "attitude_form tau: ATC_STR_RAT_I is" in line]
+    assert refusal and "set it to 0" in refusal[0] and "attitude_form rate" in refusal[0], run.text()
+    tlog = tmp_path / "tau" / "companion.tlog"
+    arm_or_mode = (mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavutil.mavlink.MAV_CMD_DO_SET_MODE)
+    assert _sent(tlog, "COMMAND_LONG", arm_or_mode) == 0 and _sent(tlog, "SET_ATTITUDE_TARGET") == 0
+    assert _sent(tlog, "PARAM_REQUEST_READ") > 0  # (it did read the gains it refused)
