@@ -21,6 +21,7 @@ from ..cli_args import (
     single_scenario,
 )
 from ..nmpc.config import SOLVERS
+from ..outputs import ATTITUDE_FORMS
 from ..signing import add_link_arguments
 from .report import Report
 
@@ -40,6 +41,8 @@ def add_check_parser(sub: Any) -> None:
     check.add_argument("--sysid", type=int, help="our system id (default 255)")
     check.add_argument("--compid", type=int, help="our component id (default 191)")
     check.add_argument("--output", choices=OUTPUTS, help="the output to check for")
+    check.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help="attitude_target: the form to check for "
+                       "(tau: Rover's I and D gains 0, WP_SPEED letting full throttle through; default from config)")
     check.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     check.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     check.add_argument("--solves", type=count, default=DEFAULT_SOLVES,
@@ -65,6 +68,7 @@ def check_command(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 9:
         raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")
     config = config_from_flags(args.config, {**link_flags(args), "output": ("--output", args.output),
+                                             "attitude_form": ("--attitude-form", args.attitude_form),
                                              "connect_timeout_s": ("--timeout", args.timeout)})
     config.signing_key()  # a bad passphrase file: one line, exit 2
     refuse_if_taken(config.connect)

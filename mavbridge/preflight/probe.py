@@ -20,7 +20,7 @@ from .. import streams
 from ..link import Link, LinkError, mavlink
 from ..mission_tracker import download_mission
 from .report import FAIL, PASS, WARN, Report
-from .rules import fmt_value, parameter_findings
+from .rules import fmt_value, parameter_findings, tau_form_findings
 
 POSITION_NEED_HZ = 5.0
 RATE_WINDOW_S = 3.0  # rates are counted over this much autopilot time (time_boot_ms)
@@ -135,6 +135,8 @@ class Probe:
         self.signing(link)
         parameter_findings(self.report, lambda name: self._read(link, name), cfg.system_id, cfg.output,
                            self.period_s, float(self.scenario.waypoint.acceptance_radius_m))
+        if cfg.output == "attitude_target" and cfg.attitude_form == "tau":
+            tau_form_findings(self.report, lambda name: self._read(link, name), link.read_optional_parameter)
         self.streams(link)
         self.gps_and_home(link)
         self.mission(link)

@@ -245,3 +245,33 @@ def parameter_findings(report: Report, read: Reader, system_id: int, output: str
     evaluate(read, Context(system_id, output, period_s, acceptance_m), report)
     for channel in (1, 3):
         rc_findings(report, channel, {s: read(f"RC{channel}_{s}") for s in ("MIN", "TRIM", "MAX")})
+
+
+def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> None:
+    """What GUIDED's tau form needs (``mavbridge.guided_inverse``), judged as `mavbridge run` judges it: Rover's
+    loop gains readable, its I and D gains 0 (FAIL: the companion refuses the form), WP_SPEED at least the speed
+    target full throttle needs (WARN: the plan's full thrust would be cut)."""
+    from ..guided_inverse import LOOP_PARAMETERS, OPTIONAL_LOOP_PARAMETERS, RoverLoops
+
+    values = {name: read(name) for name in LOOP_PARAMETERS}
+    values.update({name: read_optional(name) for name in OPTIONAL_LOOP_PARAMETERS})
+    parm = "load deploy/otter-guided-tau.parm"
+    fix = parm + ", or use attitude_form rate"
+    try:
+        loops = RoverLoops.from_values(values)
+    except ValueError as exc:
+        report.add(FAIL, "tau form: loop gains", "readable, >= 0", str(exc), "check the link; " + fix)
+        return
+    problem = loops.gain_problem()
+    gains = "ATC_STR_RAT_I/_D, ATC_SPEED_I/_D"
+    if problem:
+        report.add(FAIL, "tau form: I and D gains", f"{gains} 0", problem.split(";")[0], fix)
+    else:
+        report.add(PASS, "tau form: I and D gains", f"{gains} 0", "all 0")
+    wp_speed, needed = read("WP_SPEED"), loops.full_throttle_target_mps()
+    expected = f">= {needed:.2f} m/s (full throttle's speed target)"
+    if wp_speed is None or loops.wp_speed_problem(wp_speed):
+        report.add(WARN, "tau form: WP_SPEED", expected, f"{fmt_value(wp_speed)} m/s",
+                   f"set WP_SPEED >= {needed:.2f} ({parm}): it caps Rover's speed target, cutting full thrust")
+    else:
+        report.add(PASS, "tau form: WP_SPEED", expected, f"{wp_speed:g} m/s")

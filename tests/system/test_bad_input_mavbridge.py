@@ -103,6 +103,7 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge demo --out": [(f"{DEMO} --out afile.txt", "afile.txt"), (f"{DEMO} --out afile.txt/run", "afile.txt")],
     **_link_cases(CHECK),
     "mavbridge check --solves": [("mavbridge check --solves -1", ">= 0"), ("mavbridge check --solves many",)],
+    "mavbridge check --attitude-form": [(f"{CHECK} --attitude-form yaw", CHOICE)],
     "mavbridge check --port": [(f"{CHECK} --port 10", "[0, 9]"), (f"{CHECK} --port -1", "[0, 9]"),
                                (f"{CHECK} --port x",)],
     "mavbridge check --timeout": [(f"{CHECK} --timeout 0",), (f"{CHECK} --timeout -3",),

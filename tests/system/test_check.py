@@ -14,8 +14,15 @@ import pytest
 
 from mavbridge.cli import main
 from mavbridge.preflight.report import FAIL, PASS, WARN, Report
-from mavbridge.preflight.rules import Context, override_violations, parameter_findings, rc_findings
+from mavbridge.preflight.rules import (
+    Context,
+    override_violations,
+    parameter_findings,
+    rc_findings,
+    tau_form_findings,
+)
 from sim_vehicle.harness import SimProcess
+from sim_vehicle.params import ParamTable, read_parm
 from tests.waits import wait_for
 from vessel.geo import latlon_from_ned
 
@@ -185,3 +192,30 @@ def test_unreadable_parameters_are_reported_not_refused() -> None:
     by_item = {f.item: f for f in report.findings}
     assert by_item["MAV_GCS_SYSID"].actual == "not readable" and by_item["MAV_GCS_SYSID"].status == FAIL
     assert by_item["RC_OVERRIDE_TIME"].fix == "check the link"
+
+
+def test_tau_form_needs_are_judged_as_the_companion_judges_them() -> None:
+    """Rover's default gains: FAIL naming the first integrator (the companion refuses the form) and a WARN for
+    WP_SPEED 2 (full thrust cut); with deploy/otter-guided-tau.parm over them, both pass."""
+    table = ParamTable()
+    report = Report()
+    tau_form_findings(report, lambda name: table[name] if name in table else None, lambda _name: None)
+    by_item = {f.item: f for f in report.findings}
+    gains, wp_speed = by_item["tau form: I and D gains"], by_item["tau form: WP_SPEED"]
+    assert gains.status == FAIL and gains.actual == "ATC_STR_RAT_I is 0.5" and "otter-guided-tau.parm" in gains.fix
+    assert wp_speed.status == WARN and wp_speed.actual == "2 m/s" and ">= 2.60" in wp_speed.fix
+    values = {**{d.name: table[d.name] for d in table.defs}, **read_parm(ROOT / "deploy" / "otter-rover.parm"),
+              **read_parm(ROOT / "deploy" / "otter-guided-tau.parm")}
+    report = Report()
+    tau_form_findings(report, values.get, values.get)
+    assert [(f.item, f.status) for f in report.findings] == [("tau form: I and D gains", PASS),
+                                                             ("tau form: WP_SPEED", PASS)]
+
+
+def test_check_for_the_tau_form_passes_with_its_parameter_file(tmp_path: Path) -> None:
+    """`mavbridge check --output attitude_target --attitude-form tau` against the simulator given the boat's and
+    the tau form's parameter files: the form's items pass, and so does everything else."""
+    tau = (ROOT / "deploy" / "otter-guided-tau.parm").read_text()
+    code, text, rows = _check(tmp_path, tau, "--output", "attitude_target", "--attitude-form", "tau", "--solves", "0")
+    assert rows["tau form: I and D gains"][0] == PASS and rows["tau form: WP_SPEED"][0] == PASS, text
+    assert code == 0, text
