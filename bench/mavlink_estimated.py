@@ -1,7 +1,7 @@
 """Benchmark: Balanced against Direct over MAVLink, both flying on the companion's own wave estimate.
 
 Run: OMP_NUM_THREADS=1 python bench/mavlink_estimated.py [--seeds 1,2,3] [--output rc_override|attitude_target|both]
-     [--speedup 10] [--keep DIR]
+     [--attitude-form heading|rate|tau] [--speedup 10] [--keep DIR]
 
 Each seed is one pair of real `mavbridge demo --lockstep --seed N` runs: `sim-vehicle` in the paper's sea
 with its realistic defaults (the hull heaving with the sea, a hidden phase drawn from the seed, sensor
@@ -51,6 +51,17 @@ def run_demo(seed: int, direct: bool, speedup: float, out: Path, output: str, *e
     return json.loads(metrics_file.read_text())
 
 
+def form_flags(output: str, attitude_form: str | None) -> list[str]:
+    """The demo flags for the GUIDED path's ``attitude_form`` (None: the companion's default); the tau form also
+    gives the simulator deploy/otter-guided-tau.parm (integrators off, WP_SPEED 3), as that form needs."""
+    if output != "attitude_target" or not attitude_form:
+        return []
+    form = ["--attitude-form", attitude_form]
+    if attitude_form == "tau":
+        form += ["--sim-params", str(Path(__file__).resolve().parents[1] / "deploy" / "otter-guided-tau.parm")]
+    return form
+
+
 def row(seed: int, output: str, balanced: dict[str, Any], direct: dict[str, Any]) -> tuple[str, float | None]:
     """The table line of one seed and its cut (None if a run did not arrive)."""
     def cell(m: dict[str, Any]) -> str:
@@ -96,6 +107,9 @@ def main() -> int:
     p = demo_parser(__doc__.splitlines()[0], [1, 2, 3])
     p.add_argument("--output", choices=("rc_override", "attitude_target", "both"), default="rc_override",
                    help="the companion's output path (default rc_override)")
+    p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
+                   help="the GUIDED path's target (default: the companion's; tau also gives the simulator "
+                        "deploy/otter-guided-tau.parm)")
     args = parse_demo_flags(p)
     root = args.keep or Path(tempfile.mkdtemp(prefix="mavlink-estimated-"))
     outputs = ("rc_override", "attitude_target") if args.output == "both" else (args.output,)
@@ -104,8 +118,9 @@ def main() -> int:
     for output in outputs:
         cuts = []
         for seed in args.seeds:
-            balanced = run_demo(seed, False, args.speedup, root / f"{output}-seed{seed}-balanced", output)
-            direct = run_demo(seed, True, args.speedup, root / f"{output}-seed{seed}-direct", output)
+            form = form_flags(output, args.attitude_form)
+            balanced = run_demo(seed, False, args.speedup, root / f"{output}-seed{seed}-balanced", output, *form)
+            direct = run_demo(seed, True, args.speedup, root / f"{output}-seed{seed}-direct", output, *form)
             line, cut = row(seed, output, balanced, direct)
             print(line, flush=True)
             if cut is not None:

@@ -1,7 +1,7 @@
 """Benchmark: how well lockstep MAVLink runs repeat — the same seed flown N times on each output path.
 
 Run: OMP_NUM_THREADS=1 python bench/mavlink_repeats.py [--runs 5] [--seeds 1] [--paths rc_override,attitude_target]
-     [--solver asrti] [--attitude-form heading|rate|tau] [--speedup 10] [--keep DIR]
+     [--solver nrti] [--attitude-form heading|rate|tau] [--speedup 10] [--keep DIR]
 
 Each run is `mavbridge demo --lockstep --seed N --waves scenario` (a real `sim-vehicle`, MAVSDK's upload,
 `mavbridge run`), Balanced. Prints every run's average roll and arrival, then per path the spread
@@ -17,10 +17,11 @@ from pathlib import Path
 from mavlink_estimated import (  # this folder is on sys.path when run as a script
     demo_parser,
     exit_with,
+    form_flags,
     parse_demo_flags,
     run_demo,
 )
-from mavlink_vs_inprocess import PATHS, arrival, form_flags, paths
+from mavlink_vs_inprocess import PATHS, arrival, paths
 
 
 def spread(values: list[float]) -> float:
@@ -34,7 +35,8 @@ def main() -> int:
     p = demo_parser(__doc__.splitlines()[0], [1])
     p.add_argument("--runs", type=int, default=5, help="runs per path and seed (default 5)")
     p.add_argument("--paths", type=paths, default=list(PATHS), help="output paths, comma-separated")
-    p.add_argument("--solver", choices=("asrti", "nrti"), default="asrti", help="NMPC solver (default asrti)")
+    p.add_argument("--solver", choices=("asrti", "nrti"), default="nrti",
+                   help="NMPC solver (default nrti, the companion's)")
     p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
                    help="the GUIDED path's target (default: the companion's; tau also gives the simulator "
                         "deploy/otter-guided-tau.parm)")

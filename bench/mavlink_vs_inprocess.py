@@ -1,7 +1,8 @@
 """Benchmark: Balanced and Direct in-process (τ and propeller plants) and over MAVLink on both output paths.
 
-Run: OMP_NUM_THREADS=1 python bench/mavlink_vs_inprocess.py [--seeds 1,2] [--solver asrti] [--waves scenario]
-     [--speedup 10] [--keep DIR]
+Run: OMP_NUM_THREADS=1 python bench/mavlink_vs_inprocess.py [--seeds 1,2] [--solver nrti] [--waves scenario]
+     [--paths rc_override,attitude_target] [--attitude-form heading|rate|tau] [--no-in-process] [--speedup 10]
+     [--keep DIR]
 
 In-process: the experiment runner on the paper's sea, once per plant. Over MAVLink: `mavbridge demo
 --lockstep --seed N` (a real `sim-vehicle`, MAVSDK's waypoint upload, `mavbridge run`), once on RC override
@@ -25,6 +26,7 @@ from typing import Any
 from mavlink_estimated import (  # this folder is on sys.path when run as a script
     demo_parser,
     exit_with,
+    form_flags,
     parse_demo_flags,
     run_demo,
 )
@@ -48,17 +50,6 @@ def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
     base = Scenario(name="direct" if direct else "balanced")
     controller = base.controller.replace(solver=solver, **({"r": 0.0} if direct else {}))
     return run_scenario(dataclasses.replace(base, plant=plant, controller=controller), None, plots=False).metrics
-
-
-def form_flags(output: str, attitude_form: str | None) -> list[str]:
-    """The demo flags for the GUIDED path's ``attitude_form`` (None: the companion's default); the tau form also
-    gives the simulator deploy/otter-guided-tau.parm (integrators off, WP_SPEED 3), as that form needs."""
-    if output != "attitude_target" or not attitude_form:
-        return []
-    form = ["--attitude-form", attitude_form]
-    if attitude_form == "tau":
-        form += ["--sim-params", str(Path(__file__).resolve().parents[1] / "deploy" / "otter-guided-tau.parm")]
-    return form
 
 
 def over_mavlink(output: str, direct: bool, seed: int, args: argparse.Namespace, out: Path) -> dict[str, Any]:
@@ -88,7 +79,8 @@ def table_row(label: str, balanced: dict[str, Any], direct: dict[str, Any], refe
 def main() -> int:
     """Print the comparison table; exit 1 when a run left no figures."""
     p = demo_parser(__doc__.splitlines()[0], [1, 2])
-    p.add_argument("--solver", choices=("asrti", "nrti"), default="asrti", help="NMPC solver (default asrti)")
+    p.add_argument("--solver", choices=("asrti", "nrti"), default="nrti",
+                   help="NMPC solver (default nrti, the companion's)")
     p.add_argument("--waves", choices=("scenario", "estimated"), default="scenario",
                    help="the companion's waves over MAVLink (default scenario: the simulator's truth)")
     p.add_argument("--paths", type=paths, default=list(PATHS),
