@@ -20,6 +20,12 @@ SOLVER_HELP = (f"NMPC solver (default {REAL_TIME_SOLVER}, the real-time one, wha
 WAVE_SOURCES = ("estimated", "scenario")  # estimated from the boat's motion, or the scenario's sea (simulation)
 
 
+def refuse_form_without_guided(attitude_form: str | None, output: str) -> None:
+    """--attitude-form given for an output that sends no attitude target: one line (ConfigError), not ignored."""
+    if attitude_form is not None and output != "attitude_target":
+        raise ConfigError(f"--attitude-form: applies to --output attitude_target only (the output here is {output})")
+
+
 def parse_north_east(text: str) -> tuple[float, float]:
     """'N,E' metres as two finite numbers (argparse type)."""
     try:

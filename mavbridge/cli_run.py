@@ -21,6 +21,7 @@ from .cli_args import (
     link_flags,
     parse_north_east,
     positive_metres,
+    refuse_form_without_guided,
     single_scenario,
 )
 from .nmpc.config import SOLVERS
@@ -124,6 +125,7 @@ def run_command(args: argparse.Namespace) -> int:
         "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
         "delay_compensation": ("--delay-compensation", args.delay_compensation),
         "attitude_form": ("--attitude-form", args.attitude_form)})
+    refuse_form_without_guided(args.attitude_form, config.output)
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
@@ -151,6 +153,7 @@ def demo_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge demo`."""
     from .demo import run_demo, timestamped_folder
 
+    refuse_form_without_guided(args.attitude_form, args.output)
     scenario = demo_scenario(args.scenario, args.solver, args.direct)
     speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
     out = Path(args.out) if args.out else timestamped_folder()

@@ -39,8 +39,10 @@ from .outputs import skid_fractions
 
 LOOP_PARAMETERS = ("CRUISE_THROTTLE", "CRUISE_SPEED", "ATC_SPEED_P", "ATC_STR_RAT_FF", "ATC_STR_RAT_P",
                    "ATC_STR_RAT_MAX", "ATC_SPEED_I", "ATC_SPEED_IMAX", "ATC_STR_RAT_I", "ATC_STR_RAT_IMAX")
-# Newer firmware's PID terms (0 by default; our simulator has none): absent reads as 0.
+# Newer firmware's PID terms (0 by default; our simulator has none): absent reads as 0, and is said.
 OPTIONAL_LOOP_PARAMETERS = ("ATC_SPEED_FF", "ATC_SPEED_D", "ATC_STR_RAT_D")
+BRAKE = "ATC_BRAKE"  # Rover 4.x, default 1: the speed loop may reverse while the speed target is still ahead
+SURGE_MARGIN_MPS = 1.0  # the paper's sea surges the hull past its calm-water full speed (3.3 m/s logged at 2.6)
 _MUST_BE_ZERO = {"ATC_STR_RAT_I": "Rover's integrators wind up against the inverted targets",
                  "ATC_SPEED_I": "Rover's integrators wind up against the inverted targets",
                  "ATC_STR_RAT_D": "a D term kicks at every new target, which the inversion does not give",
@@ -75,6 +77,8 @@ class RoverLoops:
     rate_p: float
     rate_max_rad_s: float  # ATC_STR_RAT_MAX; 0 there is Rover's "no limit", inf here
     must_be_zero: tuple[tuple[str, float], ...] = ()  # (name, value) of the I and D gains
+    absent: tuple[str, ...] = ()  # optional parameters the autopilot did not answer for (taken as 0)
+    brake: bool = True  # ATC_BRAKE not 0 (absent: Rover's default, 1)
 
     @classmethod
     def from_values(cls, values: dict[str, float | None]) -> RoverLoops:
@@ -83,13 +87,15 @@ class RoverLoops:
         v = _checked(values)
         rate_max = math.radians(v["ATC_STR_RAT_MAX"]) if v["ATC_STR_RAT_MAX"] > 0 else math.inf
         return cls(v["CRUISE_THROTTLE"] / 100.0 / v["CRUISE_SPEED"] + v["ATC_SPEED_FF"], v["ATC_SPEED_P"],
-                   v["ATC_STR_RAT_FF"], v["ATC_STR_RAT_P"], rate_max, tuple((n, v[n]) for n in _MUST_BE_ZERO))
+                   v["ATC_STR_RAT_FF"], v["ATC_STR_RAT_P"], rate_max, tuple((n, v[n]) for n in _MUST_BE_ZERO),
+                   tuple(n for n in (*OPTIONAL_LOOP_PARAMETERS, BRAKE) if values.get(n) is None),
+                   values.get(BRAKE) != 0)
 
     @classmethod
     def read(cls, link: Any) -> RoverLoops:
         """Read the gains over the link; LinkError when one is unreadable or unusable, or an I or D term is on."""
         values = {name: link.read_parameter(name) for name in LOOP_PARAMETERS}
-        values.update({name: link.read_optional_parameter(name) for name in OPTIONAL_LOOP_PARAMETERS})
+        values.update({name: link.read_optional_parameter(name) for name in (*OPTIONAL_LOOP_PARAMETERS, BRAKE)})
         try:
             loops = cls.from_values(values)
         except ValueError as exc:
@@ -107,10 +113,11 @@ class RoverLoops:
         return None
 
     def full_throttle_target_mps(self) -> float:
-        """The largest speed target (m/s) full throttle needs at a forward speed up to the feed-forwards' own full
-        speed 1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE with ATC_SPEED_FF 0): (1 + P·u) / (FF + P) grows
-        with u to 1 / FF."""
-        return 1.0 / self.speed_ff
+        """The speed target (m/s) full throttle needs at the fastest forward speed planned for: the feed-forwards'
+        own full speed 1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE with ATC_SPEED_FF 0) plus
+        ``SURGE_MARGIN_MPS``, since waves surge the hull past it; (1 + P·u) / (FF + P) grows with u, so slower
+        speeds (and full astern down to u = −1 / FF) need less."""
+        return self.speed_for_throttle(1.0, 1.0 / self.speed_ff + SURGE_MARGIN_MPS)
 
     def wp_speed_problem(self, wp_speed_mps: float) -> str | None:
         """What a WP_SPEED below ``full_throttle_target_mps`` does to this form (its cap on Rover's speed target
@@ -119,8 +126,21 @@ class RoverLoops:
         if wp_speed_mps >= needed:
             return None
         return (f"WP_SPEED {wp_speed_mps:g} m/s caps Rover's speed target below the {needed:.2f} m/s full throttle "
-                f"needs (1 / the speed feed-forwards): the plan's thrust is cut near full speed; set "
-                f"WP_SPEED >= {needed:.2f} (deploy/otter-guided-tau.parm)")
+                f"needs at {1 / self.speed_ff + SURGE_MARGIN_MPS:.1f} m/s: the plan's thrust is cut near full speed; "
+                f"set WP_SPEED >= {needed:.2f} (deploy/otter-guided-tau.parm)")
+
+    def warnings(self, wp_speed_mps: float) -> list[str]:
+        """What flies but not as planned with these settings: WP_SPEED cutting full throttle, ATC_BRAKE 0 (Rover
+        then zeroes a reverse throttle while the speed target is ahead: the plan's braking is lost), and the
+        optional parameters taken as 0 because the autopilot did not answer for them."""
+        said = [problem] if (problem := self.wp_speed_problem(wp_speed_mps)) else []
+        if not self.brake:
+            said.append("ATC_BRAKE is 0: Rover zeroes a reverse throttle while the speed target is ahead, so the "
+                        "plan's braking is lost; set ATC_BRAKE 1")
+        if self.absent:
+            said.append(f"{', '.join(self.absent)} not answered by the autopilot: taken as Rover's defaults "
+                        "(0; ATC_BRAKE 1)")
+        return said
 
     def speed_for_throttle(self, throttle: float, speed_mps: float) -> float:
         """The speed target (m/s) whose feed-forward + P output is ``throttle`` at forward speed ``speed_mps``."""
@@ -131,6 +151,14 @@ class RoverLoops:
         ``steering``."""
         rate = (steering + self.rate_p * yaw_rate) / (self.rate_ff + self.rate_p)
         return float(np.clip(rate, -self.rate_max_rad_s, self.rate_max_rad_s))
+
+
+def default_speed(wp_speed: float | None, cruise_speed: float | None) -> float:
+    """Rover's default speed (m/s), which scales SET_ATTITUDE_TARGET's thrust: WP_SPEED, or CRUISE_SPEED where it
+    is 0 (older firmware), else 2 m/s."""
+    if wp_speed is not None and wp_speed > 0:
+        return wp_speed
+    return cruise_speed if cruise_speed is not None and cruise_speed > 0 else 2.0
 
 
 def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n: float, speed_mps: float,

@@ -50,7 +50,7 @@ class LoopNotices:
         if missed and self._due("skipped"):
             self.log(f"warning: the controller cannot keep up: {self._skipped_since} control tick(s) of "
                      f"{period_s:g} s skipped since the last warning (a step takes longer than the period; "
-                     "try the asrti solver or a lower --speedup)")
+                     "try the nrti solver or a lower --speedup)")
             self._skipped_since = 0
 
     def progress(self, t_s: float, to_go_m: float, roll_rad: float, step_ms: float) -> None:

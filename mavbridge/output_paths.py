@@ -16,7 +16,7 @@ from typing import Any, Protocol
 
 from vessel import OtterParameters
 
-from .guided_inverse import RoverLoops, loop_targets
+from .guided_inverse import RoverLoops, default_speed, loop_targets
 from .link import LinkError, mavlink
 from .outputs import (
     ATTITUDE_FORMS,
@@ -170,19 +170,16 @@ class AttitudeTarget(_Sending):
 
     def prepare(self, link: Any) -> None:
         """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
-        also reads Rover's loop gains, refuses them with an integrator on (LinkError) and says when WP_SPEED
-        cuts full throttle."""
+        also reads Rover's loop gains, refuses them with an I or D term on (LinkError) and warns of what flies
+        but not as planned (``RoverLoops.warnings``)."""
         speed = link.read_parameter("WP_SPEED")
-        if not (speed and speed > 0):
-            speed = link.read_parameter("CRUISE_SPEED")
-        self.wp_speed_mps = speed if speed and speed > 0 else 2.0
+        self.wp_speed_mps = default_speed(speed, None if speed and speed > 0 else link.read_parameter("CRUISE_SPEED"))
         if self.form == "tau":
             self.loops = loops = RoverLoops.read(link)
             self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
                      f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
-            capped = loops.wp_speed_problem(self.wp_speed_mps)
-            if capped:
-                self.log(f"GUIDED: {capped}")
+            for warning in loops.warnings(self.wp_speed_mps):
+                self.log(f"warning: GUIDED tau form: {warning}")
 
     def _attitude(self, result: Any) -> AttitudeCommand:
         """The target for this answer in this path's form."""

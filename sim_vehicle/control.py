@@ -40,6 +40,11 @@ class NavState:
         return math.hypot(self.vn, self.ve)
 
 
+def turn_rate_limit(rate_max_deg_s: float) -> float:
+    """ATC_STR_RAT_MAX (deg/s) as the turn-rate target's limit in rad/s; Rover limits only when it is positive."""
+    return math.radians(rate_max_deg_s) if rate_max_deg_s > 0 else math.inf
+
+
 class SteeringControl:
     """Heading -> turn-rate target (P, limited) -> steering output (FF + PI on the rate error)."""
 
@@ -53,14 +58,14 @@ class SteeringControl:
 
     def rate_for_heading(self, heading_rad: float, nav: NavState) -> float:
         """Turn-rate target (rad/s) that brings the heading to ``heading_rad``."""
-        limit = math.radians(max(1.0, self.params["ATC_STR_RAT_MAX"]))
+        limit = turn_rate_limit(self.params["ATC_STR_RAT_MAX"])
         rate = self.params["ATC_STR_ANG_P"] * wrap_pi(heading_rad - nav.yaw)
         return min(limit, max(-limit, rate))
 
     def steering_for_rate(self, rate_rad_s: float, nav: NavState, dt: float) -> float:
         """Steering output in [-1, 1] tracking the turn-rate target ``rate_rad_s``."""
         p = self.params
-        limit = math.radians(max(1.0, p["ATC_STR_RAT_MAX"]))
+        limit = turn_rate_limit(p["ATC_STR_RAT_MAX"])
         rate = min(limit, max(-limit, rate_rad_s))
         error = rate - nav.yaw_rate
         raw = p["ATC_STR_RAT_FF"] * rate + p["ATC_STR_RAT_P"] * error + self._integrator

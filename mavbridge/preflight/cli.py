@@ -18,6 +18,7 @@ from ..cli_args import (
     link_flags,
     parse_north_east,
     positive_metres,
+    refuse_form_without_guided,
     single_scenario,
 )
 from ..nmpc.config import SOLVERS
@@ -70,6 +71,7 @@ def check_command(args: argparse.Namespace) -> int:
     config = config_from_flags(args.config, {**link_flags(args), "output": ("--output", args.output),
                                              "attitude_form": ("--attitude-form", args.attitude_form),
                                              "connect_timeout_s": ("--timeout", args.timeout)})
+    refuse_form_without_guided(args.attitude_form, config.output)
     config.signing_key()  # a bad passphrase file: one line, exit 2
     refuse_if_taken(config.connect)
     scenario = single_scenario(args.scenario, args.solver)

@@ -250,11 +250,11 @@ def parameter_findings(report: Report, read: Reader, system_id: int, output: str
 def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> None:
     """What GUIDED's tau form needs (``mavbridge.guided_inverse``), judged as `mavbridge run` judges it: Rover's
     loop gains readable, its I and D gains 0 (FAIL: the companion refuses the form), WP_SPEED at least the speed
-    target full throttle needs (WARN: the plan's full thrust would be cut)."""
-    from ..guided_inverse import LOOP_PARAMETERS, OPTIONAL_LOOP_PARAMETERS, RoverLoops
+    target full throttle needs and ATC_BRAKE 1 (WARN: the plan's full thrust, or its braking, would be cut)."""
+    from ..guided_inverse import BRAKE, LOOP_PARAMETERS, OPTIONAL_LOOP_PARAMETERS, RoverLoops, default_speed
 
     values = {name: read(name) for name in LOOP_PARAMETERS}
-    values.update({name: read_optional(name) for name in OPTIONAL_LOOP_PARAMETERS})
+    values.update({name: read_optional(name) for name in (*OPTIONAL_LOOP_PARAMETERS, BRAKE)})
     parm = "load deploy/otter-guided-tau.parm"
     fix = parm + ", or use attitude_form rate"
     try:
@@ -262,16 +262,18 @@ def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> No
     except ValueError as exc:
         report.add(FAIL, "tau form: loop gains", "readable, >= 0", str(exc), "check the link; " + fix)
         return
-    problem = loops.gain_problem()
-    gains = "ATC_STR_RAT_I/_D, ATC_SPEED_I/_D"
+    problem, gains = loops.gain_problem(), "ATC_STR_RAT_I/_D, ATC_SPEED_I/_D 0"
+    absent = [name for name in loops.absent if name != BRAKE]
     if problem:
-        report.add(FAIL, "tau form: I and D gains", f"{gains} 0", problem.split(";")[0], fix)
+        report.add(FAIL, "tau form: I and D gains", gains, problem.split(";")[0], fix)
     else:
-        report.add(PASS, "tau form: I and D gains", f"{gains} 0", "all 0")
-    wp_speed, needed = read("WP_SPEED"), loops.full_throttle_target_mps()
-    expected = f">= {needed:.2f} m/s (full throttle's speed target)"
-    if wp_speed is None or loops.wp_speed_problem(wp_speed):
-        report.add(WARN, "tau form: WP_SPEED", expected, f"{fmt_value(wp_speed)} m/s",
-                   f"set WP_SPEED >= {needed:.2f} ({parm}): it caps Rover's speed target, cutting full thrust")
-    else:
-        report.add(PASS, "tau form: WP_SPEED", expected, f"{wp_speed:g} m/s")
+        report.add(PASS, "tau form: I and D gains", gains,
+                   "all 0" + (f" ({', '.join(absent)} not on this autopilot: 0)" if absent else ""))
+    wp_speed = default_speed(read("WP_SPEED"), values["CRUISE_SPEED"])
+    needed = loops.full_throttle_target_mps()
+    status = WARN if loops.wp_speed_problem(wp_speed) else PASS
+    report.add(status, "tau form: WP_SPEED", f">= {needed:.2f} m/s (full throttle's speed target)", f"{wp_speed:g} m/s",
+               f"set WP_SPEED >= {needed:.2f} ({parm}): it caps Rover's speed target, cutting full thrust")
+    brake = values[BRAKE]
+    report.add(PASS if brake else WARN, "tau form: ATC_BRAKE", "1 (the speed loop may reverse)", fmt_value(brake),
+               f"set ATC_BRAKE 1 ({parm}): at 0 Rover zeroes the plan's reverse thrust while the target is ahead")

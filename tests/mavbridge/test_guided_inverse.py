@@ -7,7 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from mavbridge.guided_inverse import LOOP_PARAMETERS, OPTIONAL_LOOP_PARAMETERS, RoverLoops, loop_targets
+from mavbridge.guided_inverse import (
+    LOOP_PARAMETERS,
+    OPTIONAL_LOOP_PARAMETERS,
+    SURGE_MARGIN_MPS,
+    RoverLoops,
+    default_speed,
+    loop_targets,
+)
 from mavbridge.outputs import inverse_skid_mix, motor_output
 from sim_vehicle.control import NavState, SpeedControl, SteeringControl
 from sim_vehicle.params import ParamTable, read_parm
@@ -84,7 +91,7 @@ def test_newer_firmwares_speed_feed_forward_is_inverted_too() -> None:
     target = loops.speed_for_throttle(0.7, 1.4)
     throttle = (cruise + 0.1) * target + table["ATC_SPEED_P"] * (target - 1.4)  # AR_AttitudeControl's sum
     assert throttle == pytest.approx(0.7, abs=1e-12)
-    assert loops.full_throttle_target_mps() == pytest.approx(1 / (cruise + 0.1))
+    assert loops.speed_ff == pytest.approx(cruise + 0.1)
 
 
 def test_a_turn_rate_limit_of_zero_is_no_limit_as_in_rover() -> None:
@@ -95,20 +102,43 @@ def test_a_turn_rate_limit_of_zero_is_no_limit_as_in_rover() -> None:
     assert loops.rate_for_steering(1.0, 0.35) == pytest.approx((1.0 + loops.rate_p * 0.35) / (loops.rate_ff +
                                                                                               loops.rate_p))
     assert loops.rate_for_steering(1.0, 0.35) > _loops(table).rate_max_rad_s
+    table.set("ATC_STR_RAT_MAX", 0.0, save=False)  # our simulator's Rover loops: no limit either (a 0.6 rad/s
+    table.set("ATC_STR_RAT_FF", 1.0, save=False)  # target, beyond 20 deg/s, followed unsaturated)
+    nav = NavState(yaw=0.0, yaw_rate=0.6, vn=1.0)
+    assert SteeringControl(table).steering_for_rate(0.6, nav, 0.0) == pytest.approx(0.6)
 
 
-def test_full_throttle_needs_at_most_the_feed_forwards_full_speed() -> None:
-    """Rover caps its speed target at WP_SPEED: the form needs WP_SPEED >= 1 / speed_ff for full throttle to pass,
-    and says so below it (not at the parm file's 3 m/s)."""
+def test_full_throttle_needs_at_most_its_target_at_the_fastest_speed_planned_for() -> None:
+    """Rover caps its speed target at WP_SPEED: full throttle passes at every forward speed up to the hull's
+    calm-water full speed plus the waves' surge when WP_SPEED is at least that speed's target; the form says so
+    below it (3 m/s), not at the parm file's 3.5 m/s."""
     loops = _loops(ParamTable())
+    fastest = 2.08 * 100 / 80 + SURGE_MARGIN_MPS
     needed = loops.full_throttle_target_mps()
-    assert needed == pytest.approx(2.08 * 100 / 80)
-    for u in (0.0, 0.5, 1.0, 2.0, needed):
-        assert loops.speed_for_throttle(1.0, u) <= needed + 1e-12
-    assert loops.speed_for_throttle(1.0, needed) == pytest.approx(needed)
-    assert "WP_SPEED 2 m/s caps" in (loops.wp_speed_problem(2.0) or "")
-    assert ">= 2.60" in (loops.wp_speed_problem(2.0) or "")
-    assert loops.wp_speed_problem(3.0) is None and loops.wp_speed_problem(needed) is None
+    assert needed == pytest.approx(loops.speed_for_throttle(1.0, fastest)) and 3.0 < needed < 3.5
+    for u in (-2.6, -1.0, 0.0, 1.0, 2.0, 2.6, 3.3, fastest):
+        assert abs(loops.speed_for_throttle(1.0 if u >= 0 else -1.0, u)) <= needed + 1e-12
+    assert "WP_SPEED 3 m/s caps" in (loops.wp_speed_problem(3.0) or "")
+    assert ">= 3.04" in (loops.wp_speed_problem(3.0) or "")
+    assert loops.wp_speed_problem(3.5) is None and loops.wp_speed_problem(needed) is None
+
+
+def test_what_flies_but_not_as_planned_is_said() -> None:
+    """WP_SPEED cutting full throttle, ATC_BRAKE 0 and parameters the autopilot did not answer for: warnings."""
+    table = ParamTable()
+    values: dict[str, float | None] = {name: table[name] for name in LOOP_PARAMETERS}
+    said = RoverLoops.from_values(values).warnings(2.0)
+    assert len(said) == 2 and "WP_SPEED 2 m/s caps" in said[0]
+    assert said[1].startswith("ATC_SPEED_FF, ATC_SPEED_D, ATC_STR_RAT_D, ATC_BRAKE not answered"), said
+    values.update(ATC_SPEED_FF=0.0, ATC_SPEED_D=0.0, ATC_STR_RAT_D=0.0, ATC_BRAKE=0.0)
+    said = RoverLoops.from_values(values).warnings(3.5)
+    assert len(said) == 1 and said[0].startswith("ATC_BRAKE is 0"), said
+    values["ATC_BRAKE"] = 1.0
+    assert RoverLoops.from_values(values).warnings(3.5) == []
+
+
+def test_rovers_default_speed_scales_thrust() -> None:
+    assert default_speed(3.5, 2.08) == 3.5 and default_speed(0.0, 2.08) == 2.08 and default_speed(None, None) == 2.0
 
 
 def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:
@@ -118,7 +148,8 @@ def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:
     table = ParamTable()
     files = {**read_parm(deploy / "otter-rover.parm"), **read_parm(deploy / "otter-guided-tau.parm")}
     values = {name: files.get(name, table[name]) for name in LOOP_PARAMETERS}
-    values.update({name: files.get(name) for name in OPTIONAL_LOOP_PARAMETERS})
+    values.update({name: files.get(name) for name in (*OPTIONAL_LOOP_PARAMETERS, "ATC_BRAKE")})
     loops = RoverLoops.from_values(values)
     assert loops.gain_problem() is None
-    assert loops.wp_speed_problem(files["WP_SPEED"]) is None
+    assert loops.warnings(files["WP_SPEED"]) == [f"{name} not answered by the autopilot: taken as Rover's "
+                                                 "defaults (0; ATC_BRAKE 1)" for name in ("ATC_SPEED_FF",)]

@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
+from mavbridge.cli_args import REAL_TIME_SOLVER
 from sim_vehicle.harness import SimProcess, free_port
 from tests.waits import WaitTimeoutError
 
@@ -172,18 +173,19 @@ def test_link_lost_for_more_than_10_s_ends_the_run_with_exit_1(tmp_path: Path, r
 
 
 def test_run_and_check_default_to_the_real_time_solver(tmp_path: Path) -> None:
-    """No --solver: `check` times asrti (its header says so), `run` records asrti in its config.yaml."""
+    """No --solver: `check` times the real-time default (nrti; its header says so), `run` records it in its
+    config.yaml."""
     check = subprocess.run([sys.executable, "-m", "mavbridge.cli", "check", "--connect",
                             f"udpin:127.0.0.1:{free_port(socket.SOCK_DGRAM)}", "--timeout", "0.5", "--solves", "0"],
                            capture_output=True, text=True, timeout=120)
-    assert "scenario balanced (asrti," in check.stdout, check.stdout + check.stderr
+    assert f"scenario balanced ({REAL_TIME_SOLVER}," in check.stdout, check.stdout + check.stderr
     config = tmp_path / "companion.yaml"
     config.write_text("connect_timeout_s: 0.5\n")
     run = subprocess.run([sys.executable, "-m", "mavbridge.cli", "run", "--config", str(config), "--connect",
                           f"udpin:127.0.0.1:{free_port(socket.SOCK_DGRAM)}", "--out", str(tmp_path / "run")],
                          capture_output=True, text=True, timeout=180)
     assert run.returncode == 1, run.stdout + run.stderr  # nobody answered
-    assert "solver: asrti" in (tmp_path / "run" / "config.yaml").read_text()
+    assert f"solver: {REAL_TIME_SOLVER}" in (tmp_path / "run" / "config.yaml").read_text()
 
 
 def test_tau_form_against_rovers_integrators_is_refused_before_arming(tmp_path: Path, runs: list[Run]) -> None:
@@ -194,9 +196,28 @@ def test_tau_form_against_rovers_integrators_is_refused_before_arming(tmp_path: 
                   "--arm", "--set-mode", "--waypoint", "85,75")
         runs.append(run)
         assert run.wait(180) == 1, run.text()
-    refusal = [line for line in run.lines if "attitude_form tau: ATC_STR_RAT_I is" in line]
-    assert refusal and "set it to 0" in refusal[0] and "attitude_form rate" in refusal[0], run.text()
+    refusal = [line for line in run.lines if "attitude_form tau" in line]
+    assert len(refusal) == 1 and "attitude_form tau: ATC_STR_RAT_I is 0.5; set it to 0" in refusal[0], run.text()
+    assert "attitude_form rate" in refusal[0], run.text()
     tlog = tmp_path / "tau" / "companion.tlog"
     arm_or_mode = (mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavutil.mavlink.MAV_CMD_DO_SET_MODE)
     assert _sent(tlog, "COMMAND_LONG", arm_or_mode) == 0 and _sent(tlog, "SET_ATTITUDE_TARGET") == 0
     assert _sent(tlog, "PARAM_REQUEST_READ") > 0  # (it did read the gains it refused)
+
+
+def test_tau_form_warns_of_what_flies_but_not_as_planned(tmp_path: Path, runs: list[Run]) -> None:
+    """Integrators and D terms off but Rover's WP_SPEED 2 and no ATC_BRAKE: the form is taken (no refusal) and the
+    companion warns, before it flies, that full throttle is cut and which parameters it took as defaults."""
+    parm = tmp_path / "gains.parm"
+    parm.write_text("ATC_STR_RAT_I,0\nATC_SPEED_I,0\nATC_STR_RAT_D,0\nATC_SPEED_D,0\n")
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe", "--params", str(parm)],
+                    udp_outs=1) as sim:
+        run = Run(sim.udp_ports[0], tmp_path / "tau", "--output", "attitude_target", "--attitude-form", "tau",
+                  "--dry-run", "--waypoint", "85,75")
+        runs.append(run)
+        run.await_line("not answered by the autopilot", 120)
+        run.stop()
+    warnings = [line for line in run.lines if "warning: GUIDED tau form:" in line]
+    assert len(warnings) == 2 and "WP_SPEED 2 m/s caps Rover's speed target" in warnings[0], run.text()
+    assert "ATC_SPEED_FF, ATC_BRAKE not answered by the autopilot" in warnings[1], run.text()
+    assert not any("attitude_form tau:" in line for line in run.lines), run.text()  # not refused
