@@ -109,7 +109,8 @@ class RoverLoops:
         """Why the inversion cannot be used with these gains (an integrator or a D term on), or None."""
         for name, gain in self.must_be_zero:
             if gain != 0:
-                return f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}), or use attitude_form rate"
+                return (f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}; deploy/otter-guided-tau.parm "
+                        "does), or use attitude_form rate")
         return None
 
     def full_throttle_target_mps(self) -> float:
