@@ -53,7 +53,7 @@ def run_demo(seed: int, direct: bool, speedup: float, out: Path, output: str, *e
 
 def form_flags(output: str, attitude_form: str | None) -> list[str]:
     """The demo flags for the GUIDED path's ``attitude_form`` (None: the companion's default); the tau form also
-    gives the simulator deploy/otter-guided-tau.parm (integrators off, WP_SPEED 3), as that form needs."""
+    gives the simulator deploy/otter-guided-tau.parm (I and D gains 0, WP_SPEED 3.5), as that form needs."""
     if output != "attitude_target" or not attitude_form:
         return []
     form = ["--attitude-form", attitude_form]

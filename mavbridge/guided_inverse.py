@@ -12,8 +12,8 @@ difference between the body yaw rate r used here and the earth-frame yaw rate Ro
 at this boat's roll). Rover's speed target is SET_ATTITUDE_TARGET's thrust × WP_SPEED, at most WP_SPEED: a
 target above it is sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds,
 so the companion says at start when WP_SPEED is below what full throttle needs (``wp_speed_problem``);
-``deploy/otter-guided-tau.parm`` sets 3 m/s. With Rover's 2 m/s the plan's full thrust became 77 % throttle
-and Balanced arrived 24 % late (116.8 s against 94.6 s with 3 m/s, lockstep, seed 1).
+``deploy/otter-guided-tau.parm`` sets 3.5 m/s. With Rover's 2 m/s the plan's full thrust became 77 % throttle
+and Balanced arrived 24 % late (116.8 s against 94.6 s with 3 and with 3.5 m/s, lockstep, seed 1).
 
 The integrators and D terms must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0, and the D gains): these targets
 differ from r and u whenever the plan accelerates or turns, so Rover's integrators would wind up against
@@ -109,8 +109,8 @@ class RoverLoops:
         """Why the inversion cannot be used with these gains (an integrator or a D term on), or None."""
         for name, gain in self.must_be_zero:
             if gain != 0:
-                return (f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}; deploy/otter-guided-tau.parm "
-                        "does), or use attitude_form rate")
+                return (f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}); deploy/otter-guided-tau.parm "
+                        "sets it to 0; or use attitude_form rate")
         return None
 
     def full_throttle_target_mps(self) -> float:

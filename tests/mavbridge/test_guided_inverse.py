@@ -151,5 +151,4 @@ def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:
     values.update({name: files.get(name) for name in (*OPTIONAL_LOOP_PARAMETERS, "ATC_BRAKE")})
     loops = RoverLoops.from_values(values)
     assert loops.gain_problem() is None
-    assert loops.warnings(files["WP_SPEED"]) == [f"{name} not answered by the autopilot: taken as Rover's "
-                                                 "defaults (0; ATC_BRAKE 1)" for name in ("ATC_SPEED_FF",)]
+    assert loops.warnings(files["WP_SPEED"]) == []
