@@ -26,6 +26,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from mavbridge.outputs import ATTITUDE_FORMS
+
 
 def seeds(text: str) -> list[int]:
     """--seeds: comma-separated whole numbers >= 0."""
@@ -49,6 +51,13 @@ def run_demo(seed: int, direct: bool, speedup: float, out: Path, output: str, *e
         raise RuntimeError(f"demo (seed {seed}, {'direct' if direct else 'balanced'}) left no metrics: "
                            f"exit {done.returncode}\n{done.stdout[-1500:]}{done.stderr[-1500:]}")
     return json.loads(metrics_file.read_text())
+
+
+def add_form_flag(p: argparse.ArgumentParser) -> None:
+    """--attitude-form, as every MAVLink bench takes it (see ``form_flags``)."""
+    p.add_argument("--attitude-form", choices=ATTITUDE_FORMS, default=None,
+                   help="the GUIDED path's target (default: the companion's; tau also gives the simulator "
+                        "deploy/otter-guided-tau.parm)")
 
 
 def form_flags(output: str, attitude_form: str | None) -> list[str]:
@@ -107,9 +116,7 @@ def main() -> int:
     p = demo_parser(__doc__.splitlines()[0], [1, 2, 3])
     p.add_argument("--output", choices=("rc_override", "attitude_target", "both"), default="rc_override",
                    help="the companion's output path (default rc_override)")
-    p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
-                   help="the GUIDED path's target (default: the companion's; tau also gives the simulator "
-                        "deploy/otter-guided-tau.parm)")
+    add_form_flag(p)
     args = parse_demo_flags(p)
     root = args.keep or Path(tempfile.mkdtemp(prefix="mavlink-estimated-"))
     outputs = ("rc_override", "attitude_target") if args.output == "both" else (args.output,)

@@ -15,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 from mavlink_estimated import (  # this folder is on sys.path when run as a script
+    add_form_flag,
     demo_parser,
     exit_with,
     form_flags,
@@ -37,9 +38,7 @@ def main() -> int:
     p.add_argument("--paths", type=paths, default=list(PATHS), help="output paths, comma-separated")
     p.add_argument("--solver", choices=("asrti", "nrti"), default="nrti",
                    help="NMPC solver (default nrti, the companion's)")
-    p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
-                   help="the GUIDED path's target (default: the companion's; tau also gives the simulator "
-                        "deploy/otter-guided-tau.parm)")
+    add_form_flag(p)
     args = parse_demo_flags(p)
     if not 2 <= args.runs <= 50:
         p.error(f"--runs: {args.runs} is outside [2, 50]")

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from mavlink_estimated import (  # this folder is on sys.path when run as a script
+    add_form_flag,
     demo_parser,
     exit_with,
     form_flags,
@@ -85,8 +86,7 @@ def main() -> int:
                    help="the companion's waves over MAVLink (default scenario: the simulator's truth)")
     p.add_argument("--paths", type=paths, default=list(PATHS),
                    help="output paths over MAVLink, comma-separated (default rc_override,attitude_target)")
-    p.add_argument("--attitude-form", choices=("heading", "rate", "tau"), default=None,
-                   help="the GUIDED path's target (default: the companion's)")
+    add_form_flag(p)
     p.add_argument("--no-in-process", dest="in_process", action="store_false", help="skip the in-process rows")
     args = parse_demo_flags(p)
     root = args.keep or Path(tempfile.mkdtemp(prefix="mavlink-vs-inprocess-"))

@@ -27,6 +27,7 @@ feedback (a new plan every 0.1 s) takes the integrators' place.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,10 +44,9 @@ LOOP_PARAMETERS = ("CRUISE_THROTTLE", "CRUISE_SPEED", "ATC_SPEED_P", "ATC_STR_RA
 OPTIONAL_LOOP_PARAMETERS = ("ATC_SPEED_FF", "ATC_SPEED_D", "ATC_STR_RAT_D")
 BRAKE = "ATC_BRAKE"  # Rover 4.x, default 1: the speed loop may reverse while the speed target is still ahead
 SURGE_MARGIN_MPS = 1.0  # the paper's sea surges the hull past its calm-water full speed (3.3 m/s logged at 2.6)
-_MUST_BE_ZERO = {"ATC_STR_RAT_I": "Rover's integrators wind up against the inverted targets",
-                 "ATC_SPEED_I": "Rover's integrators wind up against the inverted targets",
-                 "ATC_STR_RAT_D": "a D term kicks at every new target, which the inversion does not give",
-                 "ATC_SPEED_D": "a D term kicks at every new target, which the inversion does not give"}
+_WINDS_UP = "Rover's integrators wind up against the inverted targets"
+_KICKS = "a D term kicks at every new target, which the inversion does not give"
+_MUST_BE_ZERO = {"ATC_STR_RAT_I": _WINDS_UP, "ATC_SPEED_I": _WINDS_UP, "ATC_STR_RAT_D": _KICKS, "ATC_SPEED_D": _KICKS}
 
 
 def _checked(values: dict[str, float | None]) -> dict[str, float]:
@@ -105,20 +105,29 @@ class RoverLoops:
             raise LinkError(f"attitude_form tau: {problem}")
         return loops
 
+    def gain_on(self) -> tuple[str, float] | None:
+        """The first I or D gain that is on, (name, value), or None."""
+        return next(((name, gain) for name, gain in self.must_be_zero if gain != 0), None)
+
     def gain_problem(self) -> str | None:
         """Why the inversion cannot be used with these gains (an integrator or a D term on), or None."""
-        for name, gain in self.must_be_zero:
-            if gain != 0:
-                return (f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}); deploy/otter-guided-tau.parm "
-                        "sets it to 0; or use attitude_form rate")
-        return None
+        if (on := self.gain_on()) is None:
+            return None
+        name, gain = on
+        return (f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}); deploy/otter-guided-tau.parm sets it "
+                "to 0; or use attitude_form rate")
+
+    @property
+    def fastest_planned_mps(self) -> float:
+        """The fastest forward speed (m/s) full throttle must pass at: the feed-forwards' own full speed
+        1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE with ATC_SPEED_FF 0) plus ``SURGE_MARGIN_MPS``, since
+        waves surge the hull past it."""
+        return 1.0 / self.speed_ff + SURGE_MARGIN_MPS
 
     def full_throttle_target_mps(self) -> float:
-        """The speed target (m/s) full throttle needs at the fastest forward speed planned for: the feed-forwards'
-        own full speed 1 / speed_ff (CRUISE_SPEED × 100 / CRUISE_THROTTLE with ATC_SPEED_FF 0) plus
-        ``SURGE_MARGIN_MPS``, since waves surge the hull past it; (1 + P·u) / (FF + P) grows with u, so slower
-        speeds (and full astern down to u = −1 / FF) need less."""
-        return self.speed_for_throttle(1.0, 1.0 / self.speed_ff + SURGE_MARGIN_MPS)
+        """The speed target (m/s) full throttle needs at ``fastest_planned_mps``; (1 + P·u) / (FF + P) grows with
+        u, so slower speeds (and full astern down to u = −1 / FF) need less."""
+        return self.speed_for_throttle(1.0, self.fastest_planned_mps)
 
     def wp_speed_problem(self, wp_speed_mps: float) -> str | None:
         """What a WP_SPEED below ``full_throttle_target_mps`` does to this form (its cap on Rover's speed target
@@ -127,7 +136,7 @@ class RoverLoops:
         if wp_speed_mps >= needed:
             return None
         return (f"WP_SPEED {wp_speed_mps:g} m/s caps Rover's speed target below the {needed:.2f} m/s full throttle "
-                f"needs at {1 / self.speed_ff + SURGE_MARGIN_MPS:.1f} m/s: the plan's thrust is cut near full speed; "
+                f"needs at {self.fastest_planned_mps:.1f} m/s: the plan's thrust is cut near full speed; "
                 f"set WP_SPEED >= {needed:.2f} (deploy/otter-guided-tau.parm)")
 
     def warnings(self, wp_speed_mps: float) -> list[str]:
@@ -154,12 +163,14 @@ class RoverLoops:
         return float(np.clip(rate, -self.rate_max_rad_s, self.rate_max_rad_s))
 
 
-def default_speed(wp_speed: float | None, cruise_speed: float | None) -> float:
+def default_speed(read: Callable[[str], float | None]) -> float:
     """Rover's default speed (m/s), which scales SET_ATTITUDE_TARGET's thrust: WP_SPEED, or CRUISE_SPEED where it
-    is 0 (older firmware), else 2 m/s."""
-    if wp_speed is not None and wp_speed > 0:
-        return wp_speed
-    return cruise_speed if cruise_speed is not None and cruise_speed > 0 else 2.0
+    is 0 (older firmware; read only then), else 2 m/s. ``read``: a parameter by name, None when unreadable."""
+    for name in ("WP_SPEED", "CRUISE_SPEED"):
+        speed = read(name)
+        if speed is not None and speed > 0:
+            return speed
+    return 2.0
 
 
 def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n: float, speed_mps: float,

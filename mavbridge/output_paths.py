@@ -172,8 +172,7 @@ class AttitudeTarget(_Sending):
         """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
         also reads Rover's loop gains, refuses them with an I or D term on (LinkError) and warns of what flies
         but not as planned (``RoverLoops.warnings``)."""
-        speed = link.read_parameter("WP_SPEED")
-        self.wp_speed_mps = default_speed(speed, None if speed and speed > 0 else link.read_parameter("CRUISE_SPEED"))
+        self.wp_speed_mps = default_speed(link.read_parameter)
         if self.form == "tau":
             self.loops = loops = RoverLoops.read(link)
             self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "

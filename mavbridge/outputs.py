@@ -15,9 +15,9 @@ import numpy as np
 
 from vessel import OtterParameters, tau_to_shaft_speeds
 
-# SET_ATTITUDE_TARGET type_mask: ignore body roll rate (1), pitch rate (2) and yaw rate (4) -> heading mode.
-ATTITUDE_TYPE_MASK_HEADING = 0b0000_0111  # roll, pitch and yaw rates ignored: heading from q, thrust
-ATTITUDE_TYPE_MASK_RATE = 0b1000_0011  # roll/pitch rates and q ignored: body yaw rate and thrust
+# SET_ATTITUDE_TARGET type_mask bits: ignore body roll rate (1), pitch rate (2), yaw rate (4), attitude (128).
+ATTITUDE_TYPE_MASK_HEADING = 0b0000_0111  # all three rates ignored: heading from q, and thrust
+ATTITUDE_TYPE_MASK_RATE = 0b1000_0011  # roll/pitch rates and q ignored: body yaw rate, and thrust
 ATTITUDE_FORMS = ("heading", "rate", "tau")  # tau: mavbridge.guided_inverse
 
 

@@ -262,14 +262,14 @@ def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> No
     except ValueError as exc:
         report.add(FAIL, "tau form: loop gains", "readable, >= 0", str(exc), "check the link; " + fix)
         return
-    problem, gains = loops.gain_problem(), "ATC_STR_RAT_I/_D, ATC_SPEED_I/_D 0"
+    on, gains = loops.gain_on(), "ATC_STR_RAT_I/_D, ATC_SPEED_I/_D 0"
     absent = [name for name in loops.absent if name != BRAKE]
-    if problem:
-        report.add(FAIL, "tau form: I and D gains", gains, problem.split(";")[0], fix)
+    if on:
+        report.add(FAIL, "tau form: I and D gains", gains, f"{on[0]} is {on[1]:g}", fix)
     else:
         report.add(PASS, "tau form: I and D gains", gains,
                    "all 0" + (f" ({', '.join(absent)} not on this autopilot: 0)" if absent else ""))
-    wp_speed = default_speed(read("WP_SPEED"), values["CRUISE_SPEED"])
+    wp_speed = default_speed(read)
     needed = loops.full_throttle_target_mps()
     status = WARN if loops.wp_speed_problem(wp_speed) else PASS
     report.add(status, "tau form: WP_SPEED", f">= {needed:.2f} m/s (full throttle's speed target)", f"{wp_speed:g} m/s",

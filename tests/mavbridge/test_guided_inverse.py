@@ -138,7 +138,9 @@ def test_what_flies_but_not_as_planned_is_said() -> None:
 
 
 def test_rovers_default_speed_scales_thrust() -> None:
-    assert default_speed(3.5, 2.08) == 3.5 and default_speed(0.0, 2.08) == 2.08 and default_speed(None, None) == 2.0
+    assert default_speed({"WP_SPEED": 3.5, "CRUISE_SPEED": 2.08}.get) == 3.5
+    assert default_speed({"WP_SPEED": 0.0, "CRUISE_SPEED": 2.08}.get) == 2.08
+    assert default_speed({}.get) == 2.0
 
 
 def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:
