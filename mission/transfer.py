@@ -7,9 +7,11 @@ insists on exactly one current item). The high-level Mission plugin is not used:
 from __future__ import annotations
 
 import asyncio
+import gc
 import math
 from collections.abc import AsyncIterator, Callable
-from contextlib import asynccontextmanager
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import aclosing, asynccontextmanager
 from dataclasses import dataclass
 
 import mavsdk
@@ -26,6 +28,7 @@ DEFAULT_URL = "udpin://0.0.0.0:14550"
 GCS_SYSTEM_ID = 245  # MAVSDK's ground-station default; not SYSID_MYGCS, so it never takes the RC link
 GCS_COMPONENT_ID = 190
 MISSION_TYPE_MISSION = 0
+HOME_POSITION_WAIT_S = 3.0  # HOME_POSITION is requested at connection; after this, home comes from the mission
 
 
 class TransferError(RuntimeError):
@@ -47,14 +50,39 @@ def _quiet_mavsdk() -> None:
 
 
 @asynccontextmanager
+async def plugins_released_before_teardown() -> AsyncIterator[None]:
+    """Run MAVSDK's blocking calls on a thread pool of our own, and join it before the Mavsdk instance goes.
+
+    MAVSDK's asyncio wrappers run each blocking call (an upload, a download, an arm) in the event loop's
+    default executor, and the worker thread holds the call, and so its plugin, for a moment after the
+    result is back. When that reference is the plugin's last, the worker releases the plugin while this
+    thread is already destroying Mavsdk, and MAVSDK 4.1 aborts the process if a plugin is still alive at
+    that point (seen under load: `mission upload` exiting with SIGABRT right after "upload accepted").
+    Joining the pool, then collecting reference cycles on this thread, releases every plugin first.
+    Enter it inside ``async with Mavsdk(...)``, so that it is left before the instance is destroyed.
+    """
+    pool = ThreadPoolExecutor(thread_name_prefix="mavsdk-call")
+    asyncio.get_running_loop().set_default_executor(pool)
+    try:
+        yield
+    finally:
+        pool.shutdown(wait=True)  # waits, too, for a call whose await was cancelled but still runs in C
+        gc.collect()
+
+
+@asynccontextmanager
 async def connected_system(url: str, timeout_s: float, progress: Callable[[str], None]) -> AsyncIterator[object]:
-    """Connect to ``url`` and yield the first autopilot found, or raise TransferError on timeout."""
+    """Connect to ``url`` and yield the first autopilot found, or raise TransferError on timeout.
+
+    Every plugin made from the system inside the block is released before the Mavsdk instance
+    (`plugins_released_before_teardown`).
+    """
 
     _quiet_mavsdk()
     config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
     config.system_id = GCS_SYSTEM_ID
     config.component_id = GCS_COMPONENT_ID
-    async with Mavsdk(config) as drone:
+    async with Mavsdk(config) as drone, plugins_released_before_teardown():
         try:
             await drone.add_any_connection(url)
         except MavsdkConnectionError as exc:
@@ -116,13 +144,14 @@ async def vehicle_home(system: object, timeout_s: float) -> Home:
     telemetry = TelemetryAsync(system)
 
     async def first_home() -> Home:
-        async for position in telemetry.subscribe_home():
-            if math.isfinite(position.latitude_deg) and (position.latitude_deg or position.longitude_deg):
-                return Home(position.latitude_deg, position.longitude_deg, position.absolute_altitude_m)
+        async with aclosing(telemetry.subscribe_home()) as homes:  # unsubscribes here, not when collected
+            async for position in homes:
+                if math.isfinite(position.latitude_deg) and (position.latitude_deg or position.longitude_deg):
+                    return Home(position.latitude_deg, position.longitude_deg, position.absolute_altitude_m)
         raise TransferError("the vehicle's home stream ended")
 
     try:
-        return await asyncio.wait_for(first_home(), min(timeout_s, 3.0))
+        return await asyncio.wait_for(first_home(), min(timeout_s, HOME_POSITION_WAIT_S))
     except TimeoutError:
         pass
     try:

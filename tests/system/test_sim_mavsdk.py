@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from mission.transfer import connected_system
 from sim_vehicle.harness import SimProcess
 
-mavsdk = pytest.importorskip("mavsdk.asyncio")
 mission_raw = pytest.importorskip("mavsdk.asyncio.plugins.mission_raw")
 action = pytest.importorskip("mavsdk.asyncio.plugins.action")
 
@@ -26,11 +26,8 @@ def _degE7(north: float, east: float) -> tuple[int, int]:
 async def _scenario(port: int) -> tuple[list, list]:
     """Connect, upload home + one waypoint 30 m North, download, arm, start, wait for completion."""
     MissionItem = mission_raw.MissionItem
-    config = mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.GROUND_STATION)
-    async with mavsdk.Mavsdk(config) as sdk:
-        await sdk.add_any_connection(f"udpin://127.0.0.1:{port}")
-        system = await sdk.first_autopilot(10.0)
-        assert system is not None
+    # connected_system releases the plugins before the Mavsdk instance, as MAVSDK 4.1 requires
+    async with connected_system(f"udpin://127.0.0.1:{port}", 10.0, lambda _line: None) as system:
         missions = mission_raw.MissionRawAsync(system)
         home = _degE7(0, 0)
         wp = _degE7(30, 0)
