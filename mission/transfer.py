@@ -9,12 +9,14 @@ from __future__ import annotations
 import asyncio
 import gc
 import math
+import sys
 from collections.abc import AsyncIterator, Callable
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import aclosing, asynccontextmanager
 from dataclasses import dataclass
 
 import mavsdk
+from mavsdk import LogLevel
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk, MavsdkConnectionError
 from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync, MissionRawError
@@ -44,9 +46,20 @@ class Home:
     alt_m: float
 
 
+def _mavsdk_log_line(level: LogLevel, message: str, _file: str | None, _line: int) -> bool:
+    """Print MAVSDK's ERROR lines on stderr, drop the rest; True: MAVSDK prints nothing itself.
+
+    Transfer failures are reported by us in one line; MAVSDK's own errors are kept because they are
+    the only explanation of a fatal one (MAVSDK 4.1 logs why, then aborts the process).
+    """
+    if level >= LogLevel.ERROR:
+        print(f"MAVSDK error: {message}", file=sys.stderr, flush=True)
+    return True
+
+
 def _quiet_mavsdk() -> None:
-    """Keep MAVSDK's own log lines off the operator's terminal (errors are reported by us)."""
-    mavsdk.log_subscribe(lambda level, message, file, line: True)
+    """Keep MAVSDK's debug, info and warning lines off the operator's terminal."""
+    mavsdk.log_subscribe(_mavsdk_log_line)
 
 
 @asynccontextmanager
