@@ -72,15 +72,18 @@ async def plugins_released_before_teardown() -> AsyncIterator[None]:
     thread is already destroying Mavsdk, and MAVSDK 4.1 aborts the process if a plugin is still alive at
     that point (seen under load: `mission upload` exiting with SIGABRT right after "upload accepted").
     Joining the pool, then collecting reference cycles on this thread, releases every plugin first.
-    Enter it inside ``async with Mavsdk(...)``, so that it is left before the instance is destroyed.
+    Enter it inside ``async with Mavsdk(...)``, so that it is left before the instance is destroyed. One
+    at a time per event loop: two open at once would swap the loop's executor under each other.
     """
+    loop = asyncio.get_running_loop()
     pool = ThreadPoolExecutor(thread_name_prefix="mavsdk-call")
-    asyncio.get_running_loop().set_default_executor(pool)
+    loop.set_default_executor(pool)
     try:
         yield
     finally:
         pool.shutdown(wait=True)  # waits, too, for a call whose await was cancelled but still runs in C
         gc.collect()
+        loop.set_default_executor(ThreadPoolExecutor())  # for the loop's later to_thread calls; no threads yet
 
 
 @asynccontextmanager

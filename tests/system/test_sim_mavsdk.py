@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import asyncio
 import math
+from contextlib import aclosing
 from pathlib import Path
 
-import pytest
+from mavsdk.asyncio.plugins import action, mission_raw
 
 from mission.transfer import connected_system
 from sim_vehicle.harness import SimProcess
-
-mission_raw = pytest.importorskip("mavsdk.asyncio.plugins.mission_raw")
-action = pytest.importorskip("mavsdk.asyncio.plugins.action")
 
 HOME_LAT, HOME_LON = -35.363261, 149.165230
 
@@ -42,10 +40,11 @@ async def _scenario(port: int) -> tuple[list, list]:
         progress = []
 
         async def watch() -> None:
-            async for p in missions.subscribe_mission_progress():
-                progress.append((p.current, p.total))
-                if p.current == p.total == 2:
-                    return
+            async with aclosing(missions.subscribe_mission_progress()) as updates:
+                async for p in updates:
+                    progress.append((p.current, p.total))
+                    if p.current == p.total == 2:
+                        return
 
         await asyncio.wait_for(watch(), timeout=20.0)
         return downloaded, progress
