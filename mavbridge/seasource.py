@@ -69,11 +69,13 @@ class WaveEstimate:
     phase_rad: float
     confidence: float = 1.0  # 0 (nothing known) .. 1 (certain)
     extras: dict[str, float] = field(default_factory=dict)  # estimator-specific figures for the log
+    roll_sign: float = 1.0  # how the hull rolls with the slope across it: +1 the paper's plant, −1 geometric
 
     def field(self) -> RegularWaves:
-        """The estimate as a wave field the NMPC can predict with (the paper's roll sign)."""
+        """The estimate as a wave field the NMPC can predict with, rolling the hull with the estimate's sign
+        (the one the estimator read the slope with), so that the prediction rolls as the boat does."""
         return RegularWaves(self.height_m, self.length_m, self.period_s, self.travel_dir_rad,
-                            phase_rad=self.phase_rad)
+                            phase_rad=self.phase_rad, paper_roll_sign=self.roll_sign > 0)
 
     def row(self) -> dict[str, float]:
         """Per-step log columns, units in the names."""
@@ -132,4 +134,5 @@ class ScenarioTruth:
         w = self.waves
         if isinstance(w, CalmWater) or not isinstance(w, RegularWaves):
             return None
-        return WaveEstimate(w.height_m, w.period_s, w.length_m, w.travel_dir_rad, w.phase_rad, 1.0)
+        return WaveEstimate(w.height_m, w.period_s, w.length_m, w.travel_dir_rad, w.phase_rad, 1.0,
+                            roll_sign=w.roll_sign)

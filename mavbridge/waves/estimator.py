@@ -9,7 +9,11 @@ a normalised Belleter observer as an option) finds the encounter frequency ω_e 
 principal axis; an oscillator at ω_e demodulates every signal (recursive LMS sinusoid fits) and a
 frequency-locked loop on the common rotation of the slope phasors pulls the oscillator onto ω_e (what
 rotation is left is added to ω_e and undone in the phasors). The hull's own roll/pitch response to
-the slope (gain, phase; ``calibration``) is divided out of the roll and pitch phasors. Per estimate,
+the slope (gain, phase; ``calibration``) is divided out of the roll and pitch phasors. One convention for
+roll: ``roll_sign`` alone says which way the hull rolls with the slope across it (+1 the paper's plant,
+−1 geometric, a real hull), and ``roll_phase_deg`` is only the hull's dynamic lag behind roll_sign × slope
+(within ±90°; the calibration measures it with the model hull rolling that way), so a sign is never also a
+phase near ±180°. The estimates carry the sign, so the NMPC predicts the roll the hull has. Per estimate,
 ``solve`` turns the phasors into the wave: with heave (IMU, else GPS height), k = |slope|/|heave| and
 the travel direction from the quadrature of slope against heave, ω = ω_e + k·(V·d); without heave (the
 paper's hull), k, ω and the sign of the direction come from the Doppler line (``doppler``) once the
@@ -236,7 +240,7 @@ class WaveEstimator:
         north, east = self._watch.pos[0] + self._watch.vel[0] * lag, self._watch.pos[1] + self._watch.vel[1] * lag
         eps = phase_offset(sol, self._t, north, east)
         return WaveEstimate(2 * sol.amplitude_m, 2 * math.pi / sol.omega, 2 * math.pi / sol.wavenumber,
-                            math.remainder(sol.travel_dir_rad, 2 * math.pi), eps, conf, extras)
+                            math.remainder(sol.travel_dir_rad, 2 * math.pi), eps, conf, extras, self.s.roll_sign)
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The wave to plan against at ``t_s`` (its phase is time-invariant); None while not confident."""

@@ -47,9 +47,12 @@ def calibrated_settings(params: Any, surface_heave: bool, roll_sign: float) -> E
     """The hull's roll/pitch response to the slope, measured once on the vessel model in a fixed lab sea.
 
     The lab sea is the paper's wave at another phase, the hull heading 45° at 70 rad/s shafts for 80 s:
-    a property of the hull, not of the run's (hidden) sea.
+    a property of the hull, not of the run's (hidden) sea. The model hull rolls in it with the sign the
+    estimator is told (``roll_sign``: +1 the paper's plant, −1 geometric, a real hull), so the sign lives in
+    ``roll_sign`` alone and the measured ``roll_phase_deg`` is the hull's dynamic lag, a few degrees, never
+    the ±180° of a sign said twice.
     """
-    sea = paper_sea(2.0)
+    sea = dataclasses.replace(paper_sea(2.0), paper_roll_sign=roll_sign > 0)
     x0 = np.zeros(14)
     x0[5] = math.radians(45.0)
     plant = Plant(params, sea, dt=0.01, x0=x0, surface_heave=surface_heave)

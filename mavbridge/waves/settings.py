@@ -16,7 +16,8 @@ class EstimatorSettings:
     roll_sign: float = bounded(1.0, -1.0, 1.0, "", "+1: roll = +slope across the hull (the paper's plant); "
                                "−1: geometric (a real hull)")
     roll_gain: float = bounded(1.0, 0.1, 10.0, "", "hull roll / slope across the hull near ω_e (calibration)")
-    roll_phase_deg: float = bounded(0.0, -90.0, 90.0, "deg", "phase of hull roll against that slope")
+    roll_phase_deg: float = bounded(0.0, -90.0, 90.0, "deg", "phase of hull roll against roll_sign × that slope: "
+                                    "the hull's lag only, the sign being roll_sign's")
     pitch_gain: float = bounded(1.0, 0.1, 10.0, "", "hull pitch / slope along the hull near ω_e (calibration)")
     pitch_phase_deg: float = bounded(0.0, -90.0, 90.0, "deg", "phase of hull pitch against that slope")
     fit_tau_s: float = bounded(2.0, 0.2, 30.0, "s", "time constant of the sinusoid fits")
@@ -48,6 +49,12 @@ class EstimatorSettings:
     max_gap_s: float = bounded(1.0, 0.05, 60.0, "s", "a longer silence restarts the settling")
 
     def __post_init__(self) -> None:
+        for axis in ("roll", "pitch"):
+            phase = getattr(self, f"{axis}_phase_deg")
+            if isinstance(phase, (int, float)) and abs(phase) > 90.0:
+                raise ConfigError(f"{axis}_phase_deg: {phase:g} is outside the allowed range [-90, 90] deg; a phase "
+                                  "beyond ±90° is a reversed sign, which roll_sign says (wave_roll_sign in the "
+                                  "companion's YAML, estimation.roll_sign in a scenario): set that instead")
         validate(self)
         if self.roll_sign not in (-1.0, 1.0):
             raise ConfigError(f"roll_sign: {self.roll_sign!r} is not one of -1, 1")
