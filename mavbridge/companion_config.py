@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vessel.config import ConfigError, bounded, from_mapping, read_yaml
+from vessel.config import ConfigError, bounded, from_mapping, in_file, read_yaml
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
 from .cli_args import OUTPUTS, WAVE_SOURCES
@@ -78,4 +78,9 @@ def load_companion_config(path: str | Path | None, **overrides: Any) -> Companio
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping of settings")
     data.update({k: v for k, v in overrides.items() if v is not None})
-    return from_mapping(CompanionConfig, data, str(path) if path else "configuration")
+    if not path:
+        return from_mapping(CompanionConfig, data, "configuration")
+    try:
+        return from_mapping(CompanionConfig, data, "")
+    except ConfigError as exc:
+        raise in_file(path, exc) from None

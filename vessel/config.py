@@ -21,7 +21,26 @@ T = TypeVar("T")
 
 
 class ConfigError(ValueError):
-    """A configuration value or file is unusable; the message is one line meant for the user."""
+    """A configuration value or file is unusable; the message is one line meant for the user.
+
+    ``key`` and ``default`` name the field that was refused and its default, when one field was (set by
+    :func:`from_mapping`), so that a file's loader can say what to do (:func:`in_file`).
+    """
+
+    key: str | None = None
+    default: Any = None
+
+
+def in_file(path: str | Path, exc: ConfigError) -> ConfigError:
+    """``exc`` as a file's error: the file, the key and the range, then what to do about it."""
+    text = str(exc)
+    if exc.key is None:
+        return ConfigError(f"{path}: {text}")
+    default = "none" if exc.default is None else f"{exc.default!r}"
+    fix = f"correct {exc.key} in {path}, or delete the line to use its default ({default})"
+    error = ConfigError(f"{path}: {text}; {fix}")
+    error.key, error.default = exc.key, exc.default
+    return error
 
 
 def bounded(default: Any, lo: float | None = None, hi: float | None = None, unit: str = "",
@@ -115,21 +134,40 @@ def from_mapping(cls: type[T], data: Any, where: str) -> T:
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        raise ConfigError(f"{where}: expected a mapping of fields, got {type(data).__name__}")
+        raise ConfigError(f"{where or 'configuration'}: expected a mapping of fields, got {type(data).__name__}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(map(str, data)) - set(fields))
     if unknown:
-        raise ConfigError(f"{where}: unknown key '{unknown[0]}' (allowed: {', '.join(sorted(fields))})")
+        at = f"{where}: " if where else ""
+        raise ConfigError(f"{at}unknown key '{unknown[0]}' (allowed: {', '.join(sorted(fields))})")
     values = {}
     for name, value in data.items():
-        values[name] = _convert(value, hints[name], f"{where}.{name}" if where else name,
-                                fields[name].metadata)
+        key = f"{where}.{name}" if where else name
+        try:
+            values[name] = _convert(value, hints[name], key, fields[name].metadata)
+        except ConfigError as exc:
+            if exc.key is None:  # the innermost field that was refused is the one to name
+                exc.key, exc.default = key, _default_of(fields[name])
+            raise
     try:
         obj = cls(**values)
-    except ConfigError as exc:  # cross-field checks in __post_init__
-        raise ConfigError(f"{where}: {exc}") from None
+    except ConfigError as exc:  # cross-field checks in __post_init__: they name their field first
+        error = ConfigError(f"{where}: {exc}" if where else str(exc))
+        name = str(exc).partition(":")[0]
+        if exc.key is None and name in fields:
+            error.key, error.default = (f"{where}.{name}" if where else name), _default_of(fields[name])
+        raise error from None
     return obj
+
+
+def _default_of(f: dataclasses.Field[Any]) -> Any:
+    """A field's default value (for a message), None where it has none."""
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    return None
 
 
 def validate(obj: Any, where: str = "") -> None:
