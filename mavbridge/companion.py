@@ -146,7 +146,7 @@ class Companion:
         self._failure: str | None = None  # set when the run ends in a failure (exit 1): systemd restarts it
         self.link: Link | None = None
         self._stop_reason: str | None = None
-        self._in_loop = False
+        self._signal_interrupts = True  # until the loop runs, a stop signal interrupts a blocking wait
         self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
         self.deferred_start: DeferredStart | None = None  # lockstep --start-at --set-mode: switch at the first tick
 
@@ -231,7 +231,7 @@ class Companion:
 
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
-        if not self._in_loop:  # still connecting or preparing: stop now, the loop is not there to see it
+        if self._signal_interrupts:  # still connecting or preparing: stop now, the loop is not there to see it
             raise LinkError(f"stopped by {self._stop_reason} before flying")
 
     def run(self) -> int:
@@ -262,13 +262,14 @@ class Companion:
             else:
                 self.log(f"mavbridge run: error: {exc}")
                 code = 1
-        finally:
+        finally:  # a second signal from here on is only noted: the release and the logs must not be cut short
+            self._signal_interrupts = False
             if self.commands.commanding:
                 self.commands.stand_down(link, self.state)
-            for s, handler in previous.items():
-                signal.signal(s, handler)
             self._write_logs()
             link.close()
+            for s, handler in previous.items():
+                signal.signal(s, handler)
         return 1 if self._failure else code
 
     def _service_link(self, link: Link) -> bool:
@@ -294,7 +295,7 @@ class Companion:
     def _fly(self, link: Link) -> None:
         """The loop: one control step per period of autopilot time, until a final phase."""
         next_tick_ms: int | None = None
-        self._in_loop = True
+        self._signal_interrupts = False
         while not self.supervisor.phase.final:
             if self._stop_reason:
                 self.supervisor.stop(self._stop_reason)

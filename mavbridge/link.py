@@ -114,6 +114,8 @@ class Link:
         """
         try:
             msg = self.conn.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
+        except LinkError:  # a stop request (SIGTERM, Ctrl-C) raised by the signal handler while blocked here
+            raise
         except Exception:  # a malformed frame must never kill the companion
             self.counts["bad"] += 1
             return None
