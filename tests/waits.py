@@ -182,3 +182,21 @@ def await_message(conn: Any, kind: str, what: str, sim_s: float, cond: Callable[
     waited = f"{now - start:.1f} s simulated" if now is not None and start is not None else "no stamped message"
     raise WaitTimeoutError(f"timed out waiting for {what} ({kind}): {waited}, limit {sim_s:g} s simulated / "
                       f"{wall_s:g} s wall")
+
+
+HOME_LAT, HOME_LON = -35.363261, 149.165230  # the simulator's default home (ArduPilot's CMAC)
+
+
+def upload_waypoint(conn: Any, north: float, east: float, home: tuple[float, float] = (HOME_LAT, HOME_LON)) -> None:
+    """Home placeholder + one NAV_WAYPOINT ``north``/``east`` metres from ``home``, with the mission protocol
+    (as MAVSDK's MissionRaw or a ground station would); raises unless the autopilot accepts it."""
+    from vessel.geo import latlon_from_ned
+
+    lat, lon = latlon_from_ned(*home, north, east)
+    conn.mav.mission_count_send(1, 1, 2, 0)
+    for seq, (x, y) in enumerate([home, (lat, lon)]):
+        request = wait_for(conn, ["MISSION_REQUEST", "MISSION_REQUEST_INT"], 5)
+        assert request.seq == seq, f"the autopilot asked for item {request.seq}, expected {seq}"
+        conn.mav.mission_item_int_send(1, 1, seq, 3, 16, 0, 1, 0, 0, 0, 0, round(x * 1e7), round(y * 1e7), 0, 0)
+    ack = wait_for(conn, "MISSION_ACK", 5)
+    assert ack.type == 0, f"mission refused: {ack}"

@@ -23,27 +23,11 @@ from mavbridge.preflight.rules import (
 )
 from sim_vehicle.harness import SimProcess
 from sim_vehicle.params import ParamTable, read_parm
-from tests.waits import wait_for
-from vessel.geo import latlon_from_ned
+from tests.waits import upload_waypoint
 
 ROOT = Path(__file__).resolve().parents[2]
 PARM = ROOT / "deploy" / "otter-rover.parm"
-HOME_LAT, HOME_LON = -35.363261, 149.165230  # the simulator's default home (CMAC)
 pytestmark = pytest.mark.slow
-
-
-def _upload_waypoint(sim: SimProcess, north: float, east: float) -> None:
-    """Home placeholder + one NAV_WAYPOINT with the mission protocol (as MAVSDK's MissionRaw would)."""
-    conn = sim.connect()
-    lat, lon = latlon_from_ned(HOME_LAT, HOME_LON, north, east)
-    conn.mav.mission_count_send(1, 1, 2, 0)
-    for seq in (0, 1):
-        request = wait_for(conn, "MISSION_REQUEST", 5)
-        assert request is not None and request.seq == seq
-        x, y = (round(HOME_LAT * 1e7), round(HOME_LON * 1e7)) if seq == 0 else (round(lat * 1e7), round(lon * 1e7))
-        conn.mav.mission_item_int_send(1, 1, seq, 3, 16, 0, 1, 0, 0, 0, 0, x, y, 0, 0)
-    ack = wait_for(conn, "MISSION_ACK", 5)
-    assert ack is not None and ack.type == 0
 
 
 def _check(tmp_path: Path, extra_parm: str = "", *args: str, waypoint: tuple[float, float] | None = (85, 75)
@@ -53,7 +37,7 @@ def _check(tmp_path: Path, extra_parm: str = "", *args: str, waypoint: tuple[flo
     parm.write_text(PARM.read_text() + "\n# test override\n" + extra_parm + "\n")
     with SimProcess(tmp_path, speedup=5, udp_outs=2, extra=["--params", str(parm)]) as sim:
         if waypoint is not None:
-            _upload_waypoint(sim, *waypoint)
+            upload_waypoint(sim.connect(), *waypoint)
         out = io.StringIO()
         with redirect_stdout(out):
             code = main(["check", "--config", str(ROOT / "deploy" / "companion-sim.yaml"),
