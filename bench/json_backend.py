@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_vehicle.json_backend import JsonBackend
-from sim_vehicle.json_backend_model import JsonPhysics
-from sim_vehicle.json_backend_protocol import encode_reply, encode_servo_packet, motor_output_to_pwm
+from sim_vehicle.json_backend.backend import JsonBackend
+from sim_vehicle.json_backend.model import JsonPhysics
+from sim_vehicle.json_backend.protocol import encode_reply, encode_servo_packet, motor_output_to_pwm
 from vessel import OceanCurrent, otter_parameters
-from vessel.irregular_sea import IrregularSea
+from vessel.sea.irregular_sea import IrregularSea
 from vessel.world import sea_preset
 
 RATE_HZ = 400

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mavbridge.outputs import ATTITUDE_FORMS
+from mavbridge.companion.outputs import ATTITUDE_FORMS
 
 
 def seeds(text: str) -> list[int]:

@@ -32,8 +32,8 @@ from mavlink_estimated import (  # this folder is on sys.path when run as a scri
     run_demo,
 )
 
-from mavbridge.experiment import run_scenario
-from mavbridge.scenario import Scenario
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import Scenario
 
 PATHS = ("rc_override", "attitude_target")
 

@@ -42,11 +42,11 @@ import numpy as np
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import mavbridge.experiment
-from mavbridge.experiment import run_scenario
+import mavbridge.lab.experiment
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import load_scenarios
 from mavbridge.nmpc import NmpcResult, RollAwareNmpc
-from mavbridge.scenario import load_scenarios
-from mavbridge.seasource import WaveEstimate
+from mavbridge.waves.source import WaveEstimate
 from vessel import RegularWaves
 
 # name -> controller overrides
@@ -112,14 +112,14 @@ class WaveFedNmpc(RollAwareNmpc):
 @contextlib.contextmanager
 def wave_fed(noise: tuple[float, float]) -> Iterator[type[WaveFedNmpc]]:
     """The experiment runner builds WaveFedNmpc controllers while inside (it builds its own controller)."""
-    original = mavbridge.experiment.RollAwareNmpc
+    original = mavbridge.lab.experiment.RollAwareNmpc
     WaveFedNmpc.noise = noise
     WaveFedNmpc.set_wave_s = []
-    mavbridge.experiment.RollAwareNmpc = WaveFedNmpc
+    mavbridge.lab.experiment.RollAwareNmpc = WaveFedNmpc
     try:
         yield WaveFedNmpc
     finally:
-        mavbridge.experiment.RollAwareNmpc = original
+        mavbridge.lab.experiment.RollAwareNmpc = original
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from vessel import SEA_PRESETS, Plant, otter_parameters, plant_ode
-from vessel.irregular_sea import IrregularSea
+from vessel.sea.irregular_sea import IrregularSea
 
 
 def time_run(waves: object, integrator: str, duration: float, dt: float, repeats: int,

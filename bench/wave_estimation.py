@@ -232,8 +232,8 @@ def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "pape
     import dataclasses
     from pathlib import Path
 
-    from mavbridge.experiment import run_scenario
-    from mavbridge.scenario import load_scenarios
+    from mavbridge.lab.experiment import run_scenario
+    from mavbridge.lab.scenario import load_scenarios
 
     path = Path(__file__).resolve().parents[1] / "scenarios" / SEAS[sea]
     base = {sc.name: sc for sc in load_scenarios(path)}

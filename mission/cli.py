@@ -10,12 +10,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
+from mission import transfer
+from mission.files import check_output_file, read_mission_file, write_mission_file
+from mission.plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, check_range, validate
 from vessel.argtypes import positive_metres
 from vessel.geo import DEFAULT_MAX_RANGE_M
-
-from . import transfer
-from .files import check_output_file, read_mission_file, write_mission_file
-from .plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, check_range, validate
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1

@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, validate
+from mission.plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, validate
 
 WPL_HEADER = "QGC WPL 110"
 WPL_FIELDS = 12

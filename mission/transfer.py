@@ -22,9 +22,8 @@ from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync, MissionRawError
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 
+from mission.plan import FRAME_GLOBAL, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem, validate
 from vessel.geo import latlon_from_ned
-
-from .plan import FRAME_GLOBAL, MAV_CMD_NAV_WAYPOINT, Mission, MissionItem, validate
 
 DEFAULT_URL = "udpin://0.0.0.0:14550"
 GCS_SYSTEM_ID = 245  # MAVSDK's ground-station default; not SYSID_MYGCS, so it never takes the RC link

@@ -12,19 +12,18 @@ import sys
 from pathlib import Path
 from typing import NoReturn
 
+from sim_vehicle import lockstep
+from sim_vehicle.argtypes import SEED_MAX, positive_seconds, sea_state_number, seed_number
+from sim_vehicle.cli_checks import check_outputs, check_params_store, check_serial, open_failure
+from sim_vehicle.logs import fresh_log_dir
+from sim_vehicle.mavlink.signing import store_signing_passphrase
+from sim_vehicle.rover.params import ParamTable, is_param_name, read_parm
+from sim_vehicle.scenario import sim_world
+from sim_vehicle.sim import Options, Simulator
 from vessel.argtypes import naming
 from vessel.config import ConfigError
 from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
-
-from . import lockstep
-from .argtypes import SEED_MAX, positive_seconds, sea_state_number, seed_number
-from .cli_checks import check_outputs, check_params_store, check_serial, open_failure
-from .logs import fresh_log_dir
-from .params import ParamTable, is_param_name, read_parm
-from .scenario import sim_world
-from .signing import store_signing_passphrase
-from .sim import Options, Simulator
 
 DEFAULT_STORE = Path("runs") / "sim_state" / "params.json"
 DEFAULT_OUTPUTS = ["udp:127.0.0.1:14550", "udp:127.0.0.1:14551"]
@@ -292,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
     """Parse the command line, build the simulator and run it until a signal or --duration."""
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     if any(a == "--json-backend" or a.startswith("--json-backend=") for a in argv):
-        from .json_backend_cli import main as json_backend_main  # its own mode with its own options
+        from sim_vehicle.json_backend.cli import main as json_backend_main  # its own mode with its own options
 
         return json_backend_main(argv)
     args = build_parser().parse_args(argv)

@@ -8,12 +8,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim_vehicle.rover.control import NavState
+from sim_vehicle.rover.mixer import output_to_shaft_speed
+from sim_vehicle.scenario import seeded_waves
+from sim_vehicle.sensing import Sensing
 from vessel import Plant, World
-
-from .control import NavState
-from .mixer import output_to_shaft_speed
-from .scenario import seeded_waves
-from .sensing import Sensing
 
 PHYSICS_DT_S = 0.01
 

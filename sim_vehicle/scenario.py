@@ -22,10 +22,10 @@ import numpy as np
 
 from vessel.config import ConfigError, validate
 from vessel.geo import Home
-from vessel.irregular import IrregularWaves
-from vessel.irregular_sea import IrregularSea, parse_sea_spec
-from vessel.sea_state import SeaState, Start
-from vessel.waves import RegularWaves, WaveField
+from vessel.sea.irregular import IrregularWaves
+from vessel.sea.irregular_sea import IrregularSea, parse_sea_spec
+from vessel.sea.state import SeaState, Start
+from vessel.sea.waves import RegularWaves, WaveField
 from vessel.world import World, load_world, sea_preset, world_preset
 
 TIME_ORIGIN_MAX_S = 3600.0  # an irregular sea's hidden time origin is drawn from [0, this)

@@ -13,22 +13,21 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from sim_vehicle.clock import Pacer
+from sim_vehicle.lockstep import DEFAULT_TIMEOUT_S
+from sim_vehicle.mavlink.gcs import Gcs
+from sim_vehicle.mavlink.telemetry import Telemetry
+from sim_vehicle.physics import PHYSICS_DT_S, Physics, nav_state
+from sim_vehicle.rover.battery import Battery
+from sim_vehicle.rover.mission import MissionStore
+from sim_vehicle.rover.modes import Mode
+from sim_vehicle.rover.params import ParamTable
+from sim_vehicle.rover.vehicle import Vehicle
+from sim_vehicle.sim_hold import make_lockstep_hold, wait_for_first_client
+from sim_vehicle.sim_logs import SimLogs
+from sim_vehicle.sim_ports import banner, open_ports
 from vessel import World, world_preset
 from vessel.geo import Home
-
-from .battery import Battery
-from .clock import Pacer
-from .gcs import Gcs
-from .lockstep import DEFAULT_TIMEOUT_S
-from .mission import MissionStore
-from .modes import Mode
-from .params import ParamTable
-from .physics import PHYSICS_DT_S, Physics, nav_state
-from .sim_hold import make_lockstep_hold, wait_for_first_client
-from .sim_logs import SimLogs
-from .sim_ports import banner, open_ports
-from .telemetry import Telemetry
-from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
 REBOOT_SILENCE_S = 2.0  # wall seconds a reboot is silent (an autopilot's boot; SITL's restart)

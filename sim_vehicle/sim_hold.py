@@ -14,15 +14,14 @@ from collections.abc import Callable
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from sim_vehicle.clock import Pacer
+from sim_vehicle.lockstep import Lockstep
+from sim_vehicle.mavlink.gcs import Gcs
+from sim_vehicle.mavlink.link import Channel
+from sim_vehicle.mavlink.telemetry import Telemetry
+from sim_vehicle.rover.params import ParamTable
+from sim_vehicle.rover.vehicle import Vehicle
 from vessel.config import ConfigError
-
-from .clock import Pacer
-from .gcs import Gcs
-from .link import Channel
-from .lockstep import Lockstep
-from .params import ParamTable
-from .telemetry import Telemetry
-from .vehicle import Vehicle
 
 log = logging.getLogger("sim_vehicle")
 HOLD_POLL_S = 0.01  # wall seconds between link polls while simulated time is held

@@ -13,12 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from sim_vehicle.json_backend.log import write_sea_record
+from sim_vehicle.logs import StateCsv, TlogWriter
+from sim_vehicle.physics import Physics
+from sim_vehicle.rover.vehicle import Vehicle
 from vessel import World
-
-from .json_backend_log import write_sea_record
-from .logs import StateCsv, TlogWriter
-from .physics import Physics
-from .vehicle import Vehicle
 
 CSV_FLUSH_S = 1.0  # wall seconds between flushes of state.csv (a killed run keeps all but the last second)
 

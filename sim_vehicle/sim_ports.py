@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import logging
 
+from sim_vehicle.mavlink.gcs import Gcs
+from sim_vehicle.mavlink.telemetry import FIRMWARE_VERSION
+from sim_vehicle.rover.params import ParamTable, baud_from_code
 from vessel.config import ConfigError
-
-from .gcs import Gcs
-from .params import ParamTable, baud_from_code
-from .telemetry import FIRMWARE_VERSION
 
 log = logging.getLogger("sim_vehicle")
 FRAME_CLASS_BOAT = 2

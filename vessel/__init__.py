@@ -3,24 +3,24 @@
 No MAVLink here; both the simulator and the NMPC build on this package. The world of a run (vessel,
 sea, start) is described once in :mod:`vessel.world`; latitude/longitude and angle wraps live in
 :mod:`vessel.geo`.
+
+Rooms: the hull and its numbers at the top level (``params``, ``dynamics``, ``allocation``, ``plant``,
+``imu``, ``sensors``, ``maneuver``, ``world``, ``config``, ``geo``), the sea in ``vessel.sea``.
+
+May import: nothing of ours (numpy, CasADi, PyYAML only). Imported by every other package.
 """
 
-from .allocation import (
-    propeller_thrust,
-    shaft_speeds_to_tau,
-    tau_limits,
-    tau_to_shaft_speeds,
-)
-from .config import ConfigError
-from .dynamics import NX_PLANT, NX_RIGID, STATE_COLUMNS, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
-from .irregular import IrregularWaves, hull_averaging_factor, synthesise
-from .irregular_sea import IrregularSea, parse_sea_spec
-from .params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
-from .plant import Plant, plant_step
-from .sea_state import SeaState, Start
-from .spectra import jonswap, nato_sea_state, pierson_moskowitz, wavenumber
-from .waves import CalmWater, RegularWaves, WaveField
-from .world import SEA_PRESETS, World, load_world, world_preset
+from vessel.allocation import propeller_thrust, shaft_speeds_to_tau, tau_limits, tau_to_shaft_speeds
+from vessel.config import ConfigError
+from vessel.dynamics import NX_PLANT, NX_RIGID, STATE_COLUMNS, STATE_NAMES, OceanCurrent, plant_ode, rigid_body_ode
+from vessel.params import OtterMatrices, OtterParameters, load_parameters, otter_parameters
+from vessel.plant import Plant, plant_step
+from vessel.sea.irregular import IrregularWaves, hull_averaging_factor, synthesise
+from vessel.sea.irregular_sea import IrregularSea, parse_sea_spec
+from vessel.sea.spectra import jonswap, nato_sea_state, pierson_moskowitz, wavenumber
+from vessel.sea.state import SeaState, Start
+from vessel.sea.waves import CalmWater, RegularWaves, WaveField
+from vessel.world import SEA_PRESETS, World, load_world, world_preset
 
 __all__ = [
     "NX_PLANT",

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from .mathops import ops, where
-from .params import OtterParameters
+from vessel.mathops import ops, where
+from vessel.params import OtterParameters
 
 
 def saturate_shaft_speed(params: OtterParameters, n: Any) -> Any:

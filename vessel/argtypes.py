@@ -9,7 +9,7 @@ from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from .config import ConfigError
+from vessel.config import ConfigError
 
 
 def positive_quantity(what: str, unit: str) -> Callable[[str], float]:

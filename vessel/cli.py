@@ -8,13 +8,13 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
-from . import seacli
-from .argtypes import check_output_file, naming, plot_formats
-from .config import ConfigError
-from .maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
-from .params import PARAMETER_SETS, load_parameters, otter_parameters
-from .plant import INTEGRATORS
-from .world import SEA_PRESETS
+from vessel.argtypes import check_output_file, naming, plot_formats
+from vessel.config import ConfigError
+from vessel.maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
+from vessel.params import PARAMETER_SETS, load_parameters, otter_parameters
+from vessel.plant import INTEGRATORS
+from vessel.sea import cli as seacli
+from vessel.world import SEA_PRESETS
 
 EXIT_USAGE = 2
 

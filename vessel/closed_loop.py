@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import ConfigError
-from .dynamics import rigid_body_ode
-from .plant import Plant, rk4_step
-from .world import World
+from vessel.config import ConfigError
+from vessel.dynamics import rigid_body_ode
+from vessel.plant import Plant, rk4_step
+from vessel.world import World
 
 
 def substeps_per_period(period_s: float, dt_s: float) -> int:

@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .allocation import saturate_shaft_speed, shaft_speeds_to_tau
-from .config import bounded
-from .params import OtterParameters
-from .waves import CalmWater, WaveField, surface_relative_attitude
+from vessel.allocation import saturate_shaft_speed, shaft_speeds_to_tau
+from vessel.config import bounded
+from vessel.params import OtterParameters
+from vessel.sea.waves import CalmWater, WaveField, surface_relative_attitude
 
 NX_PLANT = 14
 NX_RIGID = 12

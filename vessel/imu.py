@@ -21,11 +21,11 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .dynamics import NX_PLANT, OceanCurrent, plant_ode
-from .mathops import is_symbolic, ops
-from .params import OtterParameters
-from .plant import Plant
-from .waves import CalmWater, WaveField
+from vessel.dynamics import NX_PLANT, OceanCurrent, plant_ode
+from vessel.mathops import is_symbolic, ops
+from vessel.params import OtterParameters
+from vessel.plant import Plant
+from vessel.sea.waves import CalmWater, WaveField
 
 
 def gravity_body(phi: Any, theta: Any, g: float) -> tuple[Any, Any, Any]:

@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import ConfigError
-from .dynamics import NX_PLANT, STATE_COLUMNS, STATE_NAMES
-from .params import OtterParameters, otter_parameters
-from .plant import Plant
-from .waves import CalmWater, WaveField
+from vessel.config import ConfigError
+from vessel.dynamics import NX_PLANT, STATE_COLUMNS, STATE_NAMES
+from vessel.params import OtterParameters, otter_parameters
+from vessel.plant import Plant
+from vessel.sea.waves import CalmWater, WaveField
 
 MAX_INITIAL_ANGLE_DEG = 60.0
 MAX_DT_S = 0.1

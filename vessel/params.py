@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import ConfigError, bounded, from_mapping, read_yaml, validate
+from vessel.config import ConfigError, bounded, from_mapping, read_yaml, validate
 
 PARAMETER_SETS = ("published", "corrected")
 

@@ -13,12 +13,12 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
-from .allocation import saturate_shaft_speed
-from .config import ConfigError
-from .dynamics import NX_PLANT, OceanCurrent, kinematics, plant_ode
-from .jit import compiled, worth_compiling
-from .params import OtterParameters
-from .waves import CalmWater, WaveField
+from vessel.allocation import saturate_shaft_speed
+from vessel.config import ConfigError
+from vessel.dynamics import NX_PLANT, OceanCurrent, kinematics, plant_ode
+from vessel.jit import compiled, worth_compiling
+from vessel.params import OtterParameters
+from vessel.sea.waves import CalmWater, WaveField
 
 Integrator = Literal["rk4", "euler"]
 INTEGRATORS: tuple[str, ...] = ("rk4", "euler")

@@ -50,7 +50,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from .config import bounded, validate
+from vessel.config import bounded, validate
 
 GRAVITY = 9.81  # m/s², the vessel model's g
 

@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from .config import ConfigError, from_mapping, read_yaml, to_mapping
-from .irregular_sea import IrregularSea
-from .params import PARAMETER_SETS, OtterParameters, otter_parameters
-from .sea_state import SeaState, Start
+from vessel.config import ConfigError, from_mapping, read_yaml, to_mapping
+from vessel.params import PARAMETER_SETS, OtterParameters, otter_parameters
+from vessel.sea.irregular_sea import IrregularSea
+from vessel.sea.state import SeaState, Start
 
 WORLD_SECTIONS: tuple[str, ...] = ("vessel", "sea", "start")
 """The top-level scenario sections that describe the world (read by the simulator and mavbridge)."""

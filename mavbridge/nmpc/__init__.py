@@ -7,21 +7,25 @@ the wave later solves predict with (a run-time parameter: no rebuild), and ``clo
 
 Modules: ``layout`` (named blocks of the decision and parameter vectors), ``wave_model`` (the regular
 wave as parameters), ``problem`` (model, costs, NLP), ``functions`` (the per-process cache of immutable
-built Functions), ``backend`` (the solver protocol: prepare / solve / advance / reset / close), and four
-backends: ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter 50); ``rti``,
-Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation (``gauss_newton``,
-``codegen``); and ``asrti``, advanced-step RTI: a converged Gauss–Newton SQP for the predicted next state
-runs in a background worker during the period, and the step is one iteration from its plan (the same
+built Functions), ``backend`` (the solver protocol: prepare / solve / advance / reset / close), and in
+``solvers`` four backends: ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter
+50); ``rti``, Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation
+(``gauss_newton``, ``codegen``); and ``asrti``, advanced-step RTI: a converged Gauss–Newton SQP for the
+predicted next state runs in a background worker during the period, and the step is one iteration from
+its plan (the same
 closed loop as ``ipopt``); and ``nrti``, asrti with a native preparation/feedback split: the background
 also condenses the QP at its plan (``condensed``, C kernels in ``native_source`` loaded by ``native_lib``),
 and the step is one C call that puts the measured state into it.
+
+May import: ``vessel`` and ``mavbridge.nmpc`` (with its ``solvers``). Imported by ``mavbridge.companion``,
+``mavbridge.lab``, ``mavbridge.sweep`` and ``mavbridge.preflight``.
 """
 
-from .config import INTEGRATORS, SOLVERS, NmpcConfig
-from .controller import NmpcResult, RollAwareNmpc
-from .layout import PARAMS, Layout, ParameterLayout
-from .problem import discrete_model, heading_error, wrap_angle
-from .wave_model import wave_parameters
+from mavbridge.nmpc.config import INTEGRATORS, SOLVERS, NmpcConfig
+from mavbridge.nmpc.controller import NmpcResult, RollAwareNmpc
+from mavbridge.nmpc.layout import PARAMS, Layout, ParameterLayout
+from mavbridge.nmpc.problem import discrete_model, heading_error, wrap_angle
+from mavbridge.nmpc.wave_model import wave_parameters
 
 __all__ = ["INTEGRATORS", "PARAMS", "SOLVERS", "Layout", "NmpcConfig", "NmpcResult", "ParameterLayout",
            "RollAwareNmpc", "discrete_model", "heading_error", "wave_parameters", "wrap_angle"]

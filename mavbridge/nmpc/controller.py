@@ -22,16 +22,15 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.nmpc.backend import NmpcBackend, SolveOutcome
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.functions import ProblemFunctions, problem_functions
+from mavbridge.nmpc.inputs import InputSpace, input_space
+from mavbridge.nmpc.layout import NU, NX, Layout
+from mavbridge.nmpc.model_state import on_mean_surface
+from mavbridge.nmpc.problem import input_bounds
+from mavbridge.nmpc.run_parameters import SeaKnowledge
 from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, RegularWaves, WaveField, otter_parameters
-
-from .backend import NmpcBackend, SolveOutcome
-from .config import NmpcConfig
-from .functions import ProblemFunctions, problem_functions
-from .inputs import InputSpace, input_space
-from .layout import NU, NX, Layout
-from .model_state import on_mean_surface
-from .problem import input_bounds
-from .run_parameters import SeaKnowledge
 
 
 @dataclass(frozen=True)
@@ -54,18 +53,18 @@ class NmpcResult:
 def make_backend(functions: ProblemFunctions, cfg: NmpcConfig) -> NmpcBackend:
     """A new backend (its own solver instances) for the configured solver."""
     if cfg.solver == "nrti":
-        from .nrti import NrtiBackend  # asrti with the native preparation/feedback split
+        from mavbridge.nmpc.solvers.nrti import NrtiBackend  # asrti with the native preparation/feedback split
 
         return NrtiBackend(functions, cfg)
     if cfg.solver == "asrti":
-        from .asrti import AsrtiBackend  # optional, heavier to build
+        from mavbridge.nmpc.solvers.asrti import AsrtiBackend  # optional, heavier to build
 
         return AsrtiBackend(functions, cfg)
     if cfg.solver == "rti":
-        from .rti import RtiBackend
+        from mavbridge.nmpc.solvers.rti import RtiBackend
 
         return RtiBackend(functions, cfg)
-    from .ipopt import IpoptBackend
+    from mavbridge.nmpc.solvers.ipopt import IpoptBackend
 
     return IpoptBackend(functions, cfg)
 

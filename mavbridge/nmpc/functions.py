@@ -28,15 +28,14 @@ from typing import Generic, TypeVar
 import casadi as ca
 import numpy as np
 
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.inputs import model_matrix
+from mavbridge.nmpc.layout import Layout
+from mavbridge.nmpc.problem import build_nlp, discrete_model
+from mavbridge.nmpc.solvers.codegen import compiled_library, load
+from mavbridge.nmpc.solvers.gauss_newton import linearisation
+from mavbridge.nmpc.wave_model import is_parametric
 from vessel import OceanCurrent, OtterParameters, WaveField
-
-from .codegen import compiled_library, load
-from .config import NmpcConfig
-from .gauss_newton import linearisation
-from .inputs import model_matrix
-from .layout import Layout
-from .problem import build_nlp, discrete_model
-from .wave_model import is_parametric
 
 
 @dataclass(frozen=True)

@@ -23,10 +23,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from mavbridge.nmpc.config import NmpcConfig
 from vessel import OtterParameters
 from vessel.allocation import thrust_to_tau
-
-from .config import NmpcConfig
 
 
 def allocation_matrix(params: OtterParameters) -> np.ndarray:

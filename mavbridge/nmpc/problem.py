@@ -19,13 +19,12 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau, model_matrix
+from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout, members
+from mavbridge.nmpc.wave_model import CALM_PARAMETERS, ParametricRegularWaves
 from vessel import OceanCurrent, OtterParameters, WaveField
 from vessel.dynamics import body_acceleration, kinematics
-
-from .config import NmpcConfig
-from .inputs import InputSpace, input_space, input_tau, model_matrix
-from .layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout, members
-from .wave_model import CALM_PARAMETERS, ParametricRegularWaves
 
 __all__ = ["NP", "NU", "NX", "PARAMS", "Layout", "build_nlp", "discrete_model", "distance", "heading_error",
            "input_bounds", "model_ode", "pack_parameters", "wrap_angle"]

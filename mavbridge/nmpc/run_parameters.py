@@ -11,13 +11,12 @@ import math
 
 import numpy as np
 
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.layout import PARAMS
+from mavbridge.nmpc.problem import pack_parameters
+from mavbridge.nmpc.sea_spread import slope_factor
+from mavbridge.nmpc.wave_model import CALM_PARAMETERS, wave_parameters
 from vessel import CalmWater, RegularWaves, WaveField
-
-from .config import NmpcConfig
-from .layout import PARAMS
-from .problem import pack_parameters
-from .sea_spread import slope_factor
-from .wave_model import CALM_PARAMETERS, wave_parameters
 
 
 class SeaKnowledge:

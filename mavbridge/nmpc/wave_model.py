@@ -3,7 +3,7 @@
 The companion plans against an *estimated* wave that changes during a run, so the prediction model is
 built once with this field, its seven numbers taken from the parameter vector's ``wave`` block, and one
 built solver serves any regular wave (or calm water). The formulas are those of
-``vessel.waves.RegularWaves`` with its derived numbers as inputs:
+``vessel.sea.waves.RegularWaves`` with its derived numbers as inputs:
 
     ζ = (H/2)·sin(ω t − k (N cos χ + E sin χ) + ε),   α = atan(∂ζ/∂s) along the travel direction χ,
 
@@ -20,10 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.nmpc.layout import WAVE_NAMES
 from vessel import CalmWater, RegularWaves
 from vessel.mathops import arctan, ops
-
-from .layout import WAVE_NAMES
 
 # No wave: zero height makes every term zero (the direction and numbers are then irrelevant but finite).
 CALM_PARAMETERS = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0])

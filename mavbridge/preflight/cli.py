@@ -6,11 +6,7 @@ import argparse
 import time
 from typing import Any
 
-from vessel.config import ConfigError
-from vessel.geo import DEFAULT_MAX_RANGE_M
-
-from ..cli_args import (
-    OUTPUTS,
+from mavbridge.cli.args import (
     REAL_TIME_SOLVER,
     SOLVER_HELP,
     config_from_flags,
@@ -21,10 +17,13 @@ from ..cli_args import (
     refuse_form_without_guided,
     single_scenario,
 )
-from ..nmpc.config import SOLVERS
-from ..outputs import ATTITUDE_FORMS
-from ..signing import add_link_arguments
-from .report import Report
+from mavbridge.companion.choices import OUTPUTS
+from mavbridge.companion.outputs import ATTITUDE_FORMS
+from mavbridge.link.signing import add_link_arguments
+from mavbridge.nmpc.config import SOLVERS
+from mavbridge.preflight.report import Report
+from vessel.config import ConfigError
+from vessel.geo import DEFAULT_MAX_RANGE_M
 
 DEFAULT_SOLVES = 300  # mirrors solve_time.DEFAULT_SOLVES (kept import-light: no CasADi for --help)
 
@@ -62,9 +61,9 @@ def add_check_parser(sub: Any) -> None:
 
 def check_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge check`; 1 if anything FAILed, else 0."""
-    from ..port_guard import refuse_if_taken
-    from .probe import Probe
-    from .solve_time import solve_time
+    from mavbridge.link.port_guard import refuse_if_taken
+    from mavbridge.preflight.probe import Probe
+    from mavbridge.preflight.solve_time import solve_time
 
     if not 0 <= args.port <= 9:
         raise ConfigError(f"--port: {args.port} is outside the allowed range [0, 9]")

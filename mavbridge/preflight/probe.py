@@ -3,7 +3,7 @@
 It connects exactly as `mavbridge run` would (same configuration, same ``Link``) and writes each
 finding into a ``Report``. Stream rates are measured twice: *as configured* (after asking the autopilot
 to go back to the port's SRn_* / MAVn_* rates with SET_MESSAGE_INTERVAL 0) and *after request* (after
-the companion's own requests, ``mavbridge.streams``). Both must meet the need: the companion asks only
+the companion's own requests, ``mavbridge.link.streams``). Both must meet the need: the companion asks only
 once, when it starts, and an autopilot that reboots mid-run falls back to its configured rates. At the
 end the probe asks for the configured rates again, leaving the port as it found it.
 """
@@ -14,13 +14,12 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from mavbridge.companion.mission_tracker import download_mission
+from mavbridge.link import streams
+from mavbridge.link.connection import Link, LinkError, mavlink
+from mavbridge.preflight.report import FAIL, PASS, WARN, Report
+from mavbridge.preflight.rules import fmt_value, parameter_findings, tau_form_findings
 from vessel.geo import DEFAULT_MAX_RANGE_M, ned_from_latlon
-
-from .. import streams
-from ..link import Link, LinkError, mavlink
-from ..mission_tracker import download_mission
-from .report import FAIL, PASS, WARN, Report
-from .rules import fmt_value, parameter_findings, tau_form_findings
 
 POSITION_NEED_HZ = 5.0
 RATE_WINDOW_S = 3.0  # rates are counted over this much autopilot time (time_boot_ms)

@@ -14,7 +14,7 @@ import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .report import FAIL, PASS, WARN, Report
+from mavbridge.preflight.report import FAIL, PASS, WARN, Report
 
 Reader = Callable[[str], float | None]
 THROTTLE_LEFT, THROTTLE_RIGHT = 73, 74
@@ -248,10 +248,17 @@ def parameter_findings(report: Report, read: Reader, system_id: int, output: str
 
 
 def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> None:
-    """What GUIDED's tau form needs (``mavbridge.guided_inverse``), judged as `mavbridge run` judges it: Rover's
+    """What GUIDED's tau form needs (``mavbridge.companion.guided_inverse``), judged as `mavbridge run` judges
+    it: Rover's
     loop gains readable, its I and D gains 0 (FAIL: the companion refuses the form), WP_SPEED at least the speed
     target full throttle needs and ATC_BRAKE 1 (WARN: the plan's full thrust, or its braking, would be cut)."""
-    from ..guided_inverse import BRAKE, LOOP_PARAMETERS, OPTIONAL_LOOP_PARAMETERS, RoverLoops, default_speed
+    from mavbridge.companion.guided_inverse import (
+        BRAKE,
+        LOOP_PARAMETERS,
+        OPTIONAL_LOOP_PARAMETERS,
+        RoverLoops,
+        default_speed,
+    )
 
     values = {name: read(name) for name in LOOP_PARAMETERS}
     values.update({name: read_optional(name) for name in (*OPTIONAL_LOOP_PARAMETERS, BRAKE)})

@@ -7,9 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from ..nmpc import RollAwareNmpc
-from ..nmpc.model_state import resolve_heave_feedback
-from .report import FAIL, PASS, WARN, Report
+from mavbridge.nmpc import RollAwareNmpc
+from mavbridge.nmpc.model_state import resolve_heave_feedback
+from mavbridge.preflight.report import FAIL, PASS, WARN, Report
 
 
 def solve_time(scenario: Any, solves: int, report: Report, log: Callable[[str], None] = print) -> None:

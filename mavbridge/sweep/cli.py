@@ -9,17 +9,16 @@ import signal
 import sys
 from pathlib import Path
 
+from mavbridge.cli.args import positive
+from mavbridge.lab.scenario import load_scenarios
+from mavbridge.nmpc.config import SOLVERS
+from mavbridge.sweep.executors import open_executor, parse_executor
+from mavbridge.sweep.runner import SweepOutcome, run_sweep
+from mavbridge.sweep.spec import SweepSpec, load_spec
+from mavbridge.sweep.summary import case_rows, markdown_table, plot_heatmap, plot_tradeoff, write_csv
+from mavbridge.sweep.tune import ROBUST_HEADINGS_DEG, Target, report, tune
 from vessel import ConfigError
 from vessel.argtypes import check_output_folder
-
-from ..cli_args import positive
-from ..nmpc.config import SOLVERS
-from ..scenario import load_scenarios
-from .executors import open_executor, parse_executor
-from .runner import SweepOutcome, run_sweep
-from .spec import SweepSpec, load_spec
-from .summary import case_rows, markdown_table, plot_heatmap, plot_tradeoff, write_csv
-from .tune import ROBUST_HEADINGS_DEG, Target, report, tune
 
 
 def _executor_flag(text: str) -> str:

@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from ..scenario import Scenario
-from .spec import SweepSpec
+from mavbridge.lab.scenario import Scenario
+from mavbridge.sweep.spec import SweepSpec
 
 CASES_DIR = "cases"
 WALL_CLOCK_KEYS = ("ms", "wall", "overruns")  # metrics that measure this computer, not the closed loop
@@ -45,7 +45,7 @@ def deterministic_metrics(metrics: dict) -> dict:
 def run_case(scenario: Scenario) -> dict:
     """One closed loop in this (worker) process; only numbers go back."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    from ..experiment import run_scenario
+    from mavbridge.lab.experiment import run_scenario
 
     return run_scenario(scenario, out_dir=None, plots=False).metrics
 

@@ -32,10 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.lab.scenario import Scenario, load_scenarios, scenario_from_mapping
 from vessel import ConfigError
 from vessel.config import read_yaml
-
-from ..scenario import Scenario, load_scenarios, scenario_from_mapping
 
 SAMPLE_MODES = ("grid", "random", "lhs")
 MAX_CASES_DEFAULT = 100_000

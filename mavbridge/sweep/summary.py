@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .spec import SweepSpec, case_id
+from mavbridge.sweep.spec import SweepSpec, case_id
 
 METRIC_COLUMNS = ("avg_roll_deg", "max_roll_deg", "time_to_waypoint_s", "final_distance_m",
                   "solve_ms_median", "solve_ms_p99", "solve_ms_max", "failures")

@@ -25,9 +25,9 @@ from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..scenario import Scenario, scenario_from_mapping
-from .runner import run_sweep
-from .spec import Case, SweepSpec, case_id
+from mavbridge.lab.scenario import Scenario, scenario_from_mapping
+from mavbridge.sweep.runner import run_sweep
+from mavbridge.sweep.spec import Case, SweepSpec, case_id
 
 DIRECT_Q = (3.0, 5.0, 8.0)
 DIRECT_S = (1.0, 2.0, 4.0)

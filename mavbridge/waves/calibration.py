@@ -18,9 +18,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from mavbridge.waves.settings import EstimatorSettings
 from vessel import Plant, RegularWaves
-
-from .settings import EstimatorSettings
 
 
 def hull_response(roll: np.ndarray, pitch: np.ndarray, slope_across: np.ndarray, slope_along: np.ndarray,

@@ -38,24 +38,18 @@ import math
 
 import numpy as np
 
-from mavbridge.seasource import MotionSample, WaveEstimate
-
-from .doppler import DopplerLine
-from .filters import (
-    MeanRemover,
-    SinusoidFit,
-    lag_correction,
-    lpf_gain,
-)
-from .filters import finite as _finite
-from .filters import smooth_step as _smooth_step
-from .heave import HEAVE_GPS, HEAVE_IMU, HEAVE_NONE, HeaveFits
-from .motion_watch import MotionWatch
-from .oscillator import EncounterOscillator
-from .settings import EstimatorSettings
-from .solve import WaveSolution, phase_offset, plausible, solve_slope_only, solve_with_heave
-from .spread import SlopeSpread
-from .steadiness import SolutionSteadiness
+from mavbridge.waves.doppler import DopplerLine
+from mavbridge.waves.filters import MeanRemover, SinusoidFit, lag_correction, lpf_gain
+from mavbridge.waves.filters import finite as _finite
+from mavbridge.waves.filters import smooth_step as _smooth_step
+from mavbridge.waves.heave import HEAVE_GPS, HEAVE_IMU, HEAVE_NONE, HeaveFits
+from mavbridge.waves.motion_watch import MotionWatch
+from mavbridge.waves.oscillator import EncounterOscillator
+from mavbridge.waves.settings import EstimatorSettings
+from mavbridge.waves.solve import WaveSolution, phase_offset, plausible, solve_slope_only, solve_with_heave
+from mavbridge.waves.source import MotionSample, WaveEstimate
+from mavbridge.waves.spread import SlopeSpread
+from mavbridge.waves.steadiness import SolutionSteadiness
 
 __all__ = ["HEAVE_GPS", "HEAVE_IMU", "HEAVE_NONE", "WaveEstimator"]
 

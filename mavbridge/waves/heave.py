@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import math
 
-from mavbridge.seasource import MotionSample
-
-from .filters import MeanRemover, SinusoidFit, finite, lag_correction
-from .settings import EstimatorSettings
+from mavbridge.waves.filters import MeanRemover, SinusoidFit, finite, lag_correction
+from mavbridge.waves.settings import EstimatorSettings
+from mavbridge.waves.source import MotionSample
 
 GRAVITY = 9.81
 HEAVE_NONE, HEAVE_IMU, HEAVE_GPS = 0.0, 1.0, 2.0  # extras['heave_source']

@@ -20,17 +20,16 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from mavbridge.seasource import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
+from mavbridge.waves.calibration import hull_response, record_plant, settings_for
+from mavbridge.waves.kinematic import estimate_errors, paper_sea
+from mavbridge.waves.settings import EstimatorSettings
+from mavbridge.waves.source import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
 from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
 from vessel.dynamics import OceanCurrent, rigid_body_ode
 from vessel.imu import specific_force
 from vessel.plant import rk4_step
 from vessel.sensors import SensorModel, SensorParams
-
-from .calibration import hull_response, record_plant, settings_for
-from .kinematic import estimate_errors, paper_sea
-from .settings import EstimatorSettings
 
 SAMPLES_PER_PERIOD = 2  # ATTITUDE at 20 Hz for the paper's T = 0.1 s
 

@@ -1,7 +1,7 @@
 """A kinematic truth for the estimator: a point that rides the sea exactly, seen through the sensor model.
 
 The point moves at a given over-ground speed along a heading schedule ψ(t); its roll and pitch are
-the surface slope (β = 0 in ``vessel.waves.surface_relative_attitude``: pitch = slope along the hull,
+the surface slope (β = 0 in ``vessel.sea.waves.surface_relative_attitude``: pitch = slope along the hull,
 roll = ``roll_sign`` × slope across it), and it heaves with the surface (z = −ζ). Its NED acceleration
 (finite differences of the path) gives the IMU's specific force. ``vessel.sensors`` adds the
 autopilot's noise, lags and GPS rate. Also the figures the tests and the benchmark compare: errors of
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mavbridge.seasource import MotionSample, WaveEstimate
+from mavbridge.waves.source import MotionSample, WaveEstimate
 from vessel import RegularWaves
 from vessel.sensors import (
     SensorModel,

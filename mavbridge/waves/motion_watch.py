@@ -12,10 +12,9 @@ from __future__ import annotations
 
 import math
 
-from mavbridge.seasource import MotionSample
-
-from .filters import finite, lpf_gain
-from .settings import EstimatorSettings
+from mavbridge.waves.filters import finite, lpf_gain
+from mavbridge.waves.settings import EstimatorSettings
+from mavbridge.waves.source import MotionSample
 
 FROZEN_S = 0.3  # an unchanged attitude for longer than this is a stale stream
 JUMP_RAD = 0.35  # a heading step between two samples larger than this is a jump

@@ -13,9 +13,9 @@ from __future__ import annotations
 import cmath
 import math
 
-from .filters import FrequencyTracker, ZeroCrossingTracker, lpf_gain
-from .settings import EstimatorSettings
-from .solve import principal_axis
+from mavbridge.waves.filters import FrequencyTracker, ZeroCrossingTracker, lpf_gain
+from mavbridge.waves.settings import EstimatorSettings
+from mavbridge.waves.solve import principal_axis
 
 
 class EncounterOscillator:

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from .filters import lpf_gain
+from mavbridge.waves.filters import lpf_gain
 
 SPREAD_TAU_S = 60.0  # time constant of the running covariance: several wave groups
 SPREAD_MIN_S = 30.0  # valid observation needed before the covariance is offered (5 periods of a 6 s sea)

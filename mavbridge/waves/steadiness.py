@@ -19,7 +19,7 @@ from __future__ import annotations
 import cmath
 import math
 
-from .filters import lpf_gain
+from mavbridge.waves.filters import lpf_gain
 
 OMEGA_REL_STD = 0.08  # relative spread of ω that takes the term to e^-1: 8 % moves the phase 20° over a 4 s horizon
 DIRECTION_STD_RAD = math.radians(10.0)

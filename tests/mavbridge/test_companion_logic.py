@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from mavbridge.outputs import (
+from mavbridge.companion.outputs import (
     RcCalibration,
     RcSetup,
     attitude_command,
@@ -16,7 +16,7 @@ from mavbridge.outputs import (
     pwm_from_fraction,
     rc_command,
 )
-from mavbridge.supervisor import Phase, Supervisor
+from mavbridge.companion.supervisor import Phase, Supervisor
 from vessel import otter_parameters, shaft_speeds_to_tau
 
 PARAMS = otter_parameters()
@@ -94,10 +94,10 @@ def test_attitude_command_wraps_heading_and_clips_thrust() -> None:
 
 def test_rate_form_sends_the_plans_yaw_rate_as_rover_reads_it() -> None:
     """The rate form carries the plan's r at the look-ahead step in body_yaw_rate with q ignored; Rover's
-    reading of the packed message (sim_vehicle.guided) is a turn-rate target, not a heading."""
+    reading of the packed message (sim_vehicle.rover.guided) is a turn-rate target, not a heading."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-    from sim_vehicle.guided import from_attitude
+    from sim_vehicle.rover.guided import from_attitude
 
     states = np.zeros((41, 12))
     states[:, 5] = 1.0

@@ -13,20 +13,20 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mavbridge.companion import Companion, CompanionConfig, build_nmpc, schedule, wave_step
-from mavbridge.experiment import run_scenario
-from mavbridge.link import mavlink
-from mavbridge.mission_tracker import MissionTracker
+from mavbridge.companion.flight import Companion, CompanionConfig, build_nmpc, schedule, wave_step
+from mavbridge.companion.mission_tracker import MissionTracker
+from mavbridge.companion.output_paths import MODE_GUIDED, MODE_MANUAL, AttitudeTarget, DryRun, RcOverride, make_output
+from mavbridge.companion.outputs import RcSetup
+from mavbridge.companion.state import StateEstimate
+from mavbridge.companion.wave_gate import WaveGate, make_wave_source
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.runlog import LOG_COLUMNS, STATE_COLUMNS, RunRecorder, run_metrics
+from mavbridge.lab.scenario import Scenario, scenario_from_mapping
+from mavbridge.link.connection import mavlink
 from mavbridge.nmpc.controller import NmpcResult
-from mavbridge.output_paths import MODE_GUIDED, MODE_MANUAL, AttitudeTarget, DryRun, RcOverride, make_output
-from mavbridge.outputs import RcSetup
 from mavbridge.preflight.rules import Context
-from mavbridge.runlog import LOG_COLUMNS, STATE_COLUMNS, RunRecorder, run_metrics
-from mavbridge.scenario import Scenario, scenario_from_mapping
-from mavbridge.seasource import SCENARIO_TRUTH, MotionSample, ScenarioTruth, WaveEstimate
-from mavbridge.state import StateEstimate
-from mavbridge.wave_gate import WaveGate, make_wave_source
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea
+from mavbridge.waves.source import SCENARIO_TRUTH, MotionSample, ScenarioTruth, WaveEstimate
 from tests.mavbridge.wave_sources import ToldSource
 from vessel import NX_RIGID, STATE_NAMES, CalmWater, otter_parameters
 from vessel.geo import latlon_from_ned

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from mavbridge.companion_config import load_companion_config
+from mavbridge.companion.config import load_companion_config
 from vessel.config import ConfigError
 
 

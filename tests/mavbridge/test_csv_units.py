@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mavbridge.runlog import write_csv as write_run_csv
+from mavbridge.lab.runlog import write_csv as write_run_csv
 from mavbridge.sweep.spec import load_spec
 from mavbridge.sweep.summary import METRIC_COLUMNS, case_rows
 from mavbridge.sweep.summary import write_csv as write_sweep_csv
-from sim_vehicle.json_backend_log import JsonStateCsv
+from sim_vehicle.json_backend.log import JsonStateCsv
 from sim_vehicle.logs import StateCsv
 from vessel import CalmWater
 

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavbridge.clock_model import ClockModel
-from mavbridge.companion_config import load_companion_config
-from mavbridge.delay_compensation import DelayCompensator
+from mavbridge.companion.config import load_companion_config
+from mavbridge.companion.delay import DelayCompensator
+from mavbridge.companion.predict import CommandHistory, StatePredictor
+from mavbridge.link.clock_model import ClockModel
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.problem import discrete_model
 from mavbridge.nmpc.wave_model import wave_parameters
-from mavbridge.predict import CommandHistory, StatePredictor
 from vessel import ConfigError, OceanCurrent, RegularWaves, otter_parameters
 
 RATE = 5.0  # autopilot seconds per wall second (a simulator at --speedup 5)

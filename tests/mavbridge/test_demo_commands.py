@@ -8,9 +8,9 @@ import pytest
 import yaml
 
 from mavbridge.cli import main
-from mavbridge.cli_run import demo_scenario
-from mavbridge.demo import demo_commands, write_resolved
-from mavbridge.scenario import Scenario
+from mavbridge.cli.run import demo_scenario
+from mavbridge.lab.demo import demo_commands, write_resolved
+from mavbridge.lab.scenario import Scenario
 
 
 def _value_after(cmd: list[str], flag: str) -> str:

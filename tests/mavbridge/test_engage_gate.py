@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from mavbridge.engage_gate import WaypointRefusedError, check_waypoints, far_waypoint
-from mavbridge.loop_notices import LoopNotices, keep_up_summary
+from mavbridge.companion.engage_gate import WaypointRefusedError, check_waypoints, far_waypoint
+from mavbridge.companion.notices import LoopNotices, keep_up_summary
 from mavbridge.preflight.cli import add_check_parser
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
@@ -35,7 +35,7 @@ def test_not_a_number_is_never_in_range() -> None:
 def test_the_check_and_the_companion_share_one_default() -> None:
     import argparse
 
-    from mavbridge.companion_config import CompanionConfig
+    from mavbridge.companion.config import CompanionConfig
 
     sub = argparse.ArgumentParser().add_subparsers()
     add_check_parser(sub)

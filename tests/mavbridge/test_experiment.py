@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 from mavbridge.cli import main
-from mavbridge.runlog import LOG_COLUMNS
-from mavbridge.scenario import load_scenarios
+from mavbridge.lab.runlog import LOG_COLUMNS
+from mavbridge.lab.scenario import load_scenarios
 
 TINY = {
     "name": "tiny",
@@ -114,8 +114,8 @@ def test_solver_and_plant_overrides_are_recorded(tmp_path: Path, monkeypatch: py
 
 
 def test_deadline_misses_are_counted_and_answered(tmp_path: Path) -> None:
-    from mavbridge.experiment import run_scenario
-    from mavbridge.scenario import scenario_from_mapping
+    from mavbridge.lab.experiment import run_scenario
+    from mavbridge.lab.scenario import scenario_from_mapping
 
     scenario = scenario_from_mapping({**TINY, "t_max_s": 1.0, "deadline_s": 1e-4}, "test")
     result = run_scenario(scenario, tmp_path / "late", plots=False)

@@ -17,8 +17,8 @@ import pytest
 import yaml
 
 from mavbridge.cli import main
-from mavbridge.experiment import run_scenario
-from mavbridge.scenario import load_scenarios, scenario_from_mapping
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import load_scenarios, scenario_from_mapping
 from mavbridge.waves.inloop import hidden_sea
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from mavbridge.guided_inverse import (
+from mavbridge.companion.guided_inverse import (
     LOOP_PARAMETERS,
     OPTIONAL_LOOP_PARAMETERS,
     SURGE_MARGIN_MPS,
@@ -15,9 +15,9 @@ from mavbridge.guided_inverse import (
     default_speed,
     loop_targets,
 )
-from mavbridge.outputs import inverse_skid_mix, motor_output
-from sim_vehicle.control import NavState, SpeedControl, SteeringControl
-from sim_vehicle.params import ParamTable, read_parm
+from mavbridge.companion.outputs import inverse_skid_mix, motor_output
+from sim_vehicle.rover.control import NavState, SpeedControl, SteeringControl
+from sim_vehicle.rover.params import ParamTable, read_parm
 from vessel import otter_parameters, tau_to_shaft_speeds
 
 PARAMS = otter_parameters()

@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
-from mavbridge.companion import build_nmpc
+from mavbridge.companion.flight import build_nmpc
+from mavbridge.companion.wave_gate import WaveGate
+from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc.model_state import on_mean_surface, resolve_heave_feedback
-from mavbridge.scenario import Scenario
-from mavbridge.seasource import ScenarioTruth, WaveEstimate
-from mavbridge.wave_gate import WaveGate
+from mavbridge.waves.source import ScenarioTruth, WaveEstimate
 from mavbridge.waves.steadiness import SolutionSteadiness
 from tests.mavbridge.wave_sources import ToldSource
 from vessel import CalmWater

@@ -14,12 +14,13 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from bench.hostile_flood import MESSAGE_TYPES, extreme_message, hostile_packets
-from mavbridge.delay_compensation import DelayCompensator
-from mavbridge.link import ADDRESS_FORGET_S, Link
-from mavbridge.mission_tracker import MissionTracker
-from mavbridge.reboot import RebootWatch
-from mavbridge.state import StateEstimate
-from mavbridge.supervisor import Supervisor
+from mavbridge.companion.delay import DelayCompensator
+from mavbridge.companion.mission_tracker import MissionTracker
+from mavbridge.companion.state import StateEstimate
+from mavbridge.companion.supervisor import Supervisor
+from mavbridge.link.connection import Link
+from mavbridge.link.filter import ADDRESS_FORGET_S
+from mavbridge.link.reboot import RebootWatch
 from sim_vehicle.harness import free_port
 
 

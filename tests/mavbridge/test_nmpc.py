@@ -8,10 +8,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mavbridge.experiment import run_scenario
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import scenario_from_mapping
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc, heading_error
 from mavbridge.nmpc.backend import SolveOutcome
-from mavbridge.scenario import scenario_from_mapping
 from vessel import ConfigError, RegularWaves, otter_parameters
 
 PAPER_WAVES = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2)

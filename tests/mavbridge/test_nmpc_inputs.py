@@ -20,10 +20,10 @@ from typing import Any, ClassVar
 import numpy as np
 import pytest
 
-import mavbridge.experiment as experiment
+import mavbridge.lab.experiment as experiment
+from mavbridge.lab.scenario import scenario_from_mapping
 from mavbridge.nmpc import NmpcConfig
 from mavbridge.nmpc.inputs import allocation_matrix, input_space, thrust_limits
-from mavbridge.scenario import scenario_from_mapping
 from vessel import otter_parameters, shaft_speeds_to_tau, tau_to_shaft_speeds
 from vessel.allocation import propeller_thrust, tau_limits
 from vessel.config import ConfigError

@@ -17,13 +17,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mavbridge.experiment import run_scenario
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import Scenario, load_scenarios
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
-from mavbridge.nmpc.codegen import compiler
-from mavbridge.nmpc.gauss_newton import NZ
 from mavbridge.nmpc.layout import NU, NX
-from mavbridge.nmpc.native_lib import BoxQp, native_library, ptr
-from mavbridge.scenario import Scenario, load_scenarios
+from mavbridge.nmpc.solvers.codegen import compiler
+from mavbridge.nmpc.solvers.gauss_newton import NZ
+from mavbridge.nmpc.solvers.native_lib import BoxQp, native_library, ptr
 from vessel import RegularWaves, otter_parameters
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -174,7 +174,7 @@ def test_nrti_balanced_run_is_within_one_percent_of_asrti(tmp_path: Path, monkey
 
 def test_without_a_compiler_nrti_runs_as_asrti_and_says_so_once(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
                                                                   caplog: pytest.LogCaptureFixture) -> None:
-    from mavbridge.nmpc import nrti
+    from mavbridge.nmpc.solvers import nrti
 
     monkeypatch.delenv("CC", raising=False)
     monkeypatch.setenv("PATH", str(tmp_path))  # no gcc, no cc
@@ -182,7 +182,7 @@ def test_without_a_compiler_nrti_runs_as_asrti_and_says_so_once(monkeypatch: pyt
     cfg = NmpcConfig(horizon=6, solver="nrti", rti_codegen="off")
     x0 = np.zeros(12)
     x0[6] = 1.0
-    with caplog.at_level(logging.WARNING, logger="mavbridge.nmpc.nrti"):
+    with caplog.at_level(logging.WARNING, logger="mavbridge.nmpc.solvers.nrti"):
         for _ in range(2):
             with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
                 assert nmpc._backend.buffers is None  # no native kernels

@@ -10,14 +10,14 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mavbridge.experiment import run_scenario
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import scenario_from_mapping
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
-from mavbridge.nmpc.codegen import compiler
 from mavbridge.nmpc.layout import PARAMS
 from mavbridge.nmpc.problem import discrete_model
-from mavbridge.nmpc.rti import linearisation, linearisation_inlined
+from mavbridge.nmpc.solvers.codegen import compiler
+from mavbridge.nmpc.solvers.rti import linearisation, linearisation_inlined
 from mavbridge.nmpc.wave_model import wave_parameters
-from mavbridge.scenario import scenario_from_mapping
 from vessel import OceanCurrent, RegularWaves, otter_parameters
 from vessel.config import ConfigError
 
@@ -151,7 +151,7 @@ def test_compiled_linearisation_is_cached_by_model_hash(tmp_path: Path, monkeypa
     libraries = list(tmp_path.glob("rti_linearisation_*.so"))
     assert len(libraries) == 1
     stamp = libraries[0].stat().st_mtime_ns
-    from mavbridge.nmpc.rti import RtiBackend
+    from mavbridge.nmpc.solvers.rti import RtiBackend
 
     again = RtiBackend(nmpc._functions, cfg, ipopt=nmpc._backend.ipopt)
     assert again.codegen == nmpc._backend.codegen

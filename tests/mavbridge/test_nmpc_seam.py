@@ -163,7 +163,7 @@ def test_parameter_layout_names_every_block() -> None:
 def test_a_closed_controllers_ipopt_serves_the_next_one_and_only_it() -> None:
     """The IPOPT instance of a closed controller is reused by the next controller of that structure
     (building one takes seconds), never by two live ones, and the reused instance plans the same."""
-    from mavbridge.nmpc import ipopt
+    from mavbridge.nmpc.solvers import ipopt
 
     cfg = NmpcConfig(horizon=6, solver="ipopt")
     first = RollAwareNmpc(cfg, otter_parameters(), WAVES)
@@ -188,7 +188,7 @@ def test_a_closed_controllers_ipopt_serves_the_next_one_and_only_it() -> None:
 def test_a_controller_on_a_fixed_wave_field_keeps_no_idle_instance() -> None:
     """A built-in field (an irregular sea as truth) is keyed by its identity and every run builds a new one:
     its IPOPT instance (≈150 MB at P = 10) could never be taken again, so closing drops it."""
-    from mavbridge.nmpc import ipopt
+    from mavbridge.nmpc.solvers import ipopt
     from vessel import IrregularSea
 
     field = IrregularSea(hs_m=1.75, tp_s=6.0, n_components=10, seed=1).wave_field(otter_parameters())
@@ -202,7 +202,7 @@ def test_a_controller_on_a_fixed_wave_field_keeps_no_idle_instance() -> None:
 def test_the_idle_pool_is_bounded_over_all_structures(monkeypatch: pytest.MonkeyPatch) -> None:
     """Structures that never come back (a sweep over horizons or vessel parameters) do not pile up: beyond
     IDLE_TOTAL the instance returned longest ago is dropped, and the pool still serves the newest."""
-    from mavbridge.nmpc import ipopt
+    from mavbridge.nmpc.solvers import ipopt
 
     monkeypatch.setattr(ipopt, "_IDLE", {})
     monkeypatch.setattr(ipopt, "IDLE_TOTAL", 2)

@@ -9,9 +9,14 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavbridge.flight_start import DeferredStart, deferred_start_refused, switch_and_arm_if_asked, switch_mode_at_start
-from mavbridge.reboot import DECIDE_S, GAP_S, RebootWatch, watch_reboots
-from mavbridge.supervisor import Phase, Supervisor
+from mavbridge.companion.start import (
+    DeferredStart,
+    deferred_start_refused,
+    switch_and_arm_if_asked,
+    switch_mode_at_start,
+)
+from mavbridge.companion.supervisor import Phase, Supervisor
+from mavbridge.link.reboot import DECIDE_S, GAP_S, RebootWatch, watch_reboots
 
 ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED | mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 MANUAL = mavlink.ROVER_MODE_MANUAL

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from mavbridge.wave_gate import make_wave_source
+from mavbridge.companion.wave_gate import make_wave_source
 from mavbridge.waves import EstimatorSettings, WaveEstimator
 from mavbridge.waves.inloop import calibrated_settings
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 from pymavlink import mavutil
 
-from mavbridge.loop_notices import LoopNotices
-from mavbridge.rover_modes import mode_name
-from mavbridge.run_summary import summary_lines
-from mavbridge.supervisor import Phase, Supervisor
+from mavbridge.companion.notices import LoopNotices
+from mavbridge.companion.rover_modes import mode_name
+from mavbridge.companion.summary import summary_lines
+from mavbridge.companion.supervisor import Phase, Supervisor
 
 mavlink = mavutil.mavlink
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from mavbridge.scenario import Scenario, load_scenarios
+from mavbridge.lab.scenario import Scenario, load_scenarios
 from vessel import CalmWater, ConfigError, RegularWaves
 from vessel.world import SCENARIO_SECTIONS, SEA_PRESETS, World
 

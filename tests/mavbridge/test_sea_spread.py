@@ -11,9 +11,9 @@ import pytest
 
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
 from mavbridge.nmpc.sea_spread import slope_factor
-from mavbridge.seasource import MotionSample, spread_line
 from mavbridge.waves import WaveEstimator
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea
+from mavbridge.waves.source import MotionSample, spread_line
 from mavbridge.waves.spread import SPREAD_MIN_S, SlopeSpread
 from vessel import otter_parameters
 

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mavbridge.experiment import run_scenario
-from mavbridge.scenario import Scenario, load_scenarios
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import Scenario, load_scenarios
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLL_ORDER = ("direct", "indirect", "low_tack", "balanced")  # average roll strictly falls along this list

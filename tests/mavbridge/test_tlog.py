@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from mavbridge import tlog as tlog_module
-from mavbridge.tlog import AutopilotClockTlog
+from mavbridge.link import tlog as tlog_module
+from mavbridge.link.tlog import AutopilotClockTlog
 
 mavlink = mavutil.mavlink
 EPOCH_US = 1_700_000_000_000_000  # the autopilot's boot on the Unix clock (as its SYSTEM_TIME says)

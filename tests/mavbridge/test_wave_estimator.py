@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from mavbridge.seasource import MotionSample, WaveEstimate
 from mavbridge.waves import EstimatorSettings, WaveEstimator
 from mavbridge.waves.calibration import hull_response, record_plant, settings_for
 from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples, paper_sea, to_motion_sample
+from mavbridge.waves.source import MotionSample, WaveEstimate
 from vessel import Plant, otter_parameters
 from vessel.config import ConfigError
 from vessel.imu import ImuModel

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mavbridge.seasource import MotionSample, WaveEstimate
+from mavbridge.waves.source import MotionSample, WaveEstimate
 
 
 @dataclass

@@ -10,18 +10,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_vehicle.json_backend import JsonBackend
-from sim_vehicle.json_backend_cli import build_parser, build_world, seeded_waves, surface_heave
-from sim_vehicle.json_backend_log import write_sea_record
-from sim_vehicle.json_backend_model import JsonPhysics, substeps_for
-from sim_vehicle.json_backend_protocol import encode_servo_packet, motor_output_to_pwm, pwm_to_motor_output
+from sim_vehicle.json_backend.backend import JsonBackend
+from sim_vehicle.json_backend.cli import build_parser, build_world, seeded_waves, surface_heave
+from sim_vehicle.json_backend.log import write_sea_record
+from sim_vehicle.json_backend.model import JsonPhysics, substeps_for
+from sim_vehicle.json_backend.protocol import encode_servo_packet, motor_output_to_pwm, pwm_to_motor_output
 from sim_vehicle.physics import PHYSICS_DT_S, Physics, ned_velocity
 from tests.sim_vehicle.test_json_backend_firmware import parse_reply
 from vessel import CalmWater, OceanCurrent, otter_parameters
 from vessel.dynamics import rotation_body_to_ned
-from vessel.irregular import IrregularWaves
-from vessel.irregular_sea import IrregularSea
-from vessel.sea_state import SeaState, Start
+from vessel.sea.irregular import IrregularWaves
+from vessel.sea.irregular_sea import IrregularSea
+from vessel.sea.state import SeaState, Start
 from vessel.world import World, sea_preset
 
 HEADING_DEG = 30.0

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_vehicle.json_backend_protocol import encode_servo_packet, motor_output_to_pwm
+from sim_vehicle.json_backend.protocol import encode_servo_packet, motor_output_to_pwm
 
 REPO = Path(__file__).resolve().parents[2]
 REPLY_TIMEOUT_S = 10.0

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from sim_vehicle.json_backend_protocol import (
+from sim_vehicle.json_backend.protocol import (
     FRAME_RATE_MAX_HZ,
     FRAME_RATE_MIN_HZ,
     LEFT_CHANNEL,
@@ -16,7 +16,7 @@ from sim_vehicle.json_backend_protocol import (
     SERVO_MIN_US,
     SERVO_TRIM_US,
 )
-from sim_vehicle.params import ParamTable, read_parm
+from sim_vehicle.rover.params import ParamTable, read_parm
 from vessel import CalmWater, Plant, otter_parameters
 
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
@@ -94,7 +94,7 @@ def test_the_readme_commands_parse() -> None:
     import shlex
 
     from mavbridge.cli import build_parser as mavbridge_parser
-    from sim_vehicle.json_backend_cli import build_parser as backend_parser
+    from sim_vehicle.json_backend.cli import build_parser as backend_parser
 
     text = (DEPLOY / "README.md").read_text(encoding="utf-8")
     section = text[text.index("## 5a."):text.index("## 6.")]

@@ -86,8 +86,8 @@ def test_a_silent_controller_is_released_after_a_few_timeouts() -> None:
 
 def test_aligned_streams_fall_on_multiples_of_their_interval() -> None:
     """Lockstep: a stream requested at any moment is sent on the same grid, so runs see the same samples."""
-    from sim_vehicle.params import ParamTable
-    from sim_vehicle.streams import Schedule
+    from sim_vehicle.mavlink.streams import Schedule
+    from sim_vehicle.rover.params import ParamTable
 
     attitude = 30
     for aligned, expected in ((True, [0.05, 0.10, 0.15]), (False, [0.063, 0.113, 0.163])):

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from mavbridge.scenario import Scenario, load_scenarios
+from mavbridge.lab.scenario import Scenario, load_scenarios
 from sim_vehicle.harness import SimProcess
 from sim_vehicle.scenario import sim_world
 from tests.waits import wait_for

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from sim_vehicle.battery import Battery
 from sim_vehicle.harness import SimProcess
-from sim_vehicle.telemetry import Telemetry
+from sim_vehicle.mavlink.telemetry import Telemetry
+from sim_vehicle.rover.battery import Battery
 from tests.rover import SET_MESSAGE_INTERVAL
 from tests.waits import command, wait_for
 

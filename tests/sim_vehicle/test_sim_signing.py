@@ -14,7 +14,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim_vehicle.harness import SimProcess
-from sim_vehicle.signing import ticks_from_unix_us
+from sim_vehicle.mavlink.signing import ticks_from_unix_us
 from tests.rover import ACCEPTED, ARM
 from tests.waits import WaitTimeoutError, command
 

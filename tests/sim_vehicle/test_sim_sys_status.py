@@ -12,7 +12,7 @@ import itertools
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim_vehicle.telemetry import sensor_bits
+from sim_vehicle.mavlink.telemetry import sensor_bits
 
 GEOFENCE = mavlink.MAV_SYS_STATUS_GEOFENCE
 RC = mavlink.MAV_SYS_STATUS_SENSOR_RC_RECEIVER

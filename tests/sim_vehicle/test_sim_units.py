@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from sim_vehicle.control import NavState, NavTarget, navigate
-from sim_vehicle.mixer import output_to_pwm, output_to_shaft_speed, pwm_to_output, skid_mix
-from sim_vehicle.modes import Mode, base_mode, lookup
-from sim_vehicle.params import INT8, REAL32, ParamTable, cast, parse_parm
-from sim_vehicle.rc import RcInput, stick
-from sim_vehicle.streams import Schedule
+from sim_vehicle.mavlink.streams import Schedule
+from sim_vehicle.rover.control import NavState, NavTarget, navigate
+from sim_vehicle.rover.mixer import output_to_pwm, output_to_shaft_speed, pwm_to_output, skid_mix
+from sim_vehicle.rover.modes import Mode, base_mode, lookup
+from sim_vehicle.rover.params import INT8, REAL32, ParamTable, cast, parse_parm
+from sim_vehicle.rover.rc import RcInput, stick
 from vessel.config import ConfigError
 from vessel.geo import Home, parse_home, wrap_pi
 

@@ -7,8 +7,8 @@ from pathlib import Path
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim_vehicle.link import Channel
 from sim_vehicle.logs import TlogWriter
+from sim_vehicle.mavlink.link import Channel
 
 
 def _attitude(ms: int) -> mavlink.MAVLink_attitude_message:

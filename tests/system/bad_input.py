@@ -29,7 +29,7 @@ import pytest
 
 import mission.cli
 import sim_vehicle.cli
-import sim_vehicle.json_backend_cli
+import sim_vehicle.json_backend.cli
 import vessel.cli
 
 CASE_TIMEOUT_S = 20  # a bad value is refused in well under a second; anything longer went on to run

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 import mavbridge.cli
-from mavbridge.cli_args import check_connection
+from mavbridge.cli.args import check_connection
 from vessel.config import ConfigError
 
 from .bad_input import SCENARIO, SWEEP_SPEC, table_tests

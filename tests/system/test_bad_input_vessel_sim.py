@@ -12,13 +12,13 @@ from pathlib import Path
 import pytest
 
 import sim_vehicle.cli
-import sim_vehicle.json_backend_cli
+import sim_vehicle.json_backend.cli
 import vessel.cli
 
 from .bad_input import make_fixtures, problems, run_as_process, run_in_process, table_tests
 
 PARSERS = {"vessel": vessel.cli.build_parser(), "sim-vehicle": sim_vehicle.cli.build_parser(),
-           "sim-vehicle --json-backend": sim_vehicle.json_backend_cli.build_parser()}
+           "sim-vehicle --json-backend": sim_vehicle.json_backend.cli.build_parser()}
 
 MAN = "vessel maneuver --left 10 --right 10 --duration 1"
 SEA = "vessel sea --csv out.csv --duration 60"

@@ -22,7 +22,7 @@ from mavbridge.preflight.rules import (
     tau_form_findings,
 )
 from sim_vehicle.harness import SimProcess
-from sim_vehicle.params import ParamTable, read_parm
+from sim_vehicle.rover.params import ParamTable, read_parm
 from tests.waits import upload_waypoint
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mavbridge.experiment import run_scenario
-from mavbridge.scenario import Scenario
+from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.scenario import Scenario
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import HOLD as MODE_HOLD
 from tests.system.lockstep import LOCKSTEP, SIM_LOCKSTEP, assert_lockstep_run

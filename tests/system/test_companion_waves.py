@@ -28,9 +28,9 @@ import numpy as np
 import pytest
 
 from mavbridge.cli import main
-from mavbridge.link import mavlink
+from mavbridge.lab.scenario import Scenario
+from mavbridge.link.connection import mavlink
 from mavbridge.preflight.report import PASS, WARN
-from mavbridge.scenario import Scenario
 from sim_vehicle.harness import SimProcess
 from tests.system.lockstep import assert_lockstep_run
 

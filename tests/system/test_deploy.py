@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 
 from mavbridge.cli import build_parser
-from mavbridge.companion import CompanionConfig, load_companion_config
-from mavbridge.scenario import Scenario
+from mavbridge.companion.flight import CompanionConfig, load_companion_config
+from mavbridge.lab.scenario import Scenario
 from sim_vehicle.harness import SimProcess
-from sim_vehicle.params import ParamTable, is_param_name, read_parm
+from sim_vehicle.rover.params import ParamTable, is_param_name, read_parm
 from tests.waits import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]

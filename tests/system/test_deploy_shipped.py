@@ -22,7 +22,7 @@ import pytest
 import yaml
 
 from sim_vehicle.harness import SimProcess
-from sim_vehicle.params import read_parm
+from sim_vehicle.rover.params import read_parm
 from tests.system.nullmodem import NullModem
 from tests.waits import upload_waypoint
 

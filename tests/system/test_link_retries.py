@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from bench.chaos_relay import ChaosRelay, Faults
-from mavbridge.link import Link
-from mavbridge.retry import RetryPolicy, RetrySettings
+from mavbridge.link.connection import Link
+from mavbridge.link.retry import RetryPolicy, RetrySettings
 from sim_vehicle.harness import SimProcess, free_port
 from tests.rover import ACCEPTED, ARM, MANUAL
 from tests.waits import command_texts, set_mode

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
-from mavbridge.cli_args import REAL_TIME_SOLVER
+from mavbridge.cli.args import REAL_TIME_SOLVER
 from sim_vehicle.harness import SimProcess, free_port
 from tests.waits import WaitTimeoutError
 

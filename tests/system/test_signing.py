@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from mavbridge.cli import main
-from mavbridge.link import Link, LinkError
-from mavbridge.signing import LinkSettings, key_from_file
+from mavbridge.link.connection import Link, LinkError
+from mavbridge.link.signing import LinkSettings, key_from_file
 from sim_vehicle.harness import SimProcess
 from tests.rover import ACCEPTED
 from tests.system.test_mavproxy import MAVPROXY, Console

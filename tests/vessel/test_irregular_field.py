@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from vessel import Plant, RegularWaves, otter_parameters
-from vessel.irregular import IrregularWaves, bessel_j1, hull_averaging_factor
-from vessel.irregular_sea import IrregularSea
+from vessel.sea.irregular import IrregularWaves, bessel_j1, hull_averaging_factor
+from vessel.sea.irregular_sea import IrregularSea
 
 LONG = IrregularSea(hs_m=1.75, tp_s=6.0, seed=3)
 SHORT = IrregularSea(hs_m=1.75, tp_s=6.0, seed=3, spreading_s=4.0)

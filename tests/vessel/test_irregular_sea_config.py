@@ -8,10 +8,10 @@ import pytest
 
 from vessel import ConfigError, otter_parameters
 from vessel.config import from_mapping
-from vessel.irregular import IrregularWaves
-from vessel.irregular_sea import IrregularSea, parse_sea_spec
-from vessel.spectra import nato_sea_state
-from vessel.waves import CalmWater
+from vessel.sea.irregular import IrregularWaves
+from vessel.sea.irregular_sea import IrregularSea, parse_sea_spec
+from vessel.sea.spectra import nato_sea_state
+from vessel.sea.waves import CalmWater
 
 
 def test_defaults_are_the_papers_height_and_period() -> None:

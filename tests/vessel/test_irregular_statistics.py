@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from vessel.irregular import IrregularWaves
-from vessel.irregular_sea import IrregularSea
-from vessel.sea_analysis import autocorrelation, default_segment, hm0, peak_period, welch
-from vessel.spectra import jonswap
+from vessel.sea.analysis import autocorrelation, default_segment, hm0, peak_period, welch
+from vessel.sea.irregular import IrregularWaves
+from vessel.sea.irregular_sea import IrregularSea
+from vessel.sea.spectra import jonswap
 
 HS, TP, GAMMA = 1.75, 6.0, 3.3
 SEEDS = range(10)

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from vessel.cli import main
-from vessel.irregular_sea import IrregularSea
-from vessel.sea_analysis import hm0
+from vessel.sea.analysis import hm0
+from vessel.sea.irregular_sea import IrregularSea
 
 VESSEL = [sys.executable, "-m", "vessel.cli"]
 

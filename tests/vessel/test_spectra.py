@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from vessel.spectra import (
+from vessel.sea.spectra import (
     NATO_SEA_STATES,
     cos2s_spreading,
     jonswap,

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from vessel.spectra import jonswap
+from vessel.sea.spectra import jonswap
 
 frequency = pytest.importorskip("wavespectra.construct.frequency")
 

@@ -23,7 +23,7 @@ from vessel import (
 )
 from vessel.maneuver import PRESETS, Maneuver, maneuver_figures, run_maneuver
 from vessel.plant import rk4_step
-from vessel.waves import surface_relative_attitude
+from vessel.sea.waves import surface_relative_attitude
 
 PUBLISHED = otter_parameters("published")
 CORRECTED = otter_parameters("corrected")

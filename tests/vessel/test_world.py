@@ -11,7 +11,7 @@ import pytest
 from vessel import CalmWater, Plant, RegularWaves
 from vessel.closed_loop import PropellerPlant, TauPlant, substeps_per_period
 from vessel.config import ConfigError
-from vessel.sea_state import SeaState, Start
+from vessel.sea.state import SeaState, Start
 from vessel.world import SCENARIO_SECTIONS, SEA_PRESETS, World, load_world, world_from_mapping, world_preset
 
 
@@ -90,7 +90,7 @@ IRREGULAR = {"spectrum": {"kind": "jonswap", "hs_m": 1.75, "tp_s": 6, "gamma": 3
 
 def test_irregular_sea_section_builds_the_irregular_field_and_round_trips() -> None:
     """``sea: {spectrum: {kind, …}, seed}`` -> an IrregularWaves with that seed; to_mapping reads back equal."""
-    from vessel.irregular import IrregularWaves
+    from vessel.sea.irregular import IrregularWaves
 
     world = world_from_mapping({"sea": {**IRREGULAR, "current_speed_mps": 0.3}}, "f.yaml")
     sea = world.sea

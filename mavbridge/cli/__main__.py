@@ -1,0 +1,5 @@
+"""``python -m mavbridge.cli``: the same as the ``mavbridge`` command."""
+
+from mavbridge.cli.main import main
+
+raise SystemExit(main())

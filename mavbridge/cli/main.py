@@ -1,0 +1,132 @@
+"""``mavbridge`` console script: ``experiment`` (in-process), ``run`` (the companion), ``demo`` (everything),
+``check`` (preflight against any ArduPilot Rover)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import signal
+import sys
+from pathlib import Path
+
+from mavbridge.cli.args import positive
+from mavbridge.cli.run import add_demo_parser, add_run_parser, demo_command, run_command
+from mavbridge.cli.signing import add_signing_parser, signing_command
+from mavbridge.nmpc.config import SOLVERS
+from mavbridge.preflight.cli import add_check_parser, check_command
+from mavbridge.sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
+from vessel import ConfigError
+
+PLANTS = ("tau", "propellers")  # mirrors mavbridge.lab.scenario.PLANTS (kept import-light)
+WAVE_SOURCES = ("truth", "estimated")  # mirrors mavbridge.lab.scenario.WAVE_SOURCES
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump) and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with its subcommands."""
+    parser = _Parser(prog="mavbridge", description="Roll-aware NMPC companion for the Otter USV.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    exp = sub.add_parser("experiment", help="closed-loop runs of a scenario file in-process (no MAVLink)",
+                         description="Run every run of a scenario file in closed loop with the vessel plant; "
+                                     "write timeseries.csv, metrics.json, scenario.yaml and plots per run, "
+                                     "and table3.md for a set of runs.")
+    exp.add_argument("scenario", help="scenario YAML file (a single scenario or base + runs)")
+    exp.add_argument("--out", help="output folder (default: runs/<scenario file name>)")
+    exp.add_argument("--jobs", type=positive, default=None,
+                     help="parallel processes (default: all cores)")
+    exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
+    exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
+    exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
+    exp.add_argument("--waves", choices=WAVE_SOURCES, default=None,
+                     help="override every run's estimation.waves: truth (the true wave to the NMPC) or estimated "
+                          "(the wave estimator on simulated sensors at 20 Hz); the plant's realism (heave, hidden "
+                          "phase) stays as the scenario's estimation section says")
+    add_run_parser(sub)
+    add_demo_parser(sub)
+    add_check_parser(sub)
+    add_sweep_parser(sub)
+    add_tune_parser(sub)
+    add_signing_parser(sub)
+    return parser
+
+
+def _experiment(args: argparse.Namespace) -> int:
+    from mavbridge.lab.experiment import experiment
+    from mavbridge.lab.scenario import load_scenarios
+
+    scenarios = load_scenarios(args.scenario)
+    if args.only:
+        wanted = [name.strip() for name in args.only.split(",") if name.strip()]
+        names = [s.name for s in scenarios]
+        missing = [name for name in wanted if name not in names]
+        if missing:
+            raise ConfigError(f"--only: no run named '{missing[0]}' in {args.scenario} "
+                              f"(runs: {', '.join(names)})")
+        scenarios = [s for s in scenarios if s.name in wanted]
+    if args.solver:
+        scenarios = [dataclasses.replace(s, controller=s.controller.replace(solver=args.solver)) for s in scenarios]
+    if args.plant:
+        scenarios = [dataclasses.replace(s, plant=args.plant) for s in scenarios]
+    if args.waves:
+        scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.waves))
+                     for s in scenarios]
+    from mavbridge.lab.runlog import fresh_run_folder
+
+    for stop in (signal.SIGTERM, signal.SIGHUP):  # stopped like Ctrl-C: the finished runs are written, the rest listed
+        signal.signal(stop, _interrupt)
+    out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / Path(args.scenario).stem)
+    experiment(scenarios, out, args.jobs)
+    return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _first_line(exc: BaseException) -> str:
+    """The error's own first line, without Python's quotes (its repr only when it has no text)."""
+    text = str(exc)
+    return text.splitlines()[0] if text else repr(exc)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; bad input prints one line to stderr and exits with code 2."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "experiment":
+            return _experiment(args)
+        if args.command == "run":
+            return run_command(args)
+        if args.command == "demo":
+            return demo_command(args)
+        if args.command == "check":
+            return check_command(args)
+        if args.command == "sweep":
+            return sweep_command(args)
+        if args.command == "tune":
+            return tune_command(args)
+        if args.command == "signing":
+            return signing_command(args)
+    except (ConfigError, ValueError) as exc:
+        sys.stderr.write(f"mavbridge: error: {_first_line(exc)}\n")
+        return 2
+    except (FloatingPointError, RuntimeError) as exc:
+        sys.stderr.write(f"mavbridge: run failed: {_first_line(exc)}\n")
+        return 1
+    except KeyboardInterrupt:
+        sys.stderr.write("mavbridge: interrupted\n")
+        return 130
+    return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

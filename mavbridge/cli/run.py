@@ -1,0 +1,161 @@
+"""The `mavbridge run` and `mavbridge demo` subcommands (argument parsing and dispatch)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+from mavbridge.cli.args import (
+    REAL_TIME_SOLVER,
+    SOLVER_HELP,
+    config_from_flags,
+    link_flags,
+    parse_north_east,
+    positive_metres,
+    refuse_form_without_guided,
+    single_scenario,
+)
+from mavbridge.companion.choices import OUTPUTS, WAVE_SOURCES
+from mavbridge.companion.outputs import ATTITUDE_FORMS
+from mavbridge.link.signing import add_link_arguments
+from mavbridge.nmpc.config import SOLVERS
+from vessel.argtypes import seed_number
+from vessel.config import ConfigError
+from vessel.geo import DEFAULT_MAX_RANGE_M
+
+ATTITUDE_FORM_HELP = ("attitude_target: send the plan's heading (Rover's heading P loop, then its rate loop), its "
+                      "body yaw rate (the rate loop only), or tau: the rate and speed targets that give the plan's "
+                      "steering and throttle through Rover's loops (their gains read at start)")
+
+
+def _speedup(text: str) -> float:
+    """A speedup in (0, 100]."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 100], got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text} is not finite; allowed (0, 100]")
+    if not 0 < value <= 100:
+        raise argparse.ArgumentTypeError(f"{text!r} is outside the allowed range (0, 100]")
+    return value
+
+
+def add_run_parser(sub: Any) -> None:
+    """`mavbridge run`: the companion process."""
+    run = sub.add_parser("run", help="fly the roll-aware NMPC over MAVLink (the companion process)",
+                         description="Connect to an ArduPilot Rover, take the waypoint from its mission, and "
+                                     "command it with the NMPC while it is armed in the configured mode.")
+    run.add_argument("--config", help="companion YAML (connection, ids, output, timeouts); flags override it")
+    run.add_argument("--connect", help="pymavlink connection: udpin:0.0.0.0:14551, tcp:HOST:PORT, /dev/ttyAMA0")
+    run.add_argument("--baud", type=int, help="serial baud rate (default 921600)")
+    run.add_argument("--sysid", type=int, help="our system id (default 255 = ArduPilot's SYSID_MYGCS)")
+    run.add_argument("--compid", type=int, help="our component id (default 191, onboard computer)")
+    run.add_argument("--output", choices=OUTPUTS, help="rc_override (MANUAL) or attitude_target (GUIDED)")
+    run.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
+    run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
+                                        "Balanced run)")
+    run.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
+    run.add_argument("--waves", choices=WAVE_SOURCES, help="estimated (default: from the boat's own motion) or "
+                                                           "scenario (the scenario's sea: simulation truth only)")
+    run.add_argument("--waypoint", type=parse_north_east, metavar="N,E", help="waypoint in metres from home (testing)")
+    run.add_argument("--max-range", type=positive_metres, metavar="M",
+                     help=f"never engage on a waypoint farther than this from home or the boat (m, default "
+                          f"{DEFAULT_MAX_RANGE_M:g}, the limit of `mavbridge check` and `mission upload`)")
+    run.add_argument("--arm", action="store_true", help="arm the vehicle at start")
+    run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
+    run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
+    run.add_argument("--max-time", type=float, help="stop after this many seconds engaged (autopilot time)")
+    run.add_argument("--out", help="run folder for tlog, CSV and metrics (default runs/companion-<time>)")
+    run.add_argument("--lockstep", action="store_true", default=None,
+                     help="simulation only, against sim-vehicle --lockstep: wait for each solve fully, no "
+                          "wall-clock deadline (reproducible runs; never on a real boat)")
+    run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
+                                                                  "before: comparable runs start in the same world")
+    run.add_argument("--delay-compensation", action=argparse.BooleanOptionalAction, default=None,
+                     help="predict the state over the link's measured delay before planning (default on; "
+                          "--no-delay-compensation acts on the state as received, for comparison)")
+    add_link_arguments(run)
+
+
+def add_demo_parser(sub: Any) -> None:
+    """`mavbridge demo`: simulator + mission upload + companion, one command."""
+    demo = sub.add_parser("demo", help="the whole system: sim-vehicle + mission upload + mavbridge run",
+                          description="Start the simulator in the paper's waves and the companion side by side "
+                                      "over UDP, upload the waypoint with MAVSDK, fly there, print the figures.")
+    demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10, or 1 with "
+                                                                         "the ipopt solver)")
+    demo.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
+    demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
+    demo.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
+    demo.add_argument("--sim-params", metavar="FILE", help="a .parm file of the simulator's defaults (e.g. "
+                      "deploy/otter-guided-tau.parm for --attitude-form tau)")
+    demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
+    demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
+                      help="the companion's waves: estimated (default) or scenario (fly on the simulator's truth)")
+    demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
+    demo.add_argument("--lockstep", action="store_true", help="simulator and companion in lockstep, commanding "
+                                                              "from a fixed autopilot time: a reproducible run")
+    demo.add_argument("--seed", type=seed_number, default=None, metavar="N",
+                      help="the simulator's seed (hidden wave phase, sensor noise), whole number in [0, 2^32-1]; "
+                           "default a fresh one, printed in sim.log. With --lockstep the same seed gives the same run")
+    demo.add_argument("--direct", action="store_true",
+                      help="fly the scenario with R = 0 (the paper's Direct: no roll term), for a comparison pair")
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Carry out `mavbridge run`."""
+    import time
+
+    from mavbridge.companion.flight import Companion, build_nmpc
+    from mavbridge.companion.wave_gate import make_wave_source
+    from mavbridge.lab.runlog import fresh_run_folder
+    from mavbridge.link.port_guard import refuse_if_taken
+
+    if args.dry_run and (args.arm or args.set_mode):
+        raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
+    config = config_from_flags(args.config, {
+        **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
+        "waves": ("--waves", args.waves), "lockstep": ("--lockstep", args.lockstep),
+        "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
+        "delay_compensation": ("--delay-compensation", args.delay_compensation),
+        "attitude_form": ("--attitude-form", args.attitude_form)})
+    refuse_form_without_guided(args.attitude_form, config.output)
+    config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
+    if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
+        raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
+                          f"from home, farther than --max-range {config.max_range_m:g} m")
+    refuse_if_taken(config.connect)  # before seconds of building: a second companion on a port stops at once
+    scenario = single_scenario(args.scenario, args.solver)
+    out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S"))
+    waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
+                             scenario.params())
+    with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
+        return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
+                         args.dry_run).run()
+
+
+def demo_scenario(path: str | None, solver: str | None, direct: bool) -> Any:
+    """The demo's one scenario (default the paper's Balanced run); ``direct``: the same with R = 0."""
+    scenario = single_scenario(path, solver)
+    if direct:
+        scenario = dataclasses.replace(scenario, name=f"{scenario.name}-direct",
+                                       controller=scenario.controller.replace(r=0.0))
+    return scenario
+
+
+def demo_command(args: argparse.Namespace) -> int:
+    """Carry out `mavbridge demo`."""
+    from mavbridge.lab.demo import run_demo, timestamped_folder
+
+    refuse_form_without_guided(args.attitude_form, args.output)
+    scenario = demo_scenario(args.scenario, args.solver, args.direct)
+    speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
+    out = Path(args.out) if args.out else timestamped_folder()
+    if args.sim_params and not Path(args.sim_params).is_file():
+        raise ConfigError(f"--sim-params: {args.sim_params} is not a readable file")
+    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form,
+                    args.sim_params)

@@ -1,0 +1,124 @@
+"""Delay compensation for the companion: how old the state is, and the state when the command will act.
+
+Put together from ``ClockModel`` (the autopilot's time now, from arrivals and TIMESYNC round trips) and
+``StatePredictor`` (the NMPC's model run forward with the commands in flight). Each control step:
+
+* the state's **age** = the autopilot's time now (estimated) − the newest ATTITUDE's time_boot_ms;
+* when compensating, the state is predicted to *now + the uplink's one-way delay* (when the command
+  reaches the boat) and the NMPC plans from there, at that time; the command is remembered with that
+  time, so later predictions know what the boat was executing.
+
+TIMESYNC requests (tc1 = 0, ts1 = our monotonic ns) go out once a wall second from the link's idle hook;
+ArduPilot, and the simulator, answer with tc1 = their time. Only the answer to one of our own requests
+counts (its ts1 is ours).
+
+In lockstep (``sim-vehicle --lockstep``) the age is zero by construction: the autopilot's time waits at
+each tick for the command, so the state acted on is always the newest; nothing is measured or predicted.
+Off (``delay_compensation: false``) the age is still measured and logged, for comparison.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from mavbridge.companion.predict import CommandHistory, StatePredictor
+from mavbridge.link.clock_model import ClockModel
+
+TIMESYNC_PERIOD_S = 1.0  # wall seconds between our TIMESYNC requests
+PENDING_KEPT = 16  # unanswered requests remembered (a lost one is forgotten)
+CLOCK_MESSAGES = ("ATTITUDE", "GLOBAL_POSITION_INT")
+
+
+class DelayCompensator:
+    """Measures the state's age on the link and predicts the state forward over the delay."""
+
+    def __init__(self, enabled: bool, lockstep: bool, max_prediction_s: float,
+                 predictor: StatePredictor | None) -> None:
+        self.enabled, self.lockstep, self.max_prediction_s = enabled, lockstep, max_prediction_s
+        self.predictor = predictor
+        self.clock = ClockModel()
+        self.history = CommandHistory()
+        self.ages_s: list[float] = []
+        self.horizons_s: list[float] = []
+        self._pending: deque[int] = deque(maxlen=PENDING_KEPT)
+        self._last_request = -TIMESYNC_PERIOD_S
+
+    def attach(self, link: Any) -> None:
+        """Watch the link's time-stamped messages and TIMESYNC answers; ask for round trips when idle."""
+        if self.lockstep:
+            return
+        link.handlers.append(self.on_message)
+        link.idle_hooks.append(lambda: self.request_round_trip(link))
+
+    def on_message(self, msg: Any) -> None:
+        """An arrival for the clock fit, or the answer to one of our TIMESYNC requests."""
+        kind, now = msg.get_type(), time.monotonic()
+        if kind in CLOCK_MESSAGES:
+            self.clock.observe(now, int(msg.time_boot_ms) / 1000.0)
+        elif kind == "TIMESYNC" and msg.tc1 != 0 and msg.ts1 in self._pending:
+            self._pending.remove(msg.ts1)
+            self.clock.observe_round_trip(msg.ts1 / 1e9, now)
+
+    def request_round_trip(self, link: Any) -> None:
+        """A TIMESYNC request, once every TIMESYNC_PERIOD_S of wall time."""
+        now = time.monotonic()
+        if link.target is None or now - self._last_request < TIMESYNC_PERIOD_S:
+            return
+        self._last_request = now
+        stamp = time.monotonic_ns()
+        self._pending.append(stamp)
+        link.send("timesync", 0, stamp)
+
+    def compensate(self, state_s: float) -> tuple[float, float]:
+        """(the state's age, the time to plan at) for a state stamped ``state_s`` (autopilot s)."""
+        if self.lockstep or not self.clock.ready():
+            self.ages_s.append(0.0)
+            self.horizons_s.append(0.0)
+            return 0.0, state_s
+        now_s = self.clock.now_s()
+        age = max(0.0, now_s - state_s)
+        self.ages_s.append(age)
+        if not self.enabled or self.predictor is None:
+            self.horizons_s.append(0.0)
+            return age, state_s
+        horizon = min(age + self.clock.one_way_delay_s(), self.max_prediction_s)
+        self.horizons_s.append(horizon)
+        return age, state_s + horizon
+
+    def predict(self, x: np.ndarray, state_s: float, plan_s: float, waves: Any) -> np.ndarray:
+        """The state at ``plan_s`` from ``x`` at ``state_s`` (x itself when not compensating)."""
+        if self.predictor is None or plan_s <= state_s:
+            return x
+        return self.predictor.predict(x, state_s, plan_s, self.history, waves)
+
+    def sent(self, plan_s: float, tau: np.ndarray) -> None:
+        """The command planned for ``plan_s`` went out: the boat executes it from then on."""
+        self.history.add(plan_s, tau)
+
+    def summary(self) -> dict[str, Any]:
+        """metrics.json's ``delay``: the age's distribution (s), the prediction horizon, the link's delay."""
+        ages = np.asarray(self.ages_s, float)
+        horizons = np.asarray(self.horizons_s, float)
+        rtt = self.clock.round_trip_s
+        figures = {"state_age_s_median": float(np.median(ages)) if ages.size else None,
+                   "state_age_s_p95": float(np.percentile(ages, 95)) if ages.size else None,
+                   "state_age_s_max": float(np.max(ages)) if ages.size else None,
+                   "prediction_s_median": float(np.median(horizons)) if horizons.size else None,
+                   "round_trip_autopilot_s": None if rtt is None else self.clock.rate * rtt,
+                   "clock_rate": self.clock.rate}
+        return {"compensation": "lockstep (age zero by construction)" if self.lockstep else
+                ("on" if self.enabled else "off"),
+                **{k: round(v, 4) if isinstance(v, float) else v for k, v in figures.items()}}
+
+
+def make_compensator(config: Any, nmpc: Any) -> DelayCompensator:
+    """The companion's compensator from its settings (``delay_compensation``, ``max_prediction_s``,
+    ``lockstep``) and its NMPC, whose model and current the prediction uses."""
+    predictor = None
+    if config.delay_compensation and not config.lockstep:
+        predictor = StatePredictor(nmpc.params, nmpc.current, None if nmpc.takes_waves else nmpc.waves)
+    return DelayCompensator(config.delay_compensation, config.lockstep, config.max_prediction_s, predictor)

@@ -1,0 +1,335 @@
+"""`mavbridge run`: the companion process that flies the roll-aware NMPC over MAVLink.
+
+Link -> state -> NMPC -> command, on the autopilot's clock (ATTITUDE.time_boot_ms), at the
+controller's period. It relies only on what a stock ArduPilot Rover sends and accepts: HEARTBEAT,
+ATTITUDE, GLOBAL_POSITION_INT, LOCAL_POSITION_NED, the mission protocol, PARAM_VALUE, COMMAND_ACK;
+TIMESYNC (its answer to ours: the link's round trip, for delay compensation); SCALED_IMU / RAW_IMU (for
+the wave estimator, where streamed); and it sends RC_CHANNELS_OVERRIDE (MANUAL) or SET_ATTITUDE_TARGET
+(GUIDED).
+
+The loop is put together from parts: the NMPC (built outside and passed in), a ``WaveSource`` (all
+it knows about the sea; by default the estimator, gated on its confidence by a ``WaveGate``), an
+output path (``output_paths``), a ``MissionTracker``, the ``Supervisor`` and a ``RunRecorder`` whose
+CSV schema and metrics the in-process experiment shares.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from mavbridge.companion.command_channel import CommandChannel
+from mavbridge.companion.config import CompanionConfig, load_companion_config
+from mavbridge.companion.delay import make_compensator
+from mavbridge.companion.engage_gate import far_waypoint
+from mavbridge.companion.mission_tracker import MissionTracker
+from mavbridge.companion.notices import LoopNotices
+from mavbridge.companion.output_paths import MODE_HOLD, make_output
+from mavbridge.companion.start import DeferredStart, start_flight, switch_mode_at_start, wave_step
+from mavbridge.companion.start import log_result as _log_result
+from mavbridge.companion.state import StateEstimate
+from mavbridge.companion.summary import summary_lines
+from mavbridge.companion.supervisor import Phase, Supervisor
+from mavbridge.companion.wave_gate import WaveGate
+from mavbridge.lab.runlog import RunRecorder, run_metrics, write_csv
+from mavbridge.lab.scenario import Scenario
+from mavbridge.link.connection import Link, LinkError, mavlink
+from mavbridge.link.port_guard import hold_exclusively, refuse_if_taken
+from mavbridge.link.reboot import watch_reboots
+from mavbridge.nmpc import RollAwareNmpc
+from mavbridge.nmpc.model_state import resolve_heave_feedback
+from mavbridge.preflight.rules import Context
+from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource
+from vessel import CalmWater
+from vessel.config import to_mapping
+
+__all__ = ["Companion", "CompanionConfig", "build_nmpc", "load_companion_config", "schedule", "wave_step"]
+
+
+def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) -> RollAwareNmpc:
+    """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
+    when it has none). A step waits for asrti's background solve for a quarter period at most, never the
+    whole period (in ``lockstep``, simulation only, the scenario's full ``as_wait_s``: wall time does not
+    pass for the boat, and a result that depends on the machine's load would not be reproducible). A real
+    hull rides the sea (heave_feedback, model_state): only simulation truth keeps the paper's setting."""
+    heaves = waves.name != SCENARIO_TRUTH
+    controller = scenario.controller.replace(heave_feedback=resolve_heave_feedback(scenario.controller.heave_feedback,
+                                                                                   heaves))
+    if not lockstep:
+        controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
+    estimate = waves.estimate(0.0)
+    field = estimate.field() if estimate is not None else CalmWater()
+    return RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
+
+
+@dataclass
+class LoopEvents:
+    """What the loop counted besides the control steps (autopilot milliseconds where a time)."""
+
+    stale: int = 0
+    skipped_ticks: int = 0
+    engaged_at_ms: int | None = None
+    arrived_at_ms: int | None = None
+    rates_hz: dict[str, float] = field(default_factory=dict)
+
+
+def loop_metrics(record: RunRecorder, events: LoopEvents) -> dict[str, Any]:
+    """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters."""
+    arrived = (events.arrived_at_ms - events.engaged_at_ms) / 1000.0 \
+        if events.arrived_at_ms is not None and events.engaged_at_ms is not None else None
+    figures = {k: round(v, 4) if isinstance(v, float) else v for k, v in run_metrics(record, arrived).items()}
+    return {**figures, "engaged_at_s": events.engaged_at_ms / 1000.0 if events.engaged_at_ms is not None else None,
+            "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz}
+
+
+def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[bool, int, int]:
+    """(a control step is due at autopilot time ``now_ms``, the next tick, periods missed since the last).
+
+    Ticks are the first samples at or after whole multiples of the period on the autopilot clock, the grid
+    `sim-vehicle --lockstep` holds at too. The first sample, or a clock far behind the schedule (the
+    autopilot rebooted), starts it again at the next grid point.
+    """
+    if next_tick_ms is None or now_ms < next_tick_ms - 10 * period_ms:
+        next_tick_ms = -(-now_ms // period_ms) * period_ms
+    if now_ms < next_tick_ms:
+        return False, next_tick_ms, 0
+    missed = (now_ms - next_tick_ms) // period_ms
+    return True, next_tick_ms + (missed + 1) * period_ms, missed
+
+
+def write_run_config(out_dir: Path, config: CompanionConfig, scenario: Scenario, wave_source: str) -> None:
+    """config.yaml of the run folder: the companion settings, the scenario, and where the waves came from."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "config.yaml").write_text(yaml.safe_dump({"companion": to_mapping(config),
+                                                         "scenario": scenario.to_mapping(),
+                                                         "wave_source": wave_source}))
+
+
+def wave_source_line(name: str) -> str:
+    """What the run says at its start about where its waves come from."""
+    if name == SCENARIO_TRUTH:
+        return "waves: the scenario's sea (simulation truth); a real boat is told nothing about the sea"
+    return f"waves: {name} from the boat's own motion; the roll term waits for a confident estimate"
+
+
+class Companion:
+    """One run of the companion against one autopilot."""
+
+    def __init__(self, config: CompanionConfig, scenario: Scenario, out_dir: Path, nmpc: RollAwareNmpc,
+                 waves: WaveSource, waypoint_ne: tuple[float, float] | None = None, arm: bool = False,
+                 set_mode: bool = False, dry_run: bool = False, log: Callable[[str], None] = print) -> None:
+        self.config, self.scenario, self.out_dir, self.nmpc, self.waves = config, scenario, out_dir, nmpc, waves
+        self.arm, self.set_mode, self.log = arm, set_mode, log
+        self.period_s = scenario.controller.period_s
+        self.period_ms = round(self.period_s * 1000)
+        ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m)
+        self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log,
+                                  config.attitude_form)
+        self.commands = CommandChannel(self.output, log)
+        self.supervisor = Supervisor(self.output.required_mode, config.link_timeout_s, dry_run)
+        self.state = StateEstimate(max_distance_m=config.max_distance_m)
+        self.mission = MissionTracker(scenario.waypoint.acceptance_radius_m, waypoint_ne, log)
+        self.record = RunRecorder(self.period_s)
+        self.gate = WaveGate(waves, log, hold_s=scenario.estimation.hold_s)
+        self.events = LoopEvents()
+        self.notices = LoopNotices(log, self.output.required_mode)
+        self.delay = make_compensator(config, nmpc)  # the state's age on the link; prediction over the delay
+        self._failure: str | None = None  # set when the run ends in a failure (exit 1): systemd restarts it
+        self.link: Link | None = None
+        self._stop_reason: str | None = None
+        self._signal_interrupts = True  # until the loop runs, a stop signal interrupts a blocking wait
+        self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
+        self.deferred_start: DeferredStart | None = None  # lockstep --start-at --set-mode: switch at the first tick
+
+    def _on_heartbeat(self, msg: Any) -> None:
+        if msg.get_type() == "HEARTBEAT":
+            armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            before = self.supervisor.phase
+            after = self.supervisor.on_heartbeat(time.monotonic(), armed, int(msg.custom_mode))
+            if after != before:
+                shadow = after == Phase.ENGAGED and not self.output.sends  # a dry run: planning, nothing sent
+                self.log(f"phase: {'shadow (dry run: planning, sending nothing)' if shadow else after.value}"
+                         + (f" ({self.supervisor.reason})" if after.final else ""))
+
+    def _on_motion(self, msg: Any) -> None:
+        """Every ATTITUDE sample (once a position is known) goes to the wave source, after the state took it."""
+        if msg.get_type() == "ATTITUDE" and self.state.ready():
+            self.gate.observe(self.state.motion_sample())
+
+    def _finish_at_waypoint(self, link: Link, now_ms: int) -> None:
+        """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
+        self.events.arrived_at_ms = now_ms
+        self.supervisor.arrived()
+        since = f", {(now_ms - self.events.engaged_at_ms) / 1000:.1f} s after engaging" \
+            if self.events.engaged_at_ms is not None else ""
+        self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s (autopilot time){since}")
+        self.output.neutral(link, self.state)
+        if self.config.on_arrival == "hold" and self.output.sends:
+            self.supervisor.expected_mode = MODE_HOLD
+            _log_result(self.log, "HOLD at the waypoint", link.set_mode(MODE_HOLD))
+        self.commands.release(link)
+
+    def _control_step(self, link: Link, now_ms: int) -> None:
+        if not self.supervisor.may_command():
+            if self.commands.commanding:
+                self.commands.release(link)
+            return
+        if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
+            self.events.stale += 1
+            if self.commands.commanding:
+                self.output.neutral(link, self.state)  # never leave the last command running on old data
+            return
+        x = self.state.vector()
+        far = far_waypoint(self.mission.waypoints, self.config.max_range_m, (float(x[0]), float(x[1])))
+        if far is not None:  # the engage gate: never a command towards a waypoint out of range (new missions too)
+            self._fail(link, far)
+            return
+        target = self.mission.target(float(x[0]), float(x[1]))
+        if self.events.engaged_at_ms is None:
+            self.events.engaged_at_ms = now_ms
+            if self.config.start_at_s is not None and target is not None:  # the cold solve here, from this state
+                self.nmpc.prepare(x, now_ms / 1000.0, target)
+        if target is None:
+            self._finish_at_waypoint(link, now_ms)
+            return
+        age_s, plan_s = self.delay.compensate(now_ms / 1000.0)  # plan_s: when the command will act
+        phase, wave = self.supervisor.phase.name, {**self.gate.step(self.nmpc, plan_s), "state_age_s": age_s}
+        deadline_s = None if self.config.lockstep else self.period_s  # lockstep: late is not a fault
+        result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
+                                 deadline_s=deadline_s)
+        self.delay.sent(plan_s, result.tau)
+        columns = self.commands.send(link, result, now_ms, self.state)
+        if columns is None:  # not finite: neutral was sent instead
+            if result.success:  # a failed solve is counted by the recorder already
+                self.record.failures += 1
+            self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave)
+            return
+        self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
+        self.notices.progress(now_ms / 1000.0, math.hypot(target[0] - x[0], target[1] - x[1]), float(x[3]),
+                              result.wall_time_s * 1e3)
+
+    def _fail(self, link: Link, reason: str) -> None:
+        """End the run as a failure (exit 1), standing down first."""
+        self.log(f"mavbridge run: error: {reason}")
+        self._failure = reason
+        self.supervisor.stop(reason)
+        if self.commands.commanding:
+            self.commands.stand_down(link, self.state)
+
+    def stop_requested(self) -> bool:
+        """True once a signal asked the companion to stop (the loop ends at its next turn)."""
+        return self._stop_reason is not None
+
+    def _handle_signal(self, signum: int, frame: Any) -> None:
+        self._stop_reason = f"signal {signal.Signals(signum).name}"
+        if self._signal_interrupts:  # still connecting or preparing: stop now, the loop is not there to see it
+            raise LinkError(f"stopped by {self._stop_reason} before flying")
+
+    def run(self) -> int:
+        """Connect, prepare, fly until a final phase; always releases and writes logs. Returns an exit code."""
+        write_run_config(self.out_dir, self.config, self.scenario, self.waves.name)
+        self.log(wave_source_line(self.waves.name))
+        try:
+            refuse_if_taken(self.config.connect)  # one companion per UDP port
+            link = Link(self.config.connect, self.config.system_id, self.config.component_id,
+                        self.out_dir / "companion.tlog", self.config.baud, self.config, self.log)
+        except LinkError as exc:
+            self.log(f"mavbridge run: error: {exc}")
+            return 1
+        self.link = link
+        hold_exclusively(link.conn)
+        link.handlers += [self.state.on_message, self._on_motion, self._on_heartbeat, self.mission.on_message]
+        watch_reboots(link, self)  # a reboot mid-run: release, streams again, wait for the pilot
+        self.delay.attach(link)
+        previous = {s: signal.signal(s, self._handle_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        code = 0
+        try:
+            start_flight(self, link)
+            self._fly(link)
+        except LinkError as exc:
+            self.supervisor.stop(str(exc))
+            code = 0 if self._stop_reason else 1  # asked to stop (systemd stop, Ctrl-C): no failure to restart from
+            self.log(f"mavbridge run: {exc}" if self._stop_reason else f"mavbridge run: error: {exc}")
+        finally:  # a second signal from here on is only noted: the release and the logs must not be cut short
+            self._signal_interrupts = False
+            if self.commands.commanding:
+                self.commands.stand_down(link, self.state)
+            self._write_logs()
+            link.close()
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+        return 1 if self._failure else code
+
+    def _service_link(self, link: Link) -> bool:
+        """Read the link, follow the mission and the supervisor; False once the run must end."""
+        link.heartbeat_if_due()
+        link.recv(0.05)
+        link.drain()  # act on the newest state, never on a backlog
+        if self.mission.changed and self.commands.commanding:
+            self.commands.stand_down(link, self.state)  # the download blocks for seconds: never leave it running
+        self.mission.reload_if_changed(link, self.state.set_home)
+        phase_before = self.supervisor.phase
+        if self.supervisor.tick(time.monotonic()) != phase_before:
+            self.log(f"phase: {self.supervisor.phase.value}")
+        if self.supervisor.phase == Phase.TAKEN_OVER and self.commands.commanding:
+            self.commands.release(link)  # the sticks are the pilot's
+        if self.supervisor.outage_s(time.monotonic()) > self.config.max_link_outage_s:
+            self._fail(link, f"link lost for more than {self.config.max_link_outage_s:g} s")
+            return False
+        if not self.config.lockstep and self.commands.stale(self.period_s):  # (lockstep: the boat's time waits)
+            self.commands.stand_down(link, self.state)  # no fresh step for three periods (no ATTITUDE): stop
+        return True
+
+    def _fly(self, link: Link) -> None:
+        """The loop: one control step per period of autopilot time, until a final phase."""
+        next_tick_ms: int | None = None
+        self._signal_interrupts = False
+        while not self.supervisor.phase.final:
+            if self._stop_reason:
+                self.supervisor.stop(self._stop_reason)
+                break
+            if not self._service_link(link):
+                break
+            if self.supervisor.phase == Phase.WAITING and not self.supervisor.self_commanded:
+                self.notices.waiting(self.supervisor.reason)
+            now_ms = self.state.attitude_ms
+            if now_ms is None or now_ms < self._start_ms:
+                continue
+            due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
+            if not due:
+                continue
+            self.events.skipped_ticks += missed
+            self.notices.skipped(missed, self.period_s)
+            if self.deferred_start is not None:
+                switch_mode_at_start(self, link, now_ms)
+            self._control_step(link, now_ms)
+            engaged = self.events.engaged_at_ms
+            if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:
+                self.supervisor.stop("max_time_s reached")
+        said, why = self.supervisor.phase.value, self.supervisor.reason
+        self.log(f"run ended: {said}" + (f" ({why})" if why and why != said else ""))
+
+    def metrics(self) -> dict[str, Any]:
+        """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""
+        return {"phase": self.supervisor.phase.name, "reason": self.supervisor.reason, "output": self.config.output,
+                "solver": self.scenario.controller.solver, "wave_source": self.waves.name,
+                "heave_feedback": self.nmpc.config.heave_feedback,
+                **loop_metrics(self.record, self.events), "waves": self.gate.summary(self.record.solve_ms),
+                "link": dict(self.link.counts) if self.link else {}, "delay": self.delay.summary()}
+
+    def _write_logs(self) -> None:
+        write_csv(self.out_dir / "companion.csv", self.record.rows)
+        m = self.metrics()
+        (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+        first, *rest = summary_lines(m)
+        self.log(f"{first}; logs in {self.out_dir}")
+        for line in rest:
+            self.log(line)

@@ -1,0 +1,250 @@
+"""The companion's command paths as strategies: RC override, attitude target, and the dry run (null output).
+
+Each path knows how to get ready on the link (read what decides how the autopilot reads it), how to
+turn an NMPC answer into what goes out (``compute``: the log columns and the message, nothing sent),
+how to send it (``command``), how to hold the boat still while still commanding (``neutral``) and how
+to hand the sticks back (``release``). ``DryRun`` wraps a path: it computes what that path would send
+and sends nothing at all, so the loop never asks which path or mode it is in.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from mavbridge.companion.guided_inverse import RoverLoops, default_speed, loop_targets
+from mavbridge.companion.outputs import (
+    ATTITUDE_FORMS,
+    ATTITUDE_TYPE_MASK_HEADING,
+    AttitudeCommand,
+    RcCalibration,
+    RcSetup,
+    attitude_command,
+    neutral_pwm,
+    rc_command,
+)
+from mavbridge.link.connection import LinkError, mavlink
+from mavbridge.preflight.rules import OPTIONAL_PARAMETERS, Context, override_violations
+from vessel import OtterParameters
+
+MODE_MANUAL, MODE_HOLD, MODE_GUIDED = mavlink.ROVER_MODE_MANUAL, mavlink.ROVER_MODE_HOLD, mavlink.ROVER_MODE_GUIDED
+Log = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Command:
+    """What one control step would send: the log columns, and the send itself."""
+
+    columns: dict[str, Any]
+    send: Callable[[Any], None]
+
+
+class Output(Protocol):
+    """One command path (see the module docstring)."""
+
+    name: str
+    required_mode: int
+    sends: bool
+
+    def prepare(self, link: Any) -> None:
+        """Read what decides how the autopilot takes this path's commands; LinkError if it would ignore them."""
+        ...
+
+    def compute(self, result: Any, now_ms: int) -> Command:
+        """The command for an NMPC answer; ValueError if the plan cannot be sent (non-finite)."""
+        ...
+
+    def command(self, link: Any, result: Any, now_ms: int) -> dict[str, Any]:
+        """Compute and send; returns the log columns."""
+        ...
+
+    def neutral(self, link: Any, state: Any) -> None:
+        """Zero thrust, no turn, still commanding (so the sticks do not take over in between)."""
+        ...
+
+    def release(self, link: Any) -> None:
+        """Give control back to the pilot."""
+        ...
+
+
+def read_calibration(link: Any, channel: int, log: Log) -> RcCalibration:
+    """RCn_MIN/TRIM/MAX/DZ of an input channel (ArduPilot's defaults where unreadable, with a warning)."""
+    values = {}
+    for suffix, default in (("MIN", 1100), ("TRIM", 1500), ("MAX", 1900), ("DZ", 30)):
+        value = link.read_parameter(f"RC{channel}_{suffix}")
+        if value is None:
+            log(f"warning: RC{channel}_{suffix} not readable, assuming {default}")
+            value = default
+        values[suffix] = round(value)
+    return RcCalibration(values["MIN"], values["TRIM"], values["MAX"], values["DZ"])
+
+
+def read_rc_setup(link: Any, ctx: Context, log: Log) -> RcSetup:
+    """Everything that decides how the autopilot reads our overrides; refuses setups that ignore them."""
+    def read(name: str) -> float | None:
+        return link.read_optional_parameter(name) if name in OPTIONAL_PARAMETERS else link.read_parameter(name)
+
+    problems = override_violations(read, ctx)
+    if problems:
+        raise LinkError(f"the autopilot would ignore our RC overrides: {problems[0]}")
+    steer_ch = round(link.read_optional_parameter("RCMAP_ROLL") or 1)
+    throttle_ch = round(link.read_optional_parameter("RCMAP_THROTTLE") or 3)
+    try:
+        setup = RcSetup(read_calibration(link, steer_ch, log), read_calibration(link, throttle_ch, log),
+                        steer_ch, throttle_ch, round(link.read_optional_parameter("PILOT_STEER_TYPE") or 0),
+                        bool(link.read_optional_parameter(f"RC{steer_ch}_REVERSED") or 0),
+                        bool(link.read_optional_parameter(f"RC{throttle_ch}_REVERSED") or 0))
+    except ValueError as exc:
+        raise LinkError(str(exc)) from None
+    log(f"RC: steering ch{steer_ch}, throttle ch{throttle_ch}, PILOT_STEER_TYPE {setup.steer_type}")
+    return setup
+
+
+class _Sending:
+    """``command`` for paths that send: compute, then send."""
+
+    sends = True
+
+    def command(self, link: Any, result: Any, now_ms: int) -> dict[str, Any]:
+        """Compute and send; returns the log columns."""
+        cmd = self.compute(result, now_ms)  # type: ignore[attr-defined]
+        cmd.send(link)
+        return cmd.columns
+
+
+class RcOverride(_Sending):
+    """MANUAL: τ through the vessel's allocation and the inverse of ArduPilot's skid mixer, as RC PWM."""
+
+    name, required_mode = "rc_override", MODE_MANUAL
+
+    def __init__(self, params: OtterParameters, ctx: Context, log: Log) -> None:
+        self.params, self.ctx, self.log = params, ctx, log
+        self.setup: RcSetup | None = None
+
+    def prepare(self, link: Any) -> None:
+        """Read RCMAP, calibration and PILOT_STEER_TYPE; refuse an autopilot that ignores overrides."""
+        self.setup = read_rc_setup(link, self.ctx, self.log)
+
+    def _channels(self, steering_pwm: int, throttle_pwm: int) -> dict[int, int]:
+        assert self.setup is not None, "prepare() first"
+        return {self.setup.steering_channel: steering_pwm, self.setup.throttle_channel: throttle_pwm}
+
+    def compute(self, result: Any, now_ms: int) -> Command:
+        """Steering and throttle PWM for the NMPC's (τ_X, τ_N)."""
+        assert self.setup is not None, "prepare() first"
+        rc = rc_command(self.params, float(result.tau[0]), float(result.tau[1]), self.setup)
+        channels = self._channels(rc.steering_pwm, rc.throttle_pwm)
+        return Command({"steering_pwm_us": rc.steering_pwm, "throttle_pwm_us": rc.throttle_pwm},
+                       lambda link: link.rc_override(channels))
+
+    def neutral(self, link: Any, state: Any) -> None:
+        """Both channels at trim."""
+        if self.setup is not None:
+            link.rc_override(self._channels(*neutral_pwm(self.setup)))
+
+    def release(self, link: Any) -> None:
+        """RC override 0 = release, a few times since UDP may drop one."""
+        if self.setup is not None:
+            for _ in range(3):
+                link.rc_override(self._channels(0, 0))
+
+
+class AttitudeTarget(_Sending):
+    """GUIDED: SET_ATTITUDE_TARGET in one of three forms: the plan's body yaw rate and speed ``lookahead_steps``
+    ahead (rate), its heading and speed there (heading), or the rate and speed targets for which Rover's loops
+    give the plan's first thrusts (tau, ``mavbridge.companion.guided_inverse``)."""
+
+    name, required_mode = "attitude_target", MODE_GUIDED
+
+    def __init__(self, lookahead_steps: int, log: Log, form: str = "rate",
+                 params: OtterParameters | None = None) -> None:
+        if form not in ATTITUDE_FORMS or (form == "tau" and params is None):
+            raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)} (tau needs the "
+                             "vessel's parameters)")
+        self.lookahead_steps, self.log, self.form, self.params = lookahead_steps, log, form, params
+        self.wp_speed_mps = 2.0
+        self.loops: RoverLoops | None = None
+
+    def prepare(self, link: Any) -> None:
+        """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
+        also reads Rover's loop gains, refuses them with an I or D term on (LinkError) and warns of what flies
+        but not as planned (``RoverLoops.warnings``)."""
+        self.wp_speed_mps = default_speed(link.read_parameter)
+        if self.form == "tau":
+            self.loops = loops = RoverLoops.read(link)
+            self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
+                     f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
+            for warning in loops.warnings(self.wp_speed_mps):
+                self.log(f"warning: GUIDED tau form: {warning}")
+
+    def _attitude(self, result: Any) -> AttitudeCommand:
+        """The target for this answer in this path's form."""
+        if self.form != "tau":
+            return attitude_command(result.states, self.wp_speed_mps, self.lookahead_steps, self.form)
+        assert self.loops is not None and self.params is not None, "prepare() first"
+        x0 = result.states[0]
+        rate, speed = loop_targets(self.params, self.loops, float(result.tau[0]), float(result.tau[1]),
+                                   float(x0[6]), float(x0[11]))
+        if not (math.isfinite(rate) and math.isfinite(speed)):
+            raise ValueError("plan: non-finite turn-rate or speed target")
+        return AttitudeCommand(float(x0[5]), max(-1.0, min(1.0, speed / self.wp_speed_mps)), speed, rate)
+
+    def compute(self, result: Any, now_ms: int) -> Command:
+        """The target in this path's form (see the class docstring) and its log columns."""
+        att = self._attitude(result)
+        columns = {"yaw_target_rad": att.yaw_rad, "thrust_frac": att.thrust}
+        if att.yaw_rate_rad_s is not None:
+            columns["yaw_rate_target_rad_s"] = att.yaw_rate_rad_s
+        return Command(columns, lambda link: link.attitude_target(now_ms, att.quaternion(), att.thrust,
+                                                                  att.type_mask, att.yaw_rate_rad_s or 0.0))
+
+    def neutral(self, link: Any, state: Any) -> None:
+        """Hold the present heading with zero thrust: no pivot towards north."""
+        if state.attitude_ms is not None:
+            yaw = float(state.attitude[2])
+            link.attitude_target(state.attitude_ms, (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)), 0.0,
+                                 ATTITUDE_TYPE_MASK_HEADING)
+
+    def release(self, link: Any) -> None:
+        """Nothing to release: GUIDED holds its last target until the mode changes."""
+
+
+class DryRun:
+    """The null output: computes what ``inner`` would send, sends nothing, never holds or releases."""
+
+    sends = False
+
+    def __init__(self, inner: Output) -> None:
+        self.inner, self.name, self.required_mode = inner, inner.name, inner.required_mode
+
+    def prepare(self, link: Any) -> None:
+        """As the wrapped path (reads only), so the logged commands are the ones it would send."""
+        self.inner.prepare(link)
+
+    def compute(self, result: Any, now_ms: int) -> Command:
+        """The wrapped path's command."""
+        return self.inner.compute(result, now_ms)
+
+    def command(self, link: Any, result: Any, now_ms: int) -> dict[str, Any]:
+        """The log columns only."""
+        return self.inner.compute(result, now_ms).columns
+
+    def neutral(self, link: Any, state: Any) -> None:
+        """Nothing is sent."""
+
+    def release(self, link: Any) -> None:
+        """Nothing was taken."""
+
+
+def make_output(output: str, dry_run: bool, params: OtterParameters, ctx: Context, lookahead_steps: int,
+                log: Log, attitude_form: str = "rate") -> Output:
+    """The strategy for ``output`` (rc_override or attitude_target, in ``attitude_form``), in DryRun if asked."""
+    paths: dict[str, Callable[[], Output]] = {
+        "rc_override": lambda: RcOverride(params, ctx, log),
+        "attitude_target": lambda: AttitudeTarget(lookahead_steps, log, attitude_form, params)}
+    if output not in paths:
+        raise ValueError(f"output: {output!r} is not one of {', '.join(paths)}")
+    path = paths[output]()
+    return DryRun(path) if dry_run else path

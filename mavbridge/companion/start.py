@@ -1,0 +1,173 @@
+"""The companion's start-up, between connecting and the control loop, and its wave hand-over.
+
+``start_flight`` runs the sequence once per run: wait for the autopilot, prepare the output path,
+request the streams, load the mission, measure the rates (and pin the fastest IMU stream), check the
+waypoints' range before anything moves, make the cold full solve so every step in the loop starts
+warm, then set the mode and arm only when the operator asked (``--set-mode``/``--arm``).
+``wave_step`` hands the wave source's answer (and its sea statistics) to the NMPC once.
+In lockstep with ``--start-at`` the mode switch waits for the first tick (``switch_mode_at_start``): a mode
+entered at a wall-clock moment of the startup starts its autopilot controllers (GUIDED's loiter, its
+integrators) at a simulated time that differs from run to run, and the run would not repeat.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from mavbridge.companion.engage_gate import check_waypoints
+from mavbridge.companion.rover_modes import mode_name
+from mavbridge.companion.supervisor import Supervisor
+from mavbridge.link.connection import Link, mavlink
+from mavbridge.link.streams import imu_rate, measure_rates, request_streams
+from mavbridge.nmpc import RollAwareNmpc
+from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource, sea_spread
+from vessel.config import ConfigError
+
+MODE_HEARTBEAT_WAIT_S = 5.0  # wall seconds the first lockstep tick waits for the heartbeat in the new mode
+
+
+def log_result(log: Callable[[str], None], what: str, result: int | None) -> None:
+    """Warn when a command was not accepted."""
+    if result != mavlink.MAV_RESULT_ACCEPTED:
+        reason = "no answer" if result is None else mavlink.enums["MAV_RESULT"][result].name
+        log(f"warning: {what} not accepted ({reason})")
+
+
+def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, float]:
+    """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
+    returns the estimate's log columns."""
+    estimate = waves.estimate(t_s)
+    try:
+        nmpc.set_wave(estimate.field() if estimate is not None else None)
+    except (ConfigError, ValueError):  # a wave the model refuses (breaking, not finite): no roll term, no crash
+        nmpc.set_wave(None)
+        estimate = None
+    nmpc.set_sea_spread(sea_spread(waves, estimate is not None))
+    return estimate.row() if estimate is not None else {}
+
+
+def start_flight(c: Any, link: Link) -> None:
+    """Autopilot, output path, streams, mission, rates, the cold solve; then mode and arming if asked
+    (``c``: the ``Companion`` whose parts this prepares). The operator's consent (``--set-mode``/``--arm``) is
+    given to the boot the companion meets: a reboot during this start (the reboot watch is already on)
+    clears it, and then nothing is switched or armed, now or at the first tick."""
+    consent = c.supervisor.self_commanded = c.set_mode or c.arm
+    sysid, compid = link.wait_autopilot(c.config.connect_timeout_s)
+    c.log(f"autopilot {sysid}/{compid} on {c.config.connect}; we are {c.config.system_id}/"
+          f"{c.config.component_id}; output {c.config.output}" + ("" if c.output.sends else " (dry run)"))
+    c.output.prepare(link)
+    request_streams(link, c.period_s, c.log)
+    c.mission.load(link, c.state.set_home)
+    rates = c.events.rates_hz = measure_rates(link, lambda: c.state.attitude_ms, warn=c.log)
+    c.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
+    boat = (float(c.state.vector()[0]), float(c.state.vector()[1])) if c.state.ready() else None
+    check_waypoints(c.mission.waypoints, c.config.max_range_m, boat)  # before arming or any mode change
+    imu, imu_hz = imu_rate(rates)
+    c.state.use_imu(imu)  # the fastest IMU stream, not the first to arrive
+    if c.waves.name != SCENARIO_TRUTH:
+        c.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
+              "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
+    if c.state.ready() and c.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
+        t_s = (c.state.attitude_ms or 0) / 1000.0
+        wave_step(c.waves, c.nmpc, t_s)
+        prepared = c.nmpc.prepare(c.state.vector(), t_s, c.mission.waypoints[0])
+        c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
+              f"({prepared.status})")
+    switch_and_arm_if_asked(c, link, consent)
+
+
+def switch_and_arm_if_asked(c: Any, link: Link, consent: bool) -> None:
+    """The end of the start: the mode switch and arming the operator asked for (``consent``: --set-mode or
+    --arm), now or, in lockstep with --start-at, deferred to the first tick; nothing when a reboot during the
+    start cleared the supervisor's consent."""
+    if consent and not c.supervisor.self_commanded:
+        c.log("the autopilot rebooted during the start: not switching its mode or arming (consent was given to "
+              "the previous boot); waiting for the pilot")
+        return
+    if c.set_mode and c.config.lockstep and c.config.start_at_s is not None:
+        c.deferred_start = DeferredStart(c.supervisor.mode, c.supervisor.mode_changes, c.arm)
+        c.log(f"lockstep: the switch to {mode_name(c.output.required_mode)}" + (" and the arming" if c.arm else "")
+              + f" wait for the first tick (t = {c.config.start_at_s:g} s), so that every run starts its "
+              "autopilot mode at the same time")
+        return
+    if c.set_mode:
+        mode = c.supervisor.expected_mode = c.output.required_mode
+        log_result(c.log, f"mode {mode_name(mode)}", link.set_mode(mode))
+    if c.arm:
+        log_result(c.log, "arming", link.arm())
+
+
+@dataclass(frozen=True)
+class DeferredStart:
+    """A mode switch (and arming) that lockstep with ``--start-at`` leaves to the first tick, and the autopilot
+    mode seen when it was deferred: a different mode at the tick is someone else's choice, not to be undone."""
+
+    mode_seen: int | None
+    mode_changes_seen: int  # the supervisor's count of mode changes then: HOLD → MANUAL → HOLD is a change too
+    arm: bool
+
+
+def consent_lapsed(supervisor: Supervisor, stop_requested: bool) -> str | None:
+    """Why the companion may no longer switch or arm on its own, or None: the run ended, a stop was asked
+    for (a signal seen before the loop could end the run), or a reboot cleared the consent."""
+    if supervisor.phase.final:
+        return f"the run ended ({supervisor.phase.value})"
+    if stop_requested:
+        return "a stop was requested"
+    if not supervisor.self_commanded:
+        return "consent lapsed (the autopilot rebooted since the start)"
+    return None
+
+
+def deferred_start_refused(deferred: DeferredStart, supervisor: Supervisor, stop_requested: bool) -> str | None:
+    """Why the deferred switch must not happen at the first tick, or None when it may: ``consent_lapsed``, or
+    someone changed the autopilot's mode (even and back) while the companion waited."""
+    lapsed = consent_lapsed(supervisor, stop_requested)
+    if lapsed is not None:
+        return lapsed
+    if supervisor.mode != deferred.mode_seen or supervisor.mode_changes != deferred.mode_changes_seen:
+        return (f"the mode changed (now {mode_name(supervisor.mode) if supervisor.mode is not None else 'none'}) "
+                "while waiting: someone else's choice")
+    return None
+
+
+def switch_mode_at_start(c: Any, link: Link, now_ms: int) -> None:
+    """Lockstep with ``--start-at``: set the output's mode (then arm, if asked) at the first tick, which the
+    simulator holds (commands are answered while time stands still), and wait for the heartbeat that shows
+    it, so the step right after it commands. Rover's GUIDED thus starts from the same state at the same time
+    in every run. Refuses (and says why) when the switch is no longer the operator's wish."""
+    deferred, c.deferred_start = c.deferred_start, None
+    refused = deferred_start_refused(deferred, c.supervisor, c.stop_requested())
+    mode, at = c.output.required_mode, f"at t = {now_ms / 1000:.1f} s"
+    if refused is not None:
+        c.log(f"lockstep: not switching to {mode_name(mode)} {at}: {refused}")
+        return
+    c.supervisor.expected_mode = mode
+    result = link.set_mode(mode)
+    log_result(c.log, f"mode {mode_name(mode)} {at}", result)
+    if deferred.arm:
+        lapsed = consent_lapsed(c.supervisor, c.stop_requested())  # the answer's wait ran the handlers
+        if result != mavlink.MAV_RESULT_ACCEPTED or lapsed is not None:
+            c.log(f"lockstep: not arming {at}: " + (lapsed or f"the switch to {mode_name(mode)} was not accepted"))
+            return
+        log_result(c.log, f"arming {at}", link.arm())
+    _await_heartbeat_in(c, link, mode, deferred.arm)
+
+
+def _await_heartbeat_in(c: Any, link: Link, mode: int, armed: bool) -> None:
+    """Wait (at most MODE_HEARTBEAT_WAIT_S wall) for a heartbeat in ``mode`` (and armed, when the companion
+    armed), so the step right after commands; ends early on a stop or an ended run."""
+    def settled() -> bool:  # the heartbeat shows it, or there is nothing left to wait for
+        shown = c.supervisor.mode == mode and (c.supervisor.armed or not armed)
+        return shown or c.supervisor.phase.final or c.stop_requested()
+
+    deadline = time.monotonic() + MODE_HEARTBEAT_WAIT_S
+    while not settled() and time.monotonic() < deadline:
+        link.heartbeat_if_due()
+        link.recv(0.05)
+    if not settled():
+        c.log(f"warning: no heartbeat {'armed ' if armed else ''}in {mode_name(mode)} within "
+              f"{MODE_HEARTBEAT_WAIT_S:g} s of the switch")

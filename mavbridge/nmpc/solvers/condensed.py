@@ -1,0 +1,185 @@
+"""The preparation phase of the native RTI: the Gauss–Newton QP at a plan, condensed to the input steps.
+
+``block_linearisation`` is ``gauss_newton.linearisation`` with its output kept as dense stage blocks
+(AB_k = ∂f_aug/∂[z, u], H_k, g_k, gap_k; the terminal stage padded to the stage size) instead of the
+assembled sparse matrices, so the native kernels read them without any conversion. It is built from the
+same residuals (the ``vessel`` model through ``problem.discrete_model``, single source) and compiled
+once into the disk cache (``codegen``).
+
+``Condenser.condense(w_aug, p)`` evaluates it at a plan and hands the blocks to ``nrti_condense`` (C),
+which eliminates the states: the result, a ``CondensedQp``, is a dense QP in the N·nu input steps whose
+gradient is affine in the initial-state offset dz0. Without a given active set, its active set at dz0 = 0
+(the plan itself) is solved here too, as the feedback's starting guess; with one (``active``, the SQP's
+previous iteration's), the caller solves it. All of this runs before the measurement arrives.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.inputs import InputSpace, input_space
+from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES
+from mavbridge.nmpc.solvers.codegen import compiled_library, load
+from mavbridge.nmpc.solvers.gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
+from mavbridge.nmpc.solvers.native_lib import BoxQp, CompiledFunction, ptr
+
+NZU = NZ + NU
+QP_MAX_ITER = 40  # block-principal-pivoting iterations per QP (one or two when the guess is right)
+QP_TOL = 1e-9  # bound and multiplier tolerance of the box QP (N, N·m and cost units)
+
+
+def _stage_function(step: ca.Function, cfg: NmpcConfig,
+                    matrix: np.ndarray | None = None) -> tuple[ca.Function, ca.Function]:
+    """(stage, terminal) block Functions of the augmented OCP (see the module docstring)."""
+    z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
+    on = ca.SX.sym("on")  # 0 for stage 0: no cost on the fixed initial state
+    waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
+    wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
+    zu = ca.vertcat(z, u)
+    f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
+    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights, matrix),
+                     on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
+    J = ca.jacobian(res, zu)
+    reg = HESSIAN_REG * ca.SX.eye(NZU)
+    stage = ca.Function("nrti_stage", [z, u, t, on, waypoint, weights, wave, spread],
+                        [f_aug, ca.densify(ca.jacobian(f_aug, zu)), ca.densify(2 * (J.T @ J) + reg),
+                         ca.densify(2 * (J.T @ res))])
+    r_end = _state_residuals(z[0:NX], waypoint, weights, cfg, spread)
+    J_end = ca.jacobian(r_end, zu)  # zero u columns: the terminal block padded to the stage size
+    terminal = ca.Function("nrti_terminal", [z, u, waypoint, weights, spread],
+                           [ca.densify(2 * (J_end.T @ J_end) + reg), ca.densify(2 * (J_end.T @ r_end))])
+    return stage, terminal
+
+
+def block_linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> ca.Function:
+    """(w_aug, p) -> (AB nz×N·nzu, H nzu×(N+1)·nzu, g nzu×(N+1), gap nz×N), all dense, stage-major
+    (``matrix``: B of propeller-thrust inputs, None when u is τ)."""
+    P = cfg.horizon
+    stage, terminal = _stage_function(step, cfg, matrix)
+    n = P * NZU + NZ
+    w = ca.MX.sym("w", n)
+    p = ca.MX.sym("p", NP)
+    par = PARAMS.unpack(p)
+    W = ca.reshape(w[0:P * NZU], NZU, P)
+    Z, U = W[0:NZ, :], W[NZ:, :]
+    z_end = w[P * NZU:]
+    times = par.t + ca.DM(np.arange(P) * cfg.period_s).T
+    flags = ca.DM([[0.0] + [1.0] * (P - 1)])
+    F, AB, Hs, gs = stage.map(P)(Z, U, times, flags, ca.repmat(par.waypoint, 1, P), ca.repmat(par.weights, 1, P),
+                                 ca.repmat(par.wave, 1, P), ca.repmat(par.roll_spread, 1, P))
+    H_end, g_end = terminal(z_end, ca.DM.zeros(NU), par.waypoint, par.weights, par.roll_spread)
+    gap = F - ca.horzcat(Z[:, 1:], z_end)
+    return ca.Function("nrti_blocks", [w, p], [AB, ca.horzcat(Hs, H_end), ca.horzcat(gs, g_end), gap],
+                       ["w", "p"], ["AB", "H", "g", "gap"])
+
+
+BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
+
+
+def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
+                             matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
+    """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached) called through
+    its C API when a compiler exists and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX
+    VM (outputs converted)."""
+    fn = block_linearisation(step, cfg, matrix)
+    library, how = compiled_library(fn) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
+    if library is not None:
+        return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
+    vm = load(fn, None)
+    return (lambda w, p: [np.asarray(m).ravel(order="F") for m in vm(w, p)]), how
+
+
+@dataclass
+class FeedbackBuffers:
+    """The feedback step's preallocated inputs and outputs (owned by one backend, used by its main thread)."""
+
+    dz0: np.ndarray  # initial-state offset [x̂ − x_plan, u_prev − u_prev,plan] (nz)
+    w_out: np.ndarray  # the new plan, the controller's layout
+    du: np.ndarray  # the input steps (N·nu)
+    work: np.ndarray
+    iwork: np.ndarray
+
+    @classmethod
+    def allocate(cls, horizon: int) -> FeedbackBuffers:
+        """Buffers for a horizon of ``horizon`` stages."""
+        n = horizon * NU
+        return cls(dz0=np.zeros(NZ), w_out=np.zeros((horizon + 1) * NX + horizon * NU), du=np.zeros(n),
+                   work=np.zeros(n * n + 2 * n + 2 * NZ), iwork=np.zeros(3 * n, np.intc))
+
+
+@dataclass
+class CondensedQp:
+    """One prepared QP: the condensed data, the plan it linearises, and the feedback call's arguments."""
+
+    p: np.ndarray  # the parameters it was prepared for
+    w_aug: np.ndarray  # the plan (augmented layout)
+    arrays: tuple[np.ndarray, ...]  # Hc, gc, Gc, lo, hi, state0, AB, gap: kept alive for ``args``
+    args: tuple  # nrti_feedback's arguments, pointers into ``arrays`` and the backend's FeedbackBuffers
+    guess_status: int  # the box QP's answer at dz0 = 0 (> 0 solved)
+
+    @property
+    def state0(self) -> np.ndarray:
+        """The active set the feedback's box QP starts from (−1 lower, 0 free, 1 upper; ``arrays[5]``)."""
+        return self.arrays[5]
+
+
+class Condenser:
+    """Linearise, condense and pre-solve at a plan; holds work buffers, so one thread at a time: nrti's
+    background preparation, and before the loop its first QP on the main thread (``prepare_now``, while no
+    preparation is in flight: ``warm_up`` waits for the worker)."""
+
+    def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers,
+                 space: InputSpace | None = None) -> None:
+        """``space``: the inputs' box (default: the τ box, for τ inputs only)."""
+        P = cfg.horizon
+        space = space or input_space(cfg, None)
+        self.lib, self.lin, self.cfg, self.buffers = lib, lin, cfg, buffers
+        n = P * NU
+        self.n = n
+        self.Gam = np.zeros((P + 1) * NZ * n)
+        self.Phi = np.zeros((P + 1) * NZ * NZ)
+        self.c = np.zeros((P + 1) * NZ)
+        self.tmp = np.zeros(3 * NZ * NZ + 2 * NZ + 2 * NU * NZ)  # nrti_condense's recursion (W, λ, Y)
+        self.u_index = np.array([k * NZU + NZ + i for k in range(P) for i in range(NU)])
+        self.u_low = np.tile(space.low, P)
+        self.u_high = np.tile(space.high, P)
+        self.box = BoxQp(lib, n, QP_MAX_ITER, QP_TOL)
+
+    def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None,
+                 active: np.ndarray | None = None) -> CondensedQp:
+        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``; its feedback
+        call writes into ``buffers`` (default: the backend's). Without ``active`` its active set at dz0 = 0
+        is solved here (``guess_status``); with it (−1/0/+1 per input step) that is the feedback's starting
+        guess and the caller, whose feedback call at dz0 = 0 solves it, sets ``guess_status``."""
+        P, n = self.cfg.horizon, self.n
+        w_aug = np.ascontiguousarray(w_aug, float)
+        AB, Hs, gs, gap = (a.copy() for a in self.lin(w_aug, np.ascontiguousarray(p, float)))
+        Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * NZ)
+        self.lib.nrti_condense(P, NZ, NU, ptr(AB), ptr(Hs), ptr(gs), ptr(gap), ptr(self.Gam), ptr(self.Phi),
+                               ptr(self.c), ptr(Hc), ptr(gc), ptr(Gc), ptr(self.tmp))
+        U = w_aug[self.u_index]
+        lo = np.minimum(self.u_low - U, 0.0)
+        hi = np.maximum(self.u_high - U, 0.0)
+        if active is None:
+            state0 = np.zeros(n, np.intc)
+            _, status = self.box.solve(Hc, gc, lo, hi, state0)
+        else:
+            state0, status = np.array(active, np.intc), 0
+        arrays = (Hc, gc, Gc, lo, hi, state0, AB, gap, w_aug)
+        return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays,
+                           args=self._feedback_args(arrays, buffers or self.buffers), guess_status=status)
+
+    def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None) -> CondensedQp:
+        """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's)."""
+        return dataclasses.replace(qp, args=self._feedback_args(qp.arrays, buffers or self.buffers))
+
+    def _feedback_args(self, arrays: tuple[np.ndarray, ...], b: FeedbackBuffers) -> tuple:
+        return (self.cfg.horizon, NX, NZ, NU, *(ptr(a) for a in arrays), ptr(b.dz0), QP_MAX_ITER, QP_TOL,
+                ptr(b.w_out), ptr(b.du), ptr(b.work), ptr(b.iwork))

@@ -1,0 +1,211 @@
+"""Gauss–Newton SQP for the paper's problem: the QP data (linearisation) and the iteration with HPIPM.
+
+The cost is the IPOPT problem's written as squared residuals, so the Gauss–Newton Hessian 2JᵀJ is
+positive semi-definite by construction:
+    √W·ΔU_k, √Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u)
+(the linear distance term as a square root, the min-speed kink smoothed with (z + √(z² + ε))/2).
+HPIPM wants stage-separable costs, and ΔU_k couples u_k with u_{k−1}: the state is augmented with the
+previous input, z = [x (12), u_prev (2)], u_prev,k+1 = u_k. Gaps are F(z_k, u_k) − z_{k+1}; the QP is
+solved in the step Δw with bounds lbw − w ≤ Δw ≤ ubw − w and full steps.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from mavbridge.nmpc.config import NmpcConfig
+from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau
+from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES, members
+from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error
+
+NZ = NX + NU
+SMOOTH_EPS = 1e-4
+DIST_SQRT_EPS = 1e-9
+HESSIAN_REG = 1e-8
+
+
+def _smooth_max0(z: ca.SX) -> ca.SX:
+    return 0.5 * (z + ca.sqrt(z**2 + SMOOTH_EPS))
+
+
+def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig, roll_spread: ca.SX) -> ca.SX:
+    """√Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u), Lᵀy: their squares sum to the state cost."""
+    w = members("weights", weights)
+    q, r, s = w["q"], w["r"], w["s"]
+    return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * x[3],
+                      ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
+                      np.sqrt(cfg.min_speed_weight) * _smooth_max0(cfg.min_speed_mps - x[6]),
+                      expected_roll_residuals(x, roll_spread))
+
+
+def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX,
+                            matrix: np.ndarray | None = None) -> list[ca.SX]:
+    """√W11·Δτ_X, √W22·Δτ_N; u_before is the augmented state's previous input z[NX:NZ]; Δτ = B·Δu for
+    propeller-thrust inputs (``matrix`` B), Δu itself when u is τ."""
+    w = members("weights", weights)
+    if matrix is None:
+        return [ca.sqrt(w["w_dtau_x"]) * (u[0] - u_before[0]), ca.sqrt(w["w_dtau_n"]) * (u[1] - u_before[1])]
+    dtau = input_tau(u - u_before, matrix)
+    return [ca.sqrt(w["w_dtau_x"]) * dtau[0], ca.sqrt(w["w_dtau_n"]) * dtau[1]]
+
+
+def linearisation_inlined(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> ca.Function:
+    """(w_aug, p) -> (H, g, A, gaps), one SX expression over the whole horizon (reference version);
+    ``matrix`` B of propeller-thrust inputs or None (u is τ)."""
+    P = cfg.horizon
+    n = P * (NZ + NU) + NZ
+    w = ca.SX.sym("w", n)
+    p = ca.SX.sym("p", NP)
+    par = PARAMS.unpack(p)
+    t0, waypoint, weights, wave, spread = par.t, par.waypoint, par.weights, par.wave, par.roll_spread
+
+    def z_at(k: int) -> ca.SX:
+        return w[k * (NZ + NU):k * (NZ + NU) + NZ]
+
+    def u_at(k: int) -> ca.SX:
+        return w[k * (NZ + NU) + NZ:(k + 1) * (NZ + NU)]
+
+    residuals, gaps = [], []
+    for k in range(P):
+        z, u, z_next = z_at(k), u_at(k), z_at(k + 1)
+        gaps.append(ca.vertcat(step(z[0:NX], u, t0 + k * cfg.period_s, wave), u) - z_next)
+        residuals += [*_input_change_residuals(u, z[NX:NZ], weights, matrix),
+                      _state_residuals(z_next[0:NX], waypoint, weights, cfg, spread)]
+    res = ca.vertcat(*residuals)
+    gap = ca.vertcat(*gaps)
+    J = ca.jacobian(res, w)
+    H = 2 * (J.T @ J) + HESSIAN_REG * ca.SX.eye(n)
+    g = 2 * (J.T @ res)
+    A = ca.jacobian(gap, w)
+    return ca.Function("rti_linearisation", [w, p], [H, g, A, gap], ["w", "p"], ["H", "g", "A", "gap"])
+
+
+def linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = None) -> ca.Function:
+    """(w_aug, p) -> (H, g, A, gaps): Gauss–Newton QP data at w_aug for the augmented OCP (``matrix``: B of
+    propeller-thrust inputs, None when u is τ).
+
+    One stage function (dynamics, its Jacobians, the stage's Gauss–Newton cost block) is written in SX
+    and mapped over the horizon; the blocks are assembled in MX. Generated code holds the stage once
+    (small C file, fast to compile) and gives the same numbers as ``linearisation_inlined``.
+    """
+    P = cfg.horizon
+    z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
+    on = ca.SX.sym("on")  # 0 for stage 0: the cost has no term on the fixed initial state
+    waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
+    wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
+    f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
+    res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights, matrix),
+                     on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
+    zu = ca.vertcat(z, u)
+    J = ca.jacobian(res, zu)
+    stage = ca.Function("rti_stage", [z, u, t, on, waypoint, weights, wave, spread],
+                        [f_aug, ca.jacobian(f_aug, zu), 2 * (J.T @ J), 2 * (J.T @ res)])
+    r_end = _state_residuals(z[0:NX], waypoint, weights, cfg, spread)
+    J_end = ca.jacobian(r_end, z)
+    terminal = ca.Function("rti_terminal", [z, waypoint, weights, spread],
+                           [2 * (J_end.T @ J_end), 2 * (J_end.T @ r_end)])
+
+    n = P * (NZ + NU) + NZ
+    w = ca.MX.sym("w", n)
+    p = ca.MX.sym("p", NP)
+    par = PARAMS.unpack(p)
+    t0, wp, wts, wv, spread_p = par.t, par.waypoint, par.weights, par.wave, par.roll_spread
+    W = ca.reshape(w[0:P * (NZ + NU)], NZ + NU, P)
+    Z, U = W[0:NZ, :], W[NZ:, :]
+    z_end = w[P * (NZ + NU):]
+    Z_next = ca.horzcat(Z[:, 1:], z_end)
+    times = t0 + ca.DM(np.arange(P) * cfg.period_s).T
+    flags = ca.DM([[0.0] + [1.0] * (P - 1)])
+    F, AB, Hs, gs = stage.map(P)(Z, U, times, flags, ca.repmat(wp, 1, P), ca.repmat(wts, 1, P),
+                                 ca.repmat(wv, 1, P), ca.repmat(spread_p, 1, P))
+    H_end, g_end = terminal(z_end, wp, wts, spread_p)
+    gap = ca.vec(F - Z_next)
+    AB_blocks = ca.horzsplit(AB, list(range(0, P * (NZ + NU) + 1, NZ + NU)))
+    shift = np.zeros((NZ * P, n))  # the −I blocks of x_{k+1} in the gap rows
+    for k in range(P):
+        col = (k + 1) * (NZ + NU)
+        shift[k * NZ:(k + 1) * NZ, col:col + NZ] = -np.eye(NZ)
+    A = ca.horzcat(ca.diagcat(*AB_blocks), ca.MX(NZ * P, NZ)) + ca.sparsify(ca.DM(shift))
+    H_blocks = ca.horzsplit(Hs, list(range(0, P * (NZ + NU) + 1, NZ + NU)))
+    H = ca.diagcat(*H_blocks, H_end) + HESSIAN_REG * ca.DM.eye(n)
+    g = ca.vertcat(ca.vec(gs), g_end)
+    return ca.Function("rti_linearisation", [w, p], [H, g, A, gap], ["w", "p"], ["H", "g", "A", "gap"])
+
+
+
+
+def make_qp(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int, iter_max: int) -> ca.Function:
+    """An HPIPM conic for the augmented OCP (speed_abs mode; ``iter_max`` 0 keeps HPIPM's default cap)."""
+    hpipm: dict = {"mode": "speed_abs"}
+    if iter_max > 0:
+        hpipm["iter_max"] = iter_max
+    return ca.conic(name, "hpipm", {"h": H_sp, "a": A_sp},
+                    {"N": horizon, "nx": [NZ] * (horizon + 1), "nu": [NU] * horizon + [0], "ng": [0] * (horizon + 1),
+                     "hpipm": hpipm, "error_on_fail": False, "print_problem": False, "print_time": False})
+
+
+class GaussNewtonSqp:
+    """Full-step Gauss–Newton SQP with its own linearisation and QP instances (one per thread of use)."""
+
+    def __init__(self, lin: ca.Function, cfg: NmpcConfig, qp_name: str, qp_iter_max: int,
+                 space: InputSpace | None = None) -> None:
+        """``space``: the inputs' box (default: the τ box, for τ inputs only)."""
+        P = cfg.horizon
+        space = space or input_space(cfg, None)
+        self.cfg = cfg
+        self.lin = lin
+        self.n = P * (NZ + NU) + NZ
+        self.qp = make_qp(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P, qp_iter_max)
+        self.u_mask = np.zeros(self.n, bool)
+        self.lb = np.full(self.n, -np.inf)
+        self.ub = np.full(self.n, np.inf)
+        for k in range(P):
+            u = slice(k * (NZ + NU) + NZ, (k + 1) * (NZ + NU))
+            self.u_mask[u] = True
+            self.lb[u] = space.low
+            self.ub[u] = space.high
+
+    def to_aug(self, w: np.ndarray, u_applied: np.ndarray) -> np.ndarray:
+        """Augmented decision vector from the controller's layout."""
+        P = self.cfg.horizon
+        stages = w[:P * (NX + NU)].reshape(P, NX + NU)
+        U = stages[:, NX:]
+        u_prev = np.vstack([u_applied, U])
+        body = np.hstack([stages[:, :NX], u_prev[:P], U]).ravel()
+        return np.concatenate([body, w[P * (NX + NU):], u_prev[P]])
+
+    def from_aug(self, w_aug: np.ndarray) -> np.ndarray:
+        """The controller's layout from the augmented vector."""
+        P = self.cfg.horizon
+        stages = w_aug[:P * (NZ + NU)].reshape(P, NZ + NU)
+        body = np.hstack([stages[:, :NX], stages[:, NZ:]]).ravel()
+        return np.concatenate([body, w_aug[P * (NZ + NU):P * (NZ + NU) + NX]])
+
+    def iterate(self, w0: np.ndarray, p: np.ndarray, min_iter: int, max_iter: int,
+                step_tol: float) -> tuple[np.ndarray | None, list[bool], float, str]:
+        """SQP from w0 (controller layout), x0 and u_prev fixed by bounds: (w or None, QP successes,
+        the last gap violation, error text). Stops after ``min_iter`` once every input step ≤ ``step_tol``."""
+        x0, u_applied = PARAMS.get(p, "x0"), PARAMS.get(p, "u_prev")
+        w = self.to_aug(np.asarray(w0, float), u_applied)
+        w[0:NX] = x0
+        lb, ub = self.lb.copy(), self.ub.copy()
+        lb[0:NX] = ub[0:NX] = x0
+        lb[NX:NZ] = ub[NX:NZ] = u_applied
+        w[NX:NZ] = u_applied
+        p_dm = ca.DM(p)
+        statuses: list[bool] = []
+        violation = float("nan")
+        for it in range(max_iter):
+            H, g, A, gap = self.lin(ca.DM(w), p_dm)
+            violation = float(np.max(np.abs(np.asarray(gap))))
+            sol = self.qp(h=H, g=g, a=A, lba=-gap, uba=-gap, lbx=lb - w, ubx=ub - w)
+            step = np.asarray(sol["x"]).ravel()
+            stats = self.qp.stats()
+            statuses.append(bool(stats.get("success", False)))
+            if not np.all(np.isfinite(step)):
+                return None, statuses, violation, f"RTI: QP {stats.get('return_status', 'failed')}"
+            w = w + step
+            if it + 1 >= min_iter and np.max(np.abs(step[self.u_mask])) <= step_tol:
+                break
+        return self.from_aug(w), statuses, violation, ""
