@@ -101,7 +101,8 @@ class WaveFedNmpc(RollAwareNmpc):
         if isinstance(w, RegularWaves):
             phase_sd, height_sd = self.noise
             estimate = WaveEstimate(w.height_m * (1 + height_sd * self._rng.standard_normal()), w.period_s,
-                                    w.length_m, w.travel_dir_rad, w.phase_rad + phase_sd * self._rng.standard_normal())
+                                    w.length_m, w.travel_dir_rad, w.phase_rad + phase_sd * self._rng.standard_normal(),
+                                    roll_sign=w.roll_sign)
             self.set_wave(estimate.field())
         cost = time.perf_counter() - start
         type(self).set_wave_s.append(cost)

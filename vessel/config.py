@@ -147,7 +147,7 @@ def from_mapping(cls: type[T], data: Any, where: str) -> T:
         try:
             values[name] = _convert(value, hints[name], key, fields[name].metadata)
         except ConfigError as exc:
-            if exc.key is None:  # the innermost field that was refused is the one to name
+            if exc.key is None and not dataclasses.is_dataclass(hints[name]):  # the innermost scalar refused
                 exc.key, exc.default = key, _default_of(fields[name])
             raise
     try:

@@ -231,6 +231,7 @@ class Companion:
     def _handle_signal(self, signum: int, frame: Any) -> None:
         self._stop_reason = f"signal {signal.Signals(signum).name}"
         if self._signal_interrupts:  # still connecting or preparing: stop now, the loop is not there to see it
+            self._signal_interrupts = False  # once: a second signal while this one unwinds is only noted
             raise LinkError(f"stopped by {self._stop_reason} before flying")
 
     def run(self) -> int:

@@ -11,6 +11,7 @@ What "as written" allows: the device names become the two ends of a null modem, 
 from __future__ import annotations
 
 import json
+import os
 import re
 import shlex
 import subprocess
@@ -63,24 +64,39 @@ def readme_commands() -> list[tuple[str, list[str]]]:
 
 
 def _split(lines: list[str]) -> list[list[str]]:
-    """Shell lines (comments dropped, ``\\`` continuations joined) as argv lists; pipes split in two."""
+    """Shell lines (comments dropped, ``\\`` continuations joined) as argv lists, split at ``|``, ``&&``,
+    ``||`` and ``;`` (so that ``systemctl stop x && mavbridge check`` is two commands, each accounted for)."""
     text = "\n".join(lines).replace("\\\n", " ")
-    argvs = []
+    argvs: list[list[str]] = []
     for line in text.splitlines():
-        words = shlex.split(line, comments=True)
-        while "|" in words:
-            argvs.append(words[:words.index("|")])
-            words = words[words.index("|") + 1:]
-        if words:
-            argvs.append(words)
+        lexer = shlex.shlex(line, posix=True, punctuation_chars="|&;")
+        lexer.whitespace_split, lexer.commenters = True, "#"
+        words: list[str] = []
+        for word in [*lexer, ";"]:
+            if word in ("|", "||", "&&", ";", "&"):
+                argvs += [words] if words else []
+                words = []
+            else:
+                words.append(word)
     return argvs
 
 
-def _program(argv: list[str]) -> str:
-    """The program a command runs, past ``sudo [-u USER]``."""
+def _unwrap(argv: list[str]) -> tuple[dict[str, str], list[str]]:
+    """(environment, command) past ``sudo [-u USER]`` and ``env K=V …``."""
     if argv[0] == "sudo":
         argv = argv[3:] if argv[1] == "-u" else argv[1:]
-    return argv[0]
+    env = {}
+    if argv[0] == "env":
+        argv = argv[1:]
+        while "=" in argv[0]:
+            key, _, value = argv.pop(0).partition("=")
+            env[key] = value
+    return env, argv
+
+
+def _program(argv: list[str]) -> str:
+    """The program a command runs, past ``sudo [-u USER]`` and ``env K=V``."""
+    return _unwrap(argv)[1][0]
 
 
 def _ours(program: str) -> bool:
@@ -104,7 +120,7 @@ def test_every_readme_command_is_run_or_accounted_for() -> None:
 
 def _as_here(argv: list[str], modem: NullModem, installed: Path) -> list[str]:
     """A README command with the boat's names replaced by this machine's (see the module docstring)."""
-    argv = argv[3:] if argv[:2] == ["sudo", "-u"] else argv
+    argv = _unwrap(argv)[1]
 
     def here(word: str) -> str:
         if word.startswith("/dev/ttyUSB0"):
@@ -139,7 +155,10 @@ def test_deploy_readme_commands_run_as_written(tmp_path: Path, modem: NullModem)
             if argv is sims[0]:
                 continue
             command = _as_here(argv, modem, installed)
-            done = subprocess.run(command, capture_output=True, text=True, timeout=400, cwd=tmp_path)
+            env = {**os.environ, **_unwrap(argv)[0]}
+            if "MAVBRIDGE_CACHE_DIR" in _unwrap(argv)[0]:
+                env["MAVBRIDGE_CACHE_DIR"] = str(tmp_path / "var-cache-mavbridge")
+            done = subprocess.run(command, capture_output=True, text=True, timeout=400, cwd=tmp_path, env=env)
             results.append((section, shlex.join(argv), done))
             assert done.returncode == 0, f"section {section}: {shlex.join(argv)}\n{done.stdout[-3000:]}{done.stderr}"
         err = sim.stop()
@@ -147,6 +166,8 @@ def test_deploy_readme_commands_run_as_written(tmp_path: Path, modem: NullModem)
     checks = [r for r in results if " check " in r[1]]
     assert len(checks) == 2 and all("FAIL" not in r[2].stdout for r in checks)
     assert all("ATTITUDE rate as configured" in r[2].stdout for r in checks)
+    shadow = next(r for r in results if "--dry-run" in r[1])[2]
+    assert "phase: shadow" in shadow.stdout and "s (autopilot):" in shadow.stdout, shadow.stdout[-2000:]
     run = next(r for r in results if "--arm" in r[1])[2]
     folder = re.search(r"logs in (\S+)", run.stdout)
     assert folder, run.stdout[-2000:]
