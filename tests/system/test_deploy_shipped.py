@@ -14,7 +14,6 @@ import shlex
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import yaml
 from sim_vehicle.harness import SimProcess
 from sim_vehicle.rover.params import read_parm
 from tests.system.nullmodem import NullModem
+from tests.system.processes import collecting, wait_for_line
 from tests.waits import upload_waypoint
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -171,21 +171,11 @@ def test_service_command_line_runs_and_stops_as_systemd_runs_it(tmp_path: Path, 
             "--params", str(PARM), "--wipe", "--serial", f"{modem.ends[0]},921600"]) as sim:
         upload_waypoint(sim.connect(), 85, 75)
         # PYTHONPATH: the console script runs this checkout, wherever the venv's editable install points
-        service = subprocess.Popen(argv, cwd=logs, env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), **env},
-                                   text=True,
-                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-        lines: list[str] = []
-        reader = threading.Thread(target=lambda: lines.extend(service.stdout or ()), daemon=True)
-        reader.start()
-        try:
-            _wait_for_line(lines, "s (autopilot):", timeout_s=120)  # a progress line: it is planning
+        with collecting(argv, cwd=logs, env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), **env}) as (
+                service, lines):
+            wait_for_line(service, lines, "s (autopilot):", timeout_s=120)  # a progress line: it is planning
             service.send_signal(signal.SIGTERM)
             service.wait(timeout=15)  # TimeoutStopSec=15
-        finally:
-            if service.poll() is None:
-                service.kill()
-                service.wait()
-        reader.join(timeout=5)
     output = "".join(lines)
     assert service.returncode == 0, output[-3000:]
     runs = list((logs / "runs").glob("companion-*"))
@@ -194,12 +184,3 @@ def test_service_command_line_runs_and_stops_as_systemd_runs_it(tmp_path: Path, 
         assert (runs[0] / name).is_file(), f"{name} missing from {runs[0]}"
     assert "signal SIGTERM" in output and "error" not in output, output[-3000:]
 
-
-def _wait_for_line(lines: list[str], text: str, timeout_s: float) -> None:
-    """Until a line holding ``text`` was printed (``lines`` filled by a reader thread)."""
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if any(text in line for line in list(lines)):
-            return
-        time.sleep(0.1)
-    raise TimeoutError(f"no line with {text!r} within {timeout_s:g} s; the last ones: {lines[-5:]}")
