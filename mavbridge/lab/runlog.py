@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.lab.path_metrics import path_figures
 from vessel import NX_RIGID, STATE_NAMES
 from vessel import STATE_COLUMNS as VESSEL_COLUMNS
 from vessel.config import ConfigError
@@ -86,8 +87,11 @@ def _percentile(values: np.ndarray, q: float) -> float | None:
     return float(np.percentile(values, q)) if len(values) else None
 
 
-def run_metrics(record: RunRecorder, time_to_waypoint_s: float | None) -> dict[str, Any]:
-    """The figures of merit: |roll| over the recorded rows (deg), solve times (ms), counters."""
+def run_metrics(record: RunRecorder, time_to_waypoint_s: float | None,
+                waypoint_ne: tuple[float, float] | None = None) -> dict[str, Any]:
+    """The figures of merit: |roll| over the recorded rows (deg), solve times (ms), counters; with the waypoint
+    (NED m), how far the path went past it and how often it looped around it (``path_metrics``), the start being
+    the first row."""
     roll = column(record.rows, ROLL)
     solve_ms = np.asarray(record.solve_ms, float)
     metrics: dict[str, Any] = {
@@ -104,6 +108,9 @@ def run_metrics(record: RunRecorder, time_to_waypoint_s: float | None) -> dict[s
         "failures": int(record.failures),
         "late": int(record.late),
     }
+    if waypoint_ne is not None and record.rows:
+        north, east = column(record.rows, "north_m"), column(record.rows, "east_m")
+        metrics.update(path_figures(north, east, (float(north[0]), float(east[0])), waypoint_ne))
     if record.background_ms:
         background = np.asarray(record.background_ms, float)
         metrics["background_solve_ms_median"] = _percentile(background, 50)

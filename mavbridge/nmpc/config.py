@@ -50,6 +50,9 @@ class NmpcConfig:
     tau_x_min_n: float = bounded(-150.0, -1000.0, 0.0, "N", "largest reverse surge force (negative)")
     tau_n_max_nm: float = bounded(73.6, 0.1, 1000.0, "N·m", "largest |yaw moment|")
     min_speed_mps: float = structural(bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed"))
+    min_speed_fade_m: float = structural(bounded(10.0, 0.0, 1000.0, "m", "the minimum speed fades linearly to 0 "
+                                                 "within this distance of the waypoint, so the boat may slow to "
+                                                 "turn in rather than circle it (0: never fades)"))
     min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))
     solver: str = choice("ipopt", SOLVERS, "ipopt (reference), rti (Gauss–Newton SQP with HPIPM) or asrti "
                          "(rti corrected from a converged SQP solve for the predicted state, run in the background) "

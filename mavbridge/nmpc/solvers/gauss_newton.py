@@ -17,7 +17,7 @@ import numpy as np
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau
 from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES, members
-from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error
+from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error, min_speed
 
 NZ = NX + NU
 SMOOTH_EPS = 1e-4
@@ -35,7 +35,7 @@ def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig,
     q, r, s = w["q"], w["r"], w["s"]
     return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * x[3],
                       ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
-                      np.sqrt(cfg.min_speed_weight) * _smooth_max0(cfg.min_speed_mps - x[6]),
+                      np.sqrt(cfg.min_speed_weight) * _smooth_max0(min_speed(x, waypoint, cfg) - x[6]),
                       expected_roll_residuals(x, roll_spread))
 
 
