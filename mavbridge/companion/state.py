@@ -62,6 +62,7 @@ class StateEstimate:
     accel_body: np.ndarray | None = None  # specific force, body FRD, m/s² (IMU)
     imu_ms: int | None = None
     imu_kind: str | None = None  # the IMU message taken (the first that arrived, until ``use_imu`` names one)
+    imu_preferred: str | None = None  # the kind ``use_imu`` named: taken back whenever it streams again
     rejected: int = 0
     max_distance_m: float = 10_000.0  # positions farther from home are rejected (no fix reports 0, 0)
     _psi_unwrapped: float | None = None
@@ -117,6 +118,7 @@ class StateEstimate:
         The first IMU message to arrive is often a slow default stream (Rover sends RAW_IMU at SRx_RAW_SENS,
         1-2 Hz, before SCALED_IMU is requested): the wave estimator fed from it sees one heave sample a second.
         """
+        self.imu_preferred = kind
         if kind != self.imu_kind:
             self.imu_kind, self.imu_ms, self.accel_body = kind, None, None
             self._imu_wait_from_ms = self.attitude_ms
@@ -133,8 +135,9 @@ class StateEstimate:
     def _on_imu(self, kind: str, msg: Any) -> None:
         """One IMU message of the kind in use (the first kind that arrived, or the one ``use_imu`` named); another
         kind only once that one has been silent for IMU_SILENT_MS (it stopped, e.g. not requested again after a
-        reboot): a slower IMU beats none."""
-        if self.imu_kind not in (None, kind) and not self._imu_in_use_silent():
+        reboot, or started late): a slower IMU beats none. The kind ``use_imu`` named is taken back as soon as it
+        streams again, so a late start of the fast stream never leaves the estimator on Rover's 1 Hz RAW_IMU."""
+        if self.imu_kind not in (None, kind) and kind != self.imu_preferred and not self._imu_in_use_silent():
             return
         reading = imu_specific_force(msg)
         if reading is None:
