@@ -26,6 +26,7 @@ from vessel.argtypes import seed_number
 from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
+DEMO_ENGAGE_AFTER_S = 30.0  # the demo's pilot engages this long after the companion connects (issue 29)
 ATTITUDE_FORM_HELP = ("attitude_target: send the plan's heading (Rover's heading P loop, then its rate loop), its "
                       "body yaw rate (the rate loop only), or tau: the rate and speed targets that give the plan's "
                       "steering and throttle through Rover's loops (their gains read at start)")
@@ -66,6 +67,10 @@ def add_run_parser(sub: Any) -> None:
                      help=f"never engage on a waypoint farther than this from home or the boat (m, default "
                           f"{DEFAULT_MAX_RANGE_M:g}, the limit of `mavbridge check` and `mission upload`)")
     run.add_argument("--arm", action="store_true", help="arm the vehicle at start")
+    run.add_argument("--engage-after", type=float, metavar="S",
+                     help="with --set-mode/--arm: switch and arm S seconds (autopilot time, 0..3600) after connecting, "
+                          "as a pilot would once the boat is ready; the wave estimator watches the sea meanwhile "
+                          "(default 0: as soon as the start is done)")
     run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
     run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
     run.add_argument("--max-time", type=float, help="stop after this many seconds engaged (autopilot time)")
@@ -102,6 +107,10 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--seed", type=seed_number, default=None, metavar="N",
                       help="the simulator's seed (hidden wave phase, sensor noise), whole number in [0, 2^32-1]; "
                            "default a fresh one, printed in sim.log. With --lockstep the same seed gives the same run")
+    demo.add_argument("--engage-after", type=float, default=DEMO_ENGAGE_AFTER_S, metavar="S",
+                      help=f"the companion switches the mode and arms S seconds (autopilot time, 0..3600) after "
+                           f"connecting, as a pilot would; the estimator watches the drifting boat meanwhile "
+                           f"(default {DEMO_ENGAGE_AFTER_S:g}; with --lockstep the fixed start decides)")
     demo.add_argument("--direct", action="store_true",
                       help="fly the scenario with R = 0 (the paper's Direct: no roll term), for a comparison pair")
 
@@ -121,6 +130,7 @@ def run_command(args: argparse.Namespace) -> int:
         **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
         "waves": ("--waves", args.waves), "lockstep": ("--lockstep", args.lockstep),
         "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
+        "engage_after_s": ("--engage-after", args.engage_after),
         "delay_compensation": ("--delay-compensation", args.delay_compensation),
         "attitude_form": ("--attitude-form", args.attitude_form)})
     refuse_form_without_guided(args.attitude_form, config.output)
@@ -157,5 +167,7 @@ def demo_command(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else timestamped_folder()
     if args.sim_params and not Path(args.sim_params).is_file():
         raise ConfigError(f"--sim-params: {args.sim_params} is not a readable file")
+    if not 0.0 <= args.engage_after <= 3600.0:
+        raise ConfigError(f"--engage-after: {args.engage_after:g} is outside the allowed range [0, 3600] s")
     return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form,
-                    args.sim_params)
+                    args.sim_params, None if args.lockstep else args.engage_after)

@@ -55,6 +55,10 @@ class CompanionConfig(LinkSettings):
                              "false there)")
     start_at_s: float | None = bounded(None, 0.0, 1e6, "s", "command from this autopilot time on, not before "
                                        "(simulation comparisons: every run starts from the same world state)")
+    engage_after_s: float = bounded(0.0, 0.0, 3600.0, "s", "with --set-mode/--arm: switch the mode and arm this "
+                                    "long (autopilot time) after the first attitude the companion sees, as a pilot "
+                                    "would once the boat is ready; the wave estimator watches the sea meanwhile "
+                                    "(0: as soon as the start is done)")
     delay_compensation: bool = bounded(True, doc="plan from the state predicted to when the command acts (the "
                                        "link's delay measured with TIMESYNC); false: act on the state as received")
     max_prediction_s: float = bounded(2.0, 0.0, 5.0, "s", "delay compensation predicts at most this far ahead "

@@ -76,17 +76,24 @@ class LoopEvents:
 
     stale: int = 0
     skipped_ticks: int = 0
+    connected_at_ms: int | None = None  # the first attitude the companion saw
     engaged_at_ms: int | None = None
     arrived_at_ms: int | None = None
     rates_hz: dict[str, float] = field(default_factory=dict)
 
 
-def loop_metrics(record: RunRecorder, events: LoopEvents) -> dict[str, Any]:
-    """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters."""
+def loop_metrics(record: RunRecorder, events: LoopEvents,
+                 waypoint_ne: tuple[float, float] | None = None) -> dict[str, Any]:
+    """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters; ``waypoint_ne``
+    (a one-waypoint mission) adds the overshoot past it and the loops around it, on the companion's own state."""
     arrived = (events.arrived_at_ms - events.engaged_at_ms) / 1000.0 \
         if events.arrived_at_ms is not None and events.engaged_at_ms is not None else None
-    figures = {k: round(v, 4) if isinstance(v, float) else v for k, v in run_metrics(record, arrived).items()}
-    return {**figures, "engaged_at_s": events.engaged_at_ms / 1000.0 if events.engaged_at_ms is not None else None,
+    figures = {k: round(v, 4) if isinstance(v, float) else v
+               for k, v in run_metrics(record, arrived, waypoint_ne).items()}
+    def seconds(ms: int | None) -> float | None:
+        return ms / 1000.0 if ms is not None else None
+
+    return {**figures, "connected_at_s": seconds(events.connected_at_ms), "engaged_at_s": seconds(events.engaged_at_ms),
             "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz}
 
 
@@ -120,6 +127,32 @@ def wave_source_line(name: str) -> str:
     return f"waves: {name} from the boat's own motion; the roll term waits for a confident estimate"
 
 
+def companion_metrics(c: Companion) -> dict[str, Any]:
+    """What identifies a run (phase, output, solver, wave source), its figures, and the link's counts; a
+    one-waypoint mission adds the overshoot past it and the loops around it (the companion's own state)."""
+    points = c.mission.waypoints
+    single = (float(points[0][0]), float(points[0][1])) if len(points) == 1 else None
+    return {"phase": c.supervisor.phase.name, "reason": c.supervisor.reason, "output": c.config.output,
+            "solver": c.scenario.controller.solver, "wave_source": c.waves.name,
+            "heave_feedback": c.nmpc.config.heave_feedback, **loop_metrics(c.record, c.events, single),
+            "waves": c.gate.summary(c.record.solve_ms), "link": dict(c.link.counts) if c.link else {},
+            "delay": c.delay.summary()}
+
+
+def finish_at_waypoint(c: Companion, link: Link, now_ms: int) -> None:
+    """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
+    c.events.arrived_at_ms = now_ms
+    c.supervisor.arrived()
+    since = f", {(now_ms - c.events.engaged_at_ms) / 1000:.1f} s after engaging" \
+        if c.events.engaged_at_ms is not None else ""
+    c.log(f"waypoint reached at t = {now_ms / 1000:.1f} s (autopilot time){since}")
+    c.output.neutral(link, c.state)
+    if c.config.on_arrival == "hold" and c.output.sends:
+        c.supervisor.expected_mode = MODE_HOLD
+        _log_result(c.log, "HOLD at the waypoint", link.set_mode(MODE_HOLD))
+    c.commands.release(link)
+
+
 class Companion:
     """One run of the companion against one autopilot."""
 
@@ -147,7 +180,7 @@ class Companion:
         self._stop_reason: str | None = None
         self._signal_interrupts = True  # until the loop runs, a stop signal interrupts a blocking wait
         self._start_ms = round(config.start_at_s * 1000) if config.start_at_s is not None else 0
-        self.deferred_start: DeferredStart | None = None  # lockstep --start-at --set-mode: switch at the first tick
+        self.deferred_start: DeferredStart | None = None  # --set-mode/--arm deferred to a later tick
 
     def _on_heartbeat(self, msg: Any) -> None:
         if msg.get_type() == "HEARTBEAT":
@@ -161,21 +194,12 @@ class Companion:
 
     def _on_motion(self, msg: Any) -> None:
         """Every ATTITUDE sample (once a position is known) goes to the wave source, after the state took it."""
-        if msg.get_type() == "ATTITUDE" and self.state.ready():
+        if msg.get_type() != "ATTITUDE":
+            return
+        if self.events.connected_at_ms is None:
+            self.events.connected_at_ms = self.state.attitude_ms
+        if self.state.ready():
             self.gate.observe(self.state.motion_sample())
-
-    def _finish_at_waypoint(self, link: Link, now_ms: int) -> None:
-        """Neutral, then HOLD (if configured), then release: the boat is never left to moving sticks."""
-        self.events.arrived_at_ms = now_ms
-        self.supervisor.arrived()
-        since = f", {(now_ms - self.events.engaged_at_ms) / 1000:.1f} s after engaging" \
-            if self.events.engaged_at_ms is not None else ""
-        self.log(f"waypoint reached at t = {now_ms / 1000:.1f} s (autopilot time){since}")
-        self.output.neutral(link, self.state)
-        if self.config.on_arrival == "hold" and self.output.sends:
-            self.supervisor.expected_mode = MODE_HOLD
-            _log_result(self.log, "HOLD at the waypoint", link.set_mode(MODE_HOLD))
-        self.commands.release(link)
 
     def _control_step(self, link: Link, now_ms: int) -> None:
         if not self.supervisor.may_command():
@@ -198,7 +222,7 @@ class Companion:
             if self.config.start_at_s is not None and target is not None:  # the cold solve here, from this state
                 self.nmpc.prepare(x, now_ms / 1000.0, target)
         if target is None:
-            self._finish_at_waypoint(link, now_ms)
+            finish_at_waypoint(self, link, now_ms)
             return
         age_s, plan_s = self.delay.compensate(now_ms / 1000.0)  # plan_s: when the command will act
         phase, wave = self.supervisor.phase.name, {**self.gate.step(self.nmpc, plan_s), "state_age_s": age_s}
@@ -309,8 +333,10 @@ class Companion:
                 continue
             self.events.skipped_ticks += missed
             self.notices.skipped(missed, self.period_s)
-            if self.deferred_start is not None:
+            if self.deferred_start is not None and now_ms >= self.deferred_start.due_ms:
                 switch_mode_at_start(self, link, now_ms)
+            if self.events.engaged_at_ms is None:
+                self.gate.watch(now_ms / 1000.0)  # what the boat has seen of the sea, said once it is known
             self._control_step(link, now_ms)
             engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:
@@ -320,11 +346,7 @@ class Companion:
 
     def metrics(self) -> dict[str, Any]:
         """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""
-        return {"phase": self.supervisor.phase.name, "reason": self.supervisor.reason, "output": self.config.output,
-                "solver": self.scenario.controller.solver, "wave_source": self.waves.name,
-                "heave_feedback": self.nmpc.config.heave_feedback,
-                **loop_metrics(self.record, self.events), "waves": self.gate.summary(self.record.solve_ms),
-                "link": dict(self.link.counts) if self.link else {}, "delay": self.delay.summary()}
+        return companion_metrics(self)
 
     def _write_logs(self) -> None:
         write_csv(self.out_dir / "companion.csv", self.record.rows)

@@ -81,17 +81,25 @@ def start_flight(c: Any, link: Link) -> None:
 
 def switch_and_arm_if_asked(c: Any, link: Link, consent: bool) -> None:
     """The end of the start: the mode switch and arming the operator asked for (``consent``: --set-mode or
-    --arm), now or, in lockstep with --start-at, deferred to the first tick; nothing when a reboot during the
-    start cleared the supervisor's consent."""
+    --arm), now or deferred to a later tick (lockstep with --start-at: the first; ``engage_after_s``: the first
+    that long after connecting); nothing when a reboot during the start cleared the supervisor's consent."""
     if consent and not c.supervisor.self_commanded:
         c.log("the autopilot rebooted during the start: not switching its mode or arming (consent was given to "
               "the previous boot); waiting for the pilot")
         return
     if c.set_mode and c.config.lockstep and c.config.start_at_s is not None:
-        c.deferred_start = DeferredStart(c.supervisor.mode, c.supervisor.mode_changes, c.arm)
+        c.deferred_start = DeferredStart(c.supervisor.mode, c.supervisor.mode_changes, c.arm, _engage_ms(c))
         c.log(f"lockstep: the switch to {mode_name(c.output.required_mode)}" + (" and the arming" if c.arm else "")
               + f" wait for the first tick (t = {c.config.start_at_s:g} s), so that every run starts its "
               "autopilot mode at the same time")
+        return
+    due_ms = _engage_ms(c)
+    if (c.set_mode or c.arm) and due_ms > (c.state.attitude_ms or 0):
+        c.deferred_start = DeferredStart(c.supervisor.mode, c.supervisor.mode_changes, c.arm, due_ms, c.set_mode)
+        what = (f"the switch to {mode_name(c.output.required_mode)}" + (" and the arming" if c.arm else "")
+                if c.set_mode else "the arming")
+        c.log(f"engaging at t = {due_ms / 1000:.1f} s (autopilot time), {c.config.engage_after_s:g} s after "
+              f"connecting, as a pilot would: {what} wait; the estimator watches the sea meanwhile")
         return
     if c.set_mode:
         mode = c.supervisor.expected_mode = c.output.required_mode
@@ -108,6 +116,16 @@ class DeferredStart:
     mode_seen: int | None
     mode_changes_seen: int  # the supervisor's count of mode changes then: HOLD → MANUAL → HOLD is a change too
     arm: bool
+    due_ms: int = 0  # autopilot time from which the switch may happen (the first tick at or after it)
+    switch: bool = True  # switch the mode (--set-mode); False: only arm (--arm alone)
+
+
+def _engage_ms(c: Any) -> int:
+    """Autopilot time (ms) at which the operator's --set-mode/--arm take effect: ``engage_after_s`` after the first
+    attitude the companion saw (its connection). (The loop ticks from ``--start-at`` on, so a deferred switch
+    never happens before it either.)"""
+    connected = c.events.connected_at_ms if c.events.connected_at_ms is not None else (c.state.attitude_ms or 0)
+    return connected + round(c.config.engage_after_s * 1000)
 
 
 def consent_lapsed(supervisor: Supervisor, stop_requested: bool) -> str | None:
@@ -135,33 +153,37 @@ def deferred_start_refused(deferred: DeferredStart, supervisor: Supervisor, stop
 
 
 def switch_mode_at_start(c: Any, link: Link, now_ms: int) -> None:
-    """Lockstep with ``--start-at``: set the output's mode (then arm, if asked) at the first tick, which the
-    simulator holds (commands are answered while time stands still), and wait for the heartbeat that shows
-    it, so the step right after it commands. Rover's GUIDED thus starts from the same state at the same time
-    in every run. Refuses (and says why) when the switch is no longer the operator's wish."""
+    """The deferred end of the start, at the first tick at or after its due time: lockstep with ``--start-at``
+    (the simulator holds that tick, so Rover's GUIDED starts from the same state at the same time in every run),
+    or ``engage_after_s`` after connecting (the pilot's moment). Sets the output's mode (then arms, if asked)
+    and waits for the heartbeat that shows it, so the step right after it commands. Refuses (and says why) when
+    the switch is no longer the operator's wish."""
     deferred, c.deferred_start = c.deferred_start, None
     refused = deferred_start_refused(deferred, c.supervisor, c.stop_requested())
     mode, at = c.output.required_mode, f"at t = {now_ms / 1000:.1f} s"
+    what = f"switching to {mode_name(mode)}" if deferred.switch else "arming"
     if refused is not None:
-        c.log(f"lockstep: not switching to {mode_name(mode)} {at}: {refused}")
+        c.log(f"not {what} {at}: {refused}")
         return
-    c.supervisor.expected_mode = mode
-    result = link.set_mode(mode)
-    log_result(c.log, f"mode {mode_name(mode)} {at}", result)
+    result = mavlink.MAV_RESULT_ACCEPTED
+    if deferred.switch:
+        c.supervisor.expected_mode = mode
+        result = link.set_mode(mode)
+        log_result(c.log, f"mode {mode_name(mode)} {at}", result)
     if deferred.arm:
         lapsed = consent_lapsed(c.supervisor, c.stop_requested())  # the answer's wait ran the handlers
         if result != mavlink.MAV_RESULT_ACCEPTED or lapsed is not None:
-            c.log(f"lockstep: not arming {at}: " + (lapsed or f"the switch to {mode_name(mode)} was not accepted"))
+            c.log(f"not arming {at}: " + (lapsed or f"the switch to {mode_name(mode)} was not accepted"))
             return
         log_result(c.log, f"arming {at}", link.arm())
-    _await_heartbeat_in(c, link, mode, deferred.arm)
+    _await_heartbeat_in(c, link, mode if deferred.switch else None, deferred.arm)
 
 
-def _await_heartbeat_in(c: Any, link: Link, mode: int, armed: bool) -> None:
-    """Wait (at most MODE_HEARTBEAT_WAIT_S wall) for a heartbeat in ``mode`` (and armed, when the companion
-    armed), so the step right after commands; ends early on a stop or an ended run."""
+def _await_heartbeat_in(c: Any, link: Link, mode: int | None, armed: bool) -> None:
+    """Wait (at most MODE_HEARTBEAT_WAIT_S wall) for a heartbeat in ``mode`` (None: any) and armed, when the
+    companion armed, so the step right after commands; ends early on a stop or an ended run."""
     def settled() -> bool:  # the heartbeat shows it, or there is nothing left to wait for
-        shown = c.supervisor.mode == mode and (c.supervisor.armed or not armed)
+        shown = (mode is None or c.supervisor.mode == mode) and (c.supervisor.armed or not armed)
         return shown or c.supervisor.phase.final or c.stop_requested()
 
     deadline = time.monotonic() + MODE_HEARTBEAT_WAIT_S
@@ -169,5 +191,6 @@ def _await_heartbeat_in(c: Any, link: Link, mode: int, armed: bool) -> None:
         link.heartbeat_if_due()
         link.recv(0.05)
     if not settled():
-        c.log(f"warning: no heartbeat {'armed ' if armed else ''}in {mode_name(mode)} within "
-              f"{MODE_HEARTBEAT_WAIT_S:g} s of the switch")
+        where = f"in {mode_name(mode)} " if mode is not None else ""
+        c.log(f"warning: no heartbeat {'armed ' if armed else ''}{where}within {MODE_HEARTBEAT_WAIT_S:g} s of the "
+              "switch")

@@ -3,7 +3,7 @@
 Once per control step ``step`` asks the source for the wave at autopilot time t; a confident answer
 goes to the NMPC (``set_wave(field)``: the roll term on), no answer means ``set_wave(None)`` (calm
 prediction, R = 0: the Direct behaviour). Each change between the two is logged once, with the time
-and the estimate. The source's measured sea statistics (``WaveEstimator.spread``: the NED slope
+and the estimate. The source's measured sea statistics (the estimator's ``spread``: the NED slope
 covariance its wave does not explain) go to ``set_sea_spread``, the expected-roll term; while they act
 without a confident wave (an irregular sea) that is said once too, and counted. The log row is the
 source's ``latest`` fit even when it is not confident (the estimator's own figures), else the confident
@@ -58,6 +58,7 @@ class WaveGate:
     spread_steps: int = 0  # steps planned on the sea's statistics alone (no confident wave)
     _spread_on: bool = False
     _rejected: int = 0  # confident estimates the wave model refused
+    watched_confident_s: float | None = None  # autopilot time of the first confident estimate, engaged or not
     _hold: EstimateHold = field(init=False)
 
     def __post_init__(self) -> None:
@@ -70,6 +71,20 @@ class WaveGate:
         self.imu_samples += sample.accel_body is not None
         self.source.observe(sample)
         self._observe_s += time.perf_counter() - start
+
+    def watch(self, t_s: float) -> None:
+        """Before engaging (once per tick): ask the source whether it knows the sea yet, and say so once, with
+        the estimate, when it first does: the skipper learns what the boat has seen before handing it over."""
+        self._observe_s = 0.0  # what the source cost while watching is not a control step's
+        if self.watched_confident_s is not None:
+            return
+        start = time.perf_counter()
+        est = self.source.estimate(t_s)
+        if est is None:
+            return
+        self.watched_confident_s = t_s
+        self.log(f"waves ({self.source.name}) at t = {t_s:.1f} s, before engaging: {describe(est)}; the roll term "
+                 f"acts from the first step ({(time.perf_counter() - start) * 1e3:.2f} ms)")
 
     def step(self, nmpc: Any, t_s: float) -> dict[str, float]:
         """The wave at ``t_s`` to the NMPC (None: no roll term); returns the log columns of the latest fit."""
@@ -132,6 +147,8 @@ class WaveGate:
         self.roll_steps += int(now)
         if now and self.first_confident_s is None:
             self.first_confident_s = t_s
+        if now and self.watched_confident_s is None:
+            self.watched_confident_s = t_s
         if self.confident is None:
             self.log(f"waves ({self.source.name}): " + (f"{describe(est)}; roll term on" if est is not None else
                      "no confident estimate yet: flying without the roll term (Direct behaviour)"))
@@ -150,7 +167,8 @@ class WaveGate:
         out: dict[str, Any] = {
             "source": self.source.name,
             "time_to_confident_s": None if self.first_confident_s is None or self.first_step_s is None
-            else round(self.first_confident_s - self.first_step_s, 3),
+            else round(max(self.first_confident_s - self.first_step_s, 0.0), 3),
+            "first_confident_at_s": None if self.watched_confident_s is None else round(self.watched_confident_s, 3),
             "roll_term_fraction": round(self.roll_steps / self.steps, 4) if self.steps else None,
             "sea_statistics_fraction": round(self.spread_steps / self.steps, 4) if self.steps else None,
             "confidence_changes": self.changes,
@@ -168,14 +186,15 @@ class WaveGate:
 
 def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position_lag_s: float = 0.0,
                      vessel_params: Any = None) -> WaveSource:
-    """``estimated``: a WaveEstimator fed by the autopilot's streams (``roll_sign`` +1 for the paper's
+    """``estimated``: the wave estimator (``make_estimator``: the window fit by default) fed by the autopilot's
+    streams (``roll_sign`` +1 for the paper's
     plant, −1 for a real hull; ``position_lag_s`` the GPS lag it compensates), with the hull's roll/pitch
     response to the slope measured on the vessel model (``vessel_params``, riding the sea as a real hull
     does; about a second) as the in-process experiment does; ``scenario``: the scenario's sea
     (``sea_waves``), simulation truth."""
     from dataclasses import replace
 
-    from mavbridge.waves import EstimatorSettings, WaveEstimator
+    from mavbridge.waves import EstimatorSettings, make_estimator
     from mavbridge.waves.source import ScenarioTruth
 
     if kind == "scenario":
@@ -187,4 +206,4 @@ def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position
         from mavbridge.waves.inloop import calibrated_settings
 
         settings = replace(calibrated_settings(vessel_params, True, roll_sign), position_lag_s=position_lag_s)
-    return WaveEstimator(settings)
+    return make_estimator(settings)

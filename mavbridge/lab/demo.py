@@ -123,10 +123,12 @@ def sim_realism(waves: str) -> list[str]:
 
 def demo_commands(scenario: Scenario, out: Path, resolved: str, ports: tuple[int, int, int], speedup: float,
                   output: str, waves: str, lockstep: bool, seed: int | None = None,
-                  attitude_form: str | None = None, sim_params: str | None = None) -> tuple[list[str], list[str]]:
+                  attitude_form: str | None = None, sim_params: str | None = None,
+                  engage_after_s: float | None = None) -> tuple[list[str], list[str]]:
     """(simulator command, companion command) on the ports (ground station, companion, TCP); ``seed`` the
     simulator's (None: it draws a fresh one); ``attitude_form`` the GUIDED path's (None: the companion's);
-    ``sim_params`` a .parm file of the simulator's defaults (None: its own)."""
+    ``sim_params`` a .parm file of the simulator's defaults (None: its own); ``engage_after_s`` the companion's
+    wait from connecting to switching and arming (None: its own default)."""
     gcs_port, companion_port, tcp_port = ports
     python = sys.executable
     home = Home(heading_deg=scenario.start.heading_deg)  # CMAC; the boat's pose itself comes from the file
@@ -138,7 +140,8 @@ def demo_commands(scenario: Scenario, out: Path, resolved: str, ports: tuple[int
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
                      "--scenario", resolved, "--waves", waves, "--solver", scenario.controller.solver,
-                     *(["--attitude-form", attitude_form] if attitude_form else [])]
+                     *(["--attitude-form", attitude_form] if attitude_form else []),
+                     *(["--engage-after", f"{engage_after_s:g}"] if engage_after_s is not None else [])]
     if lockstep:
         sim_flags, companion_flags = lockstep_flags(speedup)
         sim_cmd += sim_flags
@@ -214,7 +217,7 @@ def _report(scenario: Scenario, out: Path, interrupted: DemoInterruptedError | N
 
 def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: str = "estimated",
              lockstep: bool = False, seed: int | None = None, attitude_form: str | None = None,
-             sim_params: str | None = None) -> int:
+             sim_params: str | None = None, engage_after_s: float | None = None) -> int:
     """Run the demo; returns 0 when the boat reached the waypoint. ``waves``: the companion's wave source,
     ``estimated`` (from the boat's motion) or ``scenario`` (the simulator's truth); ``lockstep``: a
     reproducible run; ``seed``: the simulator's (hidden phase, noise), None for a fresh one. SIGINT, SIGTERM
@@ -226,7 +229,7 @@ def run_demo(scenario: Scenario, out: Path, speedup: float, output: str, waves: 
     print(f"demo: simulator TCP {ports[2]}, ground station UDP {ports[0]}, companion UDP {ports[1]}, "
           f"speedup {speedup:g}, output {output}, waves {waves}")
     cmds = demo_commands(scenario, out, resolved, ports, speedup, output, waves, lockstep, seed, attitude_form,
-                         sim_params)
+                         sim_params, engage_after_s)
     # lockstep: simulated time waits for every plan, so on a loaded machine it runs slower than the speedup
     wall_limit = scenario.t_max_s / speedup * (4.0 if lockstep else 1.0) + 120.0 + (
         LOCKSTEP_STARTUP_WALL_S if lockstep else 0.0)

@@ -263,13 +263,16 @@ def test_the_reboot_watch_cancels_a_deferred_switch() -> None:
     assert companion.deferred_start is None and not sup.self_commanded
 
 
-def _starting(sup: Supervisor, lockstep: bool) -> FakeCompanion:
-    """A companion at the end of start_flight, launched with --set-mode --arm (``lockstep``: and --start-at)."""
+def _starting(sup: Supervisor, lockstep: bool, engage_after_s: float = 0.0) -> FakeCompanion:
+    """A companion at the end of start_flight, launched with --set-mode --arm (``lockstep``: and --start-at),
+    connected at autopilot time 100 s, its start done at 104 s."""
     companion = FakeCompanion(sup)
     companion.deferred_start = None
     companion.set_mode = companion.arm = True  # type: ignore[attr-defined]
-    config = {"lockstep": lockstep, "start_at_s": 162.0 if lockstep else None}
+    config = {"lockstep": lockstep, "start_at_s": 162.0 if lockstep else None, "engage_after_s": engage_after_s}
     companion.config = type("Config", (), config)()  # type: ignore[attr-defined]
+    companion.events = type("Events", (), {"connected_at_ms": 100_000})()  # type: ignore[attr-defined]
+    companion.state = type("State", (), {"attitude_ms": 104_000})()  # type: ignore[attr-defined]
     return companion
 
 
@@ -288,6 +291,21 @@ def test_without_a_reboot_the_start_switches_and_arms_or_defers_both(lockstep: b
     companion, link = _starting(sup, lockstep), FakeLink(mavlink.MAV_RESULT_ACCEPTED)
     switch_and_arm_if_asked(companion, link, consent=True)
     if lockstep:
-        assert link.calls == [] and companion.deferred_start == DeferredStart(HOLD, sup.mode_changes, True)
+        assert link.calls == [] and companion.deferred_start == DeferredStart(HOLD, sup.mode_changes, True, 100_000)
+    else:
+        assert link.calls == [f"set_mode {GUIDED}", "arm"] and companion.deferred_start is None
+
+
+@pytest.mark.parametrize(("engage_after_s", "deferred"), [(3.0, False), (30.0, True)])
+def test_engage_after_defers_the_switch_and_the_arming_until_that_long_after_connecting(
+        engage_after_s: float, deferred: bool) -> None:
+    """--engage-after 30: connected at 100 s, ready at 104 s, the switch and the arming wait for 130 s; a wait
+    already over when the start is done (3 s) changes nothing."""
+    sup = _waiting_in(HOLD)
+    companion, link = _starting(sup, False, engage_after_s), FakeLink(mavlink.MAV_RESULT_ACCEPTED)
+    switch_and_arm_if_asked(companion, link, consent=True)
+    if deferred:
+        assert link.calls == [] and companion.deferred_start == DeferredStart(HOLD, sup.mode_changes, True, 130_000)
+        assert "engaging at t = 130.0 s" in companion.lines[-1]
     else:
         assert link.calls == [f"set_mode {GUIDED}", "arm"] and companion.deferred_start is None
