@@ -34,7 +34,7 @@ from mavbridge.lab.runlog import RunRecorder, column, run_metrics, write_csv
 from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.model_state import resolve_heave_feedback
-from mavbridge.waves import EstimatorSettings, WaveEstimator
+from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth
 from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
@@ -111,7 +111,7 @@ def experiment_metrics(scenario: Scenario, record: RunRecorder, arrival: float |
     return {
         "name": scenario.name,
         "weights_qrs": [scenario.controller.q, scenario.controller.r, scenario.controller.s],
-        **run_metrics(record, arrival),
+        **run_metrics(record, arrival, (scenario.waypoint.north_m, scenario.waypoint.east_m)),
         "final_distance_m": final_distance_m,
         "simulated_s": float(record.rows[-1]["t_s"]),
         "solver": scenario.controller.solver,
@@ -131,7 +131,7 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
     if est.waves == "estimated":
         settings = (calibrated_settings(params, est.surface_heave, est.roll_sign) if est.calibrate
                     else EstimatorSettings(roll_sign=est.roll_sign))
-        source: Any = WaveEstimator(settings)
+        source: Any = make_estimator(settings)
     else:
         source = ScenarioTruth(truth)
     plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,

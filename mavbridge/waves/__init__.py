@@ -9,5 +9,12 @@ May import: ``vessel`` and ``mavbridge.waves``. Imported by ``mavbridge.companio
 
 from mavbridge.waves.estimator import WaveEstimator
 from mavbridge.waves.settings import EstimatorSettings
+from mavbridge.waves.window_estimator import WindowEstimator
 
-__all__ = ["EstimatorSettings", "WaveEstimator"]
+__all__ = ["EstimatorSettings", "WaveEstimator", "WindowEstimator", "make_estimator"]
+
+
+def make_estimator(settings: EstimatorSettings | None = None) -> WaveEstimator | WindowEstimator:
+    """The estimator ``settings.method`` names: the window fit (default) or the recursive one."""
+    settings = settings or EstimatorSettings()
+    return WindowEstimator(settings) if settings.method == "window" else WaveEstimator(settings)

@@ -32,6 +32,7 @@ from vessel.plant import rk4_step
 from vessel.sensors import SensorModel, SensorParams
 
 SAMPLES_PER_PERIOD = 2  # ATTITUDE at 20 Hz for the paper's T = 0.1 s
+SETTLE_S = 10.0  # a watched run's hull floats this long unwatched first (see ``SensedTauPlant.watch``)
 
 
 def hidden_sea(waves: WaveField, seed: int) -> WaveField:
@@ -95,11 +96,15 @@ class SensedTauPlant:
 
     def watch(self, seconds: float, period_s: float) -> None:
         """The boat drifting with idle thrusters for ``seconds`` before t = 0, sensed as in the run (the wave
-        source learns; the run's clock then starts at 0 where this ends)."""
-        steps = round(seconds / period_s)
-        for i in range(steps):
-            t = (i - steps) * period_s
-            self.sense(t)
+        source learns; the run's clock then starts at 0 where this ends). It has floated unwatched for
+        ``SETTLE_S`` before that: the model starts at rest on a calm waterline, and no skipper's companion
+        connects while the hull is still being dropped into the sea (its first seconds heave and pitch as no
+        boat afloat does)."""
+        steps, settle = round(seconds / period_s), round(SETTLE_S / period_s) if seconds > 0 else 0
+        for i in range(settle + steps):
+            t = (i - steps - settle) * period_s
+            if i >= settle:
+                self.sense(t)
             self.advance(t, np.zeros(2), (0.0, 0.0))
 
     def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:

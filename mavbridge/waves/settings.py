@@ -7,12 +7,19 @@ from dataclasses import dataclass, field
 from vessel.config import ConfigError, bounded, validate
 
 TRACKERS = ("zero-crossing", "belleter")
+METHODS = ("window", "recursive")
 
 
 @dataclass(frozen=True)
 class EstimatorSettings:
     """Tuning of the wave estimator (SI units in the names; defaults tuned on the paper's sea)."""
 
+    method: str = field(default="window", metadata={"choices": METHODS, "doc": "window: one regular wave fitted "
+                        "in the earth frame to the last window_s of motion (the default); recursive: the per-sample "
+                        "demodulating estimator (with its Doppler line for a hull that does not heave)"})
+    window_s: float = bounded(20.0, 5.0, 120.0, "s", "window: seconds of motion each fit uses")
+    min_window_s: float = bounded(8.0, 2.0, 60.0, "s", "window: seconds of valid motion before the first fit")
+    fit_interval_s: float = bounded(1.0, 0.05, 10.0, "s", "window: a new fit every this long")
     roll_sign: float = bounded(1.0, -1.0, 1.0, "", "+1: roll = +slope across the hull (the paper's plant); "
                                "−1: geometric (a real hull)")
     roll_gain: float = bounded(1.0, 0.1, 10.0, "", "hull roll / slope across the hull near ω_e (calibration)")
@@ -58,5 +65,7 @@ class EstimatorSettings:
         validate(self)
         if self.roll_sign not in (-1.0, 1.0):
             raise ConfigError(f"roll_sign: {self.roll_sign!r} is not one of -1, 1")
+        if self.method not in METHODS:
+            raise ConfigError(f"method: {self.method!r} is not one of {', '.join(METHODS)}")
         if self.tracker not in TRACKERS:
             raise ConfigError(f"tracker: {self.tracker!r} is not one of {', '.join(TRACKERS)}")

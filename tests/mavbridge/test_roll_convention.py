@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from mavbridge.companion.wave_gate import make_wave_source
-from mavbridge.waves import EstimatorSettings, WaveEstimator
+from mavbridge.waves import EstimatorSettings, WindowEstimator, make_estimator
 from mavbridge.waves.inloop import calibrated_settings
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples, paper_sea
+from mavbridge.waves.settings import METHODS
 from vessel import otter_parameters
 from vessel.config import ConfigError
 
@@ -37,17 +38,19 @@ def test_a_sign_said_as_a_phase_is_refused_with_the_fix() -> None:
 def test_the_boats_wave_source_builds_with_a_geometric_hull() -> None:
     """What `deploy/companion-boat.yaml` asks for (wave_roll_sign −1) builds: it was refused at start before."""
     source = make_wave_source("estimated", None, -1.0, 0.0, otter_parameters())
-    assert isinstance(source, WaveEstimator) and source.s.roll_sign == -1.0
+    assert isinstance(source, WindowEstimator) and source.s.roll_sign == -1.0
     assert abs(source.s.roll_phase_deg) < 30.0
 
 
-def test_a_geometric_hull_read_with_its_sign_finds_the_wave_and_predicts_its_roll() -> None:
+@pytest.mark.parametrize("method", METHODS)
+def test_a_geometric_hull_read_with_its_sign_finds_the_wave_and_predicts_its_roll(method: str) -> None:
     """A point riding a regular sea that rolls it geometrically (−1), read with roll_sign −1: the estimate's
-    direction is the true one, and its field rolls the hull with the same sign, as the boat does."""
+    direction is the true one, and its field rolls the hull with the same sign, as the boat does (both
+    estimators)."""
     sea = dataclasses.replace(paper_sea(0.7), paper_roll_sign=False)
     heading = math.radians(45.0)
     boat = KinematicBoat(sea, 1.5, lambda t: heading, roll_sign=-1.0)
-    estimator = WaveEstimator(EstimatorSettings(roll_sign=-1.0))
+    estimator = make_estimator(EstimatorSettings(roll_sign=-1.0, method=method))
     estimate = None
     for sample in motion_samples(boat, 40.0, seed=3, t0=500.0):
         estimator.observe(sample)
@@ -56,7 +59,7 @@ def test_a_geometric_hull_read_with_its_sign_finds_the_wave_and_predicts_its_rol
     error = math.degrees(math.remainder(estimate.travel_dir_rad - sea.travel_dir_rad, 2 * math.pi))
     assert abs(error) < 10.0, f"direction off by {error:.1f} deg"
     assert estimate.roll_sign == -1.0 and estimate.field().roll_sign == -1.0
-    read_as_paper = WaveEstimator(EstimatorSettings(roll_sign=1.0))
+    read_as_paper = make_estimator(EstimatorSettings(roll_sign=1.0, method=method))
     mirrored = None
     for sample in motion_samples(boat, 40.0, seed=3, t0=500.0):
         read_as_paper.observe(sample)

@@ -1,0 +1,280 @@
+"""One regular wave fitted to a window of the boat's motion in the earth frame: the fit behind ``WindowEstimator``.
+
+The model (``window_model``) is linear in the wave's (α, β) and the channels' offsets for fixed (ω, k, χ); all
+of them are found together by damped Gauss–Newton on the residuals, each channel divided by its noise (its own
+residual RMS, floored). ``initial_guess`` starts it from the window alone: the slope's dominant encounter
+frequency (an FFT of the slope along its principal axis), the channels' phasors at it, and the pitch–roll-buoy
+algebra of ``solve`` (k = |slope|/|heave|, the direction from their quadrature). Standard errors come from the
+Gauss–Newton normal matrix, widened because neighbouring samples are correlated. A fit runs in stages
+(``refine_stages``, a generator) so the estimator can spread it over several control steps. Pure numpy; no
+state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Generator
+from dataclasses import dataclass
+from typing import TypeVar
+
+import numpy as np
+
+from mavbridge.waves.solve import solve_with_heave
+from mavbridge.waves.window_model import CHANNELS, HullResponse, WaveParams, Window, channel_models
+
+T = TypeVar("T")
+Stages = Generator[None, None, T]  # a computation in stages: next() does one, StopIteration.value is the result
+NOISE_FLOOR = {"along": 0.003, "across": 0.003, "accel": 0.03, "down": 0.15}  # rad, rad, m/s², m
+CORRELATION_S = 0.5  # residuals closer than this are not independent: standard errors widened by √(rate·this)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A converged fit: the wave, its standard errors, how much of each channel it explains, the residual slope."""
+
+    wave: WaveParams
+    sigma: np.ndarray  # standard errors of (ω, k, χ, α, β)
+    covariance: np.ndarray  # of (ω, k, χ, α, β), 5×5
+    explained: dict[str, float]  # per channel with data: 1 − residual power / signal power
+    slope_explained: float  # the same for pitch and roll together (their powers summed)
+    residual_slope_cov: np.ndarray  # NED covariance (2×2, rad²) of the slope the wave leaves unexplained
+    samples: int
+    span_s: float
+    iterations: int
+    noise: dict[str, float]  # each channel's residual RMS (floored): the weights of a warm start
+    @property
+    def rel_sigma_omega(self) -> float:
+        return float(self.sigma[0]) / max(self.wave.omega, 1e-9)
+
+    @property
+    def rel_sigma_k(self) -> float:
+        return float(self.sigma[1]) / max(self.wave.k, 1e-9)
+
+    @property
+    def rel_sigma_amplitude(self) -> float:
+        """σ(a)/a: the amplitude's own standard error (its phase's is ``sigma_phase``)."""
+        a = max(self.wave.amplitude, 1e-9)
+        g = np.array([0, 0, 0, self.wave.alpha / a, self.wave.beta / a])
+        return math.sqrt(max(float(g @ self.covariance @ g), 0.0)) / a
+
+    @property
+    def sigma_phase(self) -> float:
+        """Standard error (rad) of the wave's phase at the boat now."""
+        a2 = max(self.wave.amplitude ** 2, 1e-18)
+        h = np.array([0, 0, 0, -self.wave.beta / a2, self.wave.alpha / a2])
+        return math.sqrt(max(float(h @ self.covariance @ h), 0.0))
+
+
+def _has(values: np.ndarray) -> np.ndarray:
+    return np.isfinite(values)
+
+
+def dominant_encounter_frequency(w: Window, omega_min: float, omega_max: float) -> float | None:
+    """ω_e (rad/s) of the slope along its principal NED axis: the peak of a Hann-windowed, zero-padded FFT of the
+    slope resampled at 10 Hz, refined by a parabola through the peak's log magnitudes; None without a peak."""
+    s_n = w.along * np.cos(w.psi) - w.across * np.sin(w.psi)
+    s_e = w.along * np.sin(w.psi) + w.across * np.cos(w.psi)
+    s_n, s_e = s_n - s_n.mean(), s_e - s_e.mean()
+    axis = 0.5 * math.atan2(2 * float(np.dot(s_n, s_e)), float(np.dot(s_n, s_n) - np.dot(s_e, s_e)))
+    y = s_n * math.cos(axis) + s_e * math.sin(axis)
+    grid = np.arange(w.t[0], w.t[-1], 0.1)
+    if grid.size < 16:
+        return None
+    series = np.interp(grid, w.t, y) * np.hanning(grid.size)
+    n_fft = 4096
+    spectrum = np.abs(np.fft.rfft(series, n_fft))
+    omegas = 2 * math.pi * np.fft.rfftfreq(n_fft, 0.1)
+    band = np.flatnonzero((omegas >= omega_min) & (omegas <= omega_max))
+    if band.size < 3:
+        return None
+    i = int(band[np.argmax(spectrum[band])])
+    if i <= 0 or i >= spectrum.size - 1 or spectrum[i] <= 0:
+        return None
+    lo, mid, hi = (math.log(max(float(v), 1e-300)) for v in spectrum[i - 1:i + 2])
+    curvature = lo - 2 * mid + hi
+    shift = 0.5 * (lo - hi) / curvature if curvature < 0 else 0.0
+    return float(omegas[i] + max(-0.5, min(0.5, shift)) * (omegas[1] - omegas[0]))
+
+
+def _phasor(t: np.ndarray, values: np.ndarray, omega: float) -> complex | None:
+    """X of values ≈ Re(X e^{iωt}) + offset by least squares (None when the channel is empty or too short)."""
+    ok = _has(values)
+    if np.count_nonzero(ok) < 8:
+        return None
+    tt, x = t[ok], values[ok]
+    design = np.column_stack([np.cos(omega * tt), np.sin(omega * tt), np.ones_like(tt)])
+    (a, b, _), *_ = np.linalg.lstsq(design, x, rcond=None)
+    return complex(a, -b)
+
+
+def initial_guess(w: Window, omega_min: float, omega_max: float) -> WaveParams | None:
+    """A first wave from the window alone (encounter-frame phasors, then ``solve_with_heave``); None when the
+    window shows no dominant frequency or no heave (IMU or GPS) to size k with."""
+    omega_e = dominant_encounter_frequency(w, omega_min, omega_max)
+    if omega_e is None:
+        return None
+    s_n = w.along * np.cos(w.psi) - w.across * np.sin(w.psi)
+    s_e = w.along * np.sin(w.psi) + w.across * np.cos(w.psi)
+    x_n, x_e = _phasor(w.t, s_n, omega_e), _phasor(w.t, s_e, omega_e)
+    accel = _phasor(w.t, w.accel, omega_e)
+    elevation = accel / omega_e**2 if accel is not None else None
+    if elevation is None:
+        down = _phasor(w.t, w.down, omega_e)
+        elevation = -down if down is not None else None
+    if x_n is None or x_e is None or elevation is None:
+        return None
+    sol = solve_with_heave(x_n, x_e, elevation, omega_e, float(np.mean(w.v_north)), float(np.mean(w.v_east)), 0.0)
+    if sol is None or not (sol.omega > 0 and sol.wavenumber > 0):
+        return None
+    eps = sol.phase_now  # Φ + ε at t = 0 and the boat's position then, which is the window's origin
+    return WaveParams(sol.omega, sol.wavenumber, sol.travel_dir_rad, sol.amplitude_m * math.cos(eps),
+                      sol.amplitude_m * math.sin(eps))
+
+
+def _stack(w: Window, p: WaveParams, hull: HullResponse, offsets: np.ndarray,
+           noise: dict[str, float]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """Weighted residuals (measured − model)/σ, their Jacobian (five wave columns, then one offset column per
+    channel with data, in ``CHANNELS`` order) and the raw residuals per channel."""
+    rows, jacs, raw = [], [], {}
+    models = channel_models(w, p, hull)
+    active = [name for name in CHANNELS if np.any(_has(getattr(w, name)))]
+    for column, name in enumerate(active):
+        model, jac = models[name]
+        values = getattr(w, name)
+        ok = _has(values)
+        res = values[ok] - model[ok] - offsets[CHANNELS.index(name)]
+        raw[name] = res
+        full = np.zeros((res.size, 5 + len(active)))
+        full[:, 0:5] = jac[ok]
+        full[:, 5 + column] = 1.0
+        rows.append(res / noise[name])
+        jacs.append(full / noise[name])
+    return np.concatenate(rows), np.vstack(jacs), raw
+
+
+def _apply(p: WaveParams, offsets: np.ndarray, step: np.ndarray, active: list[str]) -> tuple[WaveParams, np.ndarray]:
+    """Parameters after a step (offsets of the ``active`` channels); a negative k is the same wave travelling the
+    other way."""
+    omega, k, chi, alpha, beta = p.vector() + step[0:5]
+    if k < 0:
+        k, chi = -k, chi + math.pi
+    moved = offsets.copy()
+    for column, name in enumerate(active):
+        moved[CHANNELS.index(name)] += step[5 + column]
+    return WaveParams(float(omega), float(k), float(math.remainder(chi, 2 * math.pi)), float(alpha),
+                      float(beta)), moved
+
+
+def _noise(raw: dict[str, np.ndarray]) -> dict[str, float]:
+    """Each channel's noise: its residual RMS, floored."""
+    noise = dict(NOISE_FLOOR)
+    for name, res in raw.items():
+        noise[name] = max(NOISE_FLOOR[name], float(np.sqrt(np.mean(res * res))))
+    return noise
+
+
+def _gauss_newton(w: Window, p: WaveParams, offsets: np.ndarray, hull: HullResponse, noise: dict[str, float],
+                  max_iterations: int) -> Stages[tuple[WaveParams, np.ndarray, int] | None]:
+    """Damped Gauss–Newton (Levenberg–Marquardt) steps at fixed channel weights, one stage per evaluation;
+    None when it leaves the physical range."""
+    res, jac, raw = _stack(w, p, hull, offsets, noise)
+    yield
+    active = [name for name in CHANNELS if name in raw]
+    cost, damping, done = float(res @ res), 1e-3, 0
+    for done in range(1, max_iterations + 1):  # noqa: B007 (the count is reported)
+        normal = jac.T @ jac
+        step = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12), jac.T @ res)
+        trial, trial_offsets = _apply(p, offsets, step, active)
+        if not (0 < trial.omega < 50 and 0 < trial.k < 50):
+            return None
+        res_t, jac_t, _ = _stack(w, trial, hull, trial_offsets, noise)
+        yield
+        cost_t = float(res_t @ res_t)
+        if cost_t > cost:
+            damping *= 10
+            continue
+        p, offsets, res, jac, cost = trial, trial_offsets, res_t, jac_t, cost_t
+        damping = max(damping / 10, 1e-9)
+        if np.max(np.abs(step[0:3]) / np.array([0.002 * p.omega, 0.002 * p.k, 0.002])) < 1:
+            break
+    return p, offsets, done
+
+
+def refine_stages(w: Window, start: WaveParams, hull: HullResponse, max_iterations: int = 8,
+                  noise: dict[str, float] | None = None) -> Stages[Fit | None]:
+    """Gauss–Newton from ``start`` on all channels, each weighted by its noise: ``noise`` when given (a warm
+    start: the last fit's), else first as the start's residuals show it, then (two more iterations) as the
+    converged residuals do; None when it leaves the physical range. A generator of stages (each about one
+    evaluation of the model over the window), so that a caller can spread a fit over several control steps;
+    ``refine`` runs it whole."""
+    offsets = np.zeros(4)
+    done_before = 0
+    if noise is None:
+        _, _, raw = _stack(w, start, hull, offsets, NOISE_FLOOR)
+        yield
+        first = yield from _gauss_newton(w, start, offsets, hull, _noise(raw), max_iterations)
+        if first is None:
+            return None
+        _, _, raw = _stack(w, first[0], hull, first[1], NOISE_FLOOR)
+        yield
+        start, offsets, max_iterations, done_before, noise = first[0], first[1], 2, first[2], _noise(raw)
+    result = yield from _gauss_newton(w, start, offsets, hull, noise, max_iterations)
+    if result is None:
+        return None
+    p, offsets, done = result
+    res, jac, raw = _stack(w, p, hull, offsets, noise)
+    yield
+    return _fit_result(w, p, hull, res, jac, raw, done_before + done, _noise(raw))
+
+
+def run_stages(stages: Stages[T]) -> T:
+    """Run a generator of stages to its end; its result."""
+    while True:
+        try:
+            next(stages)
+        except StopIteration as end:
+            return end.value
+
+
+def refine(w: Window, start: WaveParams, hull: HullResponse, max_iterations: int = 8,
+           noise: dict[str, float] | None = None) -> Fit | None:
+    """``refine_stages`` run whole."""
+    return run_stages(refine_stages(w, start, hull, max_iterations, noise))
+
+
+def _fit_result(w: Window, p: WaveParams, hull: HullResponse, res: np.ndarray, jac: np.ndarray,
+                raw: dict[str, np.ndarray], iterations: int, noise: dict[str, float]) -> Fit | None:
+    """Standard errors (reduced χ², widened for correlated neighbours), explained shares, residual slope."""
+    m, n_params = res.size, jac.shape[1]
+    if m <= n_params:
+        return None
+    try:
+        cov = np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return None
+    rate = w.t.size / max(w.span_s, 1e-9)
+    scale = float(res @ res) / (m - n_params) * max(1.0, rate * CORRELATION_S)
+    cov5 = cov[0:5, 0:5] * scale
+    sigma = np.sqrt(np.maximum(np.diag(cov5), 0.0))
+    explained, sums = {}, {}
+    for name, r in raw.items():
+        values = getattr(w, name)
+        values = values[_has(values)]
+        sums[name] = (float(r @ r), float(np.sum((values - values.mean()) ** 2)))
+        explained[name] = 1.0 - sums[name][0] / sums[name][1] if sums[name][1] > 0 else 0.0
+    slope = [sums[k] for k in ("along", "across") if k in sums]
+    power = sum(signal for _, signal in slope)
+    slope_explained = 1.0 - sum(residual for residual, _ in slope) / power if power > 0 else 0.0
+    return Fit(p, sigma, cov5, explained, slope_explained, _residual_slope(w, raw, hull), w.t.size, w.span_s,
+               iterations, noise)
+
+
+def _residual_slope(w: Window, raw: dict[str, np.ndarray], hull: HullResponse) -> np.ndarray:
+    """NED covariance of the slope residual (the hull's gains undone), rad²."""
+    along, across = raw.get("along"), raw.get("across")
+    if along is None or across is None or along.size != w.psi.size or across.size != w.psi.size:
+        return np.zeros((2, 2))
+    along, across = along / hull.pitch_gain, across / hull.roll_gain
+    c, s = np.cos(w.psi), np.sin(w.psi)
+    r_n, r_e = along * c - across * s, along * s + across * c
+    return np.array([[np.mean(r_n * r_n), np.mean(r_n * r_e)], [np.mean(r_n * r_e), np.mean(r_e * r_e)]])

@@ -1,0 +1,150 @@
+"""The earth-frame model of one regular wave as the boat's sensors see it: the data and maths ``window_fit`` fits.
+
+The wave ζ(N, E, t) = a·sin(Φ + ε), Φ = ω t − k (N cos χ + E sin χ) (NED, t in seconds from the window's
+end), written with α = a cos ε, β = a sin ε as ζ = α sin Φ + β cos Φ, is seen by the boat at its own
+position p(t) (so the boat's speed and turns are inside Φ: no separate Doppler step, and a turn does not
+break the fit) through four channels (``CHANNELS``), each with its own offset in the fit:
+
+* ``along``  = pitch            ≈ G_p · slope·h(ψ) at phase Φ − φ_p   (slope = ∇ζ = −k d ζ'(Φ), d = (cos χ, sin χ))
+* ``across`` = roll · roll_sign ≈ G_r · slope·h⊥(ψ) at phase Φ − φ_r  (h = (cos ψ, sin ψ), h⊥ = (−sin ψ, cos ψ))
+* ``accel``  = the hull's down acceleration a_D (IMU) ≈ ω̄_e² ζ, ω̄_e = ω − k d·v̄ the encounter frequency at the
+  window's mean velocity v̄. Not the instantaneous one: a hull surging in head seas (the paper's hull swings
+  between 1.3 and 2.9 m/s within a wave) does not heave as the kinematic ω_e(t)² would scale it, and modelling
+  that modulation biased the period by +3 % and the wavelength by −7 % (with exact sensors); at the mean
+  the bias is gone
+* ``down``   = the GPS down position ≈ −ζ at phase Φ − ω_e·lag
+
+G, φ are the hull's roll/pitch response to the slope (``calibration``). ``channel_models`` gives each channel's
+model and its Jacobian in (ω, k, χ, α, β) at every sample, in closed form. Pure numpy; no state.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+CHANNELS = ("along", "across", "accel", "down")
+
+
+@dataclass(frozen=True)
+class Window:
+    """The samples of one window, arrays of equal length (NED, SI, rad), referred to its end: t in s from the
+    window's last sample, north/east in m from the boat's position then (so the fitted phase and amplitude are
+    the wave's where and when the boat is now, not extrapolated from home across the window's span).
+
+    ``accel`` and ``down`` hold NaN where that channel had no sample.
+    """
+
+    t: np.ndarray
+    north: np.ndarray
+    east: np.ndarray
+    v_north: np.ndarray
+    v_east: np.ndarray
+    psi: np.ndarray
+    along: np.ndarray
+    across: np.ndarray
+    accel: np.ndarray
+    down: np.ndarray
+
+    @property
+    def span_s(self) -> float:
+        """Seconds the window covers."""
+        return float(self.t[-1] - self.t[0]) if self.t.size > 1 else 0.0
+
+
+@dataclass(frozen=True)
+class HullResponse:
+    """The hull's roll/pitch per unit slope (gain) and lag (rad) near the encounter frequency; the GPS lag (s)."""
+
+    roll_gain: float = 1.0
+    roll_lag_rad: float = 0.0
+    pitch_gain: float = 1.0
+    pitch_lag_rad: float = 0.0
+    down_lag_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class WaveParams:
+    """ω rad/s, k rad/m, χ rad (NED travel direction), α, β m (ζ = α sin Φ + β cos Φ at the window's end time)."""
+
+    omega: float
+    k: float
+    chi: float
+    alpha: float
+    beta: float
+
+    @property
+    def amplitude(self) -> float:
+        """a = |ζ|max, m."""
+        return math.hypot(self.alpha, self.beta)
+
+    def vector(self) -> np.ndarray:
+        return np.array([self.omega, self.k, self.chi, self.alpha, self.beta])
+
+    def shifted(self, dt_s: float) -> WaveParams:
+        """The same wave with the time origin moved ``dt_s`` later (t' = t − dt): Φ' = Φ − ω·dt."""
+        c, s = math.cos(self.omega * dt_s), math.sin(self.omega * dt_s)
+        # ζ = α sin(Φ' + ω dt) + β cos(Φ' + ω dt)
+        return WaveParams(self.omega, self.k, self.chi, self.alpha * c - self.beta * s, self.alpha * s + self.beta * c)
+
+
+def _geometry(w: Window, p: WaveParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(s = p·d, s⊥ = p·d⊥, Φ = ω t − k s) per sample."""
+    d_n, d_e = math.cos(p.chi), math.sin(p.chi)
+    s = w.north * d_n + w.east * d_e
+    return s, -w.north * d_e + w.east * d_n, p.omega * w.t - p.k * s
+
+
+def _zeta(p: WaveParams, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(ζ, dζ/dΦ, sin, cos) at the phases."""
+    sin, cos = np.sin(phase), np.cos(phase)
+    return p.alpha * sin + p.beta * cos, p.alpha * cos - p.beta * sin, sin, cos
+
+
+def _slope_channel(w: Window, p: WaveParams, geo: tuple, gain: float, lag: float,
+                   across: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Model and Jacobian (columns ω, k, χ, α, β) of the pitch (``across`` False) or roll channel."""
+    s, s_perp, phi = geo
+    zeta, dzeta, sin, cos = _zeta(p, phi - lag)
+    rel = p.chi - w.psi
+    f, f_chi = (np.sin(rel), np.cos(rel)) if across else (np.cos(rel), -np.sin(rel))
+    gk = gain * p.k
+    model = -gk * f * dzeta
+    jac = np.column_stack([gk * f * zeta * w.t, -gain * f * dzeta - gk * f * zeta * s,
+                           -gk * f_chi * dzeta - gk * p.k * f * zeta * s_perp, -gk * f * cos, gk * f * sin])
+    return model, jac
+
+
+def _accel_channel(w: Window, p: WaveParams, geo: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Model (ω̄_e² ζ, the hull's down acceleration) and its Jacobian (ω, k, χ, α, β); ω̄_e = ω − k d·v̄ at the
+    window's mean velocity v̄ (see the module docstring for why not the instantaneous one)."""
+    s, s_perp, phi = geo
+    zeta, dzeta, sin, cos = _zeta(p, phi)
+    d_n, d_e = math.cos(p.chi), math.sin(p.chi)
+    v_n, v_e = float(np.mean(w.v_north)), float(np.mean(w.v_east))
+    v_d, v_perp = v_n * d_n + v_e * d_e, -v_n * d_e + v_e * d_n
+    we = p.omega - p.k * v_d
+    we2 = we * we
+    jac = np.column_stack([2 * we * zeta + we2 * dzeta * w.t, -2 * we * v_d * zeta - we2 * dzeta * s,
+                           -2 * we * p.k * v_perp * zeta - we2 * dzeta * p.k * s_perp, we2 * sin, we2 * cos])
+    return we2 * zeta, jac
+
+
+def _down_channel(w: Window, p: WaveParams, geo: tuple, lag_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Model (−ζ, the GPS down position, its lag as a phase) and its Jacobian (ω, k, χ, α, β)."""
+    s, s_perp, phi = geo
+    we = p.omega - p.k * (w.v_north * math.cos(p.chi) + w.v_east * math.sin(p.chi))
+    zeta, dzeta, sin, cos = _zeta(p, phi - we * lag_s)
+    jac = np.column_stack([-dzeta * w.t, dzeta * s, dzeta * p.k * s_perp, -sin, -cos])
+    return -zeta, jac
+
+
+def channel_models(w: Window, p: WaveParams, hull: HullResponse) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per channel: (model, Jacobian of the wave's five parameters) at every sample."""
+    geo = _geometry(w, p)
+    return {"along": _slope_channel(w, p, geo, hull.pitch_gain, hull.pitch_lag_rad, False),
+            "across": _slope_channel(w, p, geo, hull.roll_gain, hull.roll_lag_rad, True),
+            "accel": _accel_channel(w, p, geo),
+            "down": _down_channel(w, p, geo, hull.down_lag_s)}
