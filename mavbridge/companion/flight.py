@@ -130,7 +130,7 @@ def wave_source_line(name: str) -> str:
 def companion_metrics(c: Companion) -> dict[str, Any]:
     """What identifies a run (phase, output, solver, wave source), its figures, and the link's counts; a
     one-waypoint mission adds the overshoot past it and the loops around it (the companion's own state)."""
-    points = c.mission.waypoints
+    points = c.mission.loaded
     single = (float(points[0][0]), float(points[0][1])) if len(points) == 1 else None
     return {"phase": c.supervisor.phase.name, "reason": c.supervisor.reason, "output": c.config.output,
             "solver": c.scenario.controller.solver, "wave_source": c.waves.name,
@@ -230,6 +230,7 @@ class Companion:
         result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
                                  deadline_s=deadline_s)
         self.delay.sent(plan_s, result.tau)
+        self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
         if columns is None:  # not finite: neutral was sent instead
             if result.success:  # a failed solve is counted by the recorder already
@@ -326,6 +327,8 @@ class Companion:
             if self.supervisor.phase == Phase.WAITING and not self.supervisor.self_commanded:
                 self.notices.waiting(self.supervisor.reason)
             now_ms = self.state.attitude_ms
+            if now_ms is not None and self.events.engaged_at_ms is None:
+                self.gate.watch(now_ms / 1000.0)  # what the boat has seen of the sea, said once it is known
             if now_ms is None or now_ms < self._start_ms:
                 continue
             due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
@@ -335,8 +338,6 @@ class Companion:
             self.notices.skipped(missed, self.period_s)
             if self.deferred_start is not None and now_ms >= self.deferred_start.due_ms:
                 switch_mode_at_start(self, link, now_ms)
-            if self.events.engaged_at_ms is None:
-                self.gate.watch(now_ms / 1000.0)  # what the boat has seen of the sea, said once it is known
             self._control_step(link, now_ms)
             engaged = self.events.engaged_at_ms
             if self.config.max_time_s and engaged is not None and now_ms - engaged > self.config.max_time_s * 1000:

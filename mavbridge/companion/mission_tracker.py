@@ -62,6 +62,7 @@ class MissionTracker:
     override_ne: tuple[float, float] | None = None  # --waypoint: replaces the mission's waypoints
     log: Callable[[str], None] = print
     waypoints: list[tuple[float, float]] = field(default_factory=list)
+    loaded: list[tuple[float, float]] = field(default_factory=list)  # the whole mission as last loaded
     changed: bool = False
     total: int | None = None  # MISSION_CURRENT.total of the mission we hold (ArduPilot leaves home out)
 
@@ -91,7 +92,7 @@ class MissionTracker:
         if not waypoints:
             raise LinkError("no waypoint: upload one with `mission upload` or pass --waypoint N,E")
         set_home(lat, lon)
-        self.waypoints = waypoints
+        self.waypoints, self.loaded = waypoints, list(waypoints)
         self.total = len(items) - 1
         self.changed = False
 

@@ -68,6 +68,10 @@ class Output(Protocol):
         """Give control back to the pilot."""
         ...
 
+    def aim(self, target_ne: tuple[float, float] | None) -> None:
+        """The waypoint the plan goes to (NED m from home), for paths that steer their last metres themselves."""
+        ...
+
 
 def read_calibration(link: Any, channel: int, log: Log) -> RcCalibration:
     """RCn_MIN/TRIM/MAX/DZ of an input channel (ArduPilot's defaults where unreadable, with a warning)."""
@@ -106,6 +110,9 @@ class _Sending:
     """``command`` for paths that send: compute, then send."""
 
     sends = True
+
+    def aim(self, target_ne: tuple[float, float] | None) -> None:
+        """Most paths send the plan to the end: the waypoint is the NMPC's business."""
 
     def command(self, link: Any, result: Any, now_ms: int) -> dict[str, Any]:
         """Compute and send; returns the log columns."""
@@ -151,6 +158,24 @@ class RcOverride(_Sending):
                 link.rc_override(self._channels(0, 0))
 
 
+APPROACH_RADIUS_M = 10.0  # GUIDED: the final approach starts this close to the waypoint (about two turning circles)
+APPROACH_SPEED_MPS = 1.0  # ... at most this fast, slowing to 0.3 m/s at the waypoint
+
+
+def approach_command(x0: Any, target_ne: tuple[float, float], wp_speed_mps: float) -> AttitudeCommand:
+    """GUIDED's final approach: the bearing to the waypoint as Rover's heading target, at a speed that falls with
+    the distance (a quarter of it per second, between 0.3 m/s and ``APPROACH_SPEED_MPS``).
+
+    Why: Rover's own loops, with their integrators and a turn-rate loop that lags the plan, make a tighter turn
+    than the NMPC expects impossible; within about two turning circles of the waypoint the plan then circled it
+    (lockstep, seed 1, the rate form on the estimate: 42 s within 12 m of it at 4.1° of roll, two loops). Its
+    heading loop pivots a skid-steered hull towards the bearing, as Rover's own navigation arrives.
+    """
+    north, east = target_ne[0] - float(x0[0]), target_ne[1] - float(x0[1])
+    speed = min(APPROACH_SPEED_MPS, max(0.3, 0.25 * math.hypot(north, east)))
+    return AttitudeCommand(math.atan2(east, north), max(-1.0, min(1.0, speed / wp_speed_mps)), speed, None)
+
+
 class AttitudeTarget(_Sending):
     """GUIDED: SET_ATTITUDE_TARGET in one of three forms: the plan's body yaw rate and speed ``lookahead_steps``
     ahead (rate), its heading and speed there (heading), or the rate and speed targets for which Rover's loops
@@ -159,13 +184,20 @@ class AttitudeTarget(_Sending):
     name, required_mode = "attitude_target", MODE_GUIDED
 
     def __init__(self, lookahead_steps: int, log: Log, form: str = "rate",
-                 params: OtterParameters | None = None) -> None:
+                 params: OtterParameters | None = None, approach_m: float = APPROACH_RADIUS_M) -> None:
         if form not in ATTITUDE_FORMS or (form == "tau" and params is None):
             raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)} (tau needs the "
                              "vessel's parameters)")
         self.lookahead_steps, self.log, self.form, self.params = lookahead_steps, log, form, params
+        self.approach_m = approach_m
         self.wp_speed_mps = 2.0
         self.loops: RoverLoops | None = None
+        self.target_ne: tuple[float, float] | None = None
+        self._approaching = False
+
+    def aim(self, target_ne: tuple[float, float] | None) -> None:
+        """The waypoint, for the final approach (``approach_command``)."""
+        self.target_ne = target_ne
 
     def prepare(self, link: Any) -> None:
         """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
@@ -192,13 +224,25 @@ class AttitudeTarget(_Sending):
         return AttitudeCommand(float(x0[5]), max(-1.0, min(1.0, speed / self.wp_speed_mps)), speed, rate)
 
     def compute(self, result: Any, now_ms: int) -> Command:
-        """The target in this path's form (see the class docstring) and its log columns."""
-        att = self._attitude(result)
+        """The target in this path's form (see the class docstring) and its log columns; within ``approach_m``
+        of the waypoint, the final approach (``approach_command``), said once."""
+        att = self._approach(result) or self._attitude(result)
         columns = {"yaw_target_rad": att.yaw_rad, "thrust_frac": att.thrust}
         if att.yaw_rate_rad_s is not None:
             columns["yaw_rate_target_rad_s"] = att.yaw_rate_rad_s
         return Command(columns, lambda link: link.attitude_target(now_ms, att.quaternion(), att.thrust,
                                                                   att.type_mask, att.yaw_rate_rad_s or 0.0))
+
+    def _approach(self, result: Any) -> AttitudeCommand | None:
+        """The final approach's target when the plan starts within ``approach_m`` of the waypoint, else None."""
+        x0 = result.states[0]
+        near = self.target_ne is not None and self.approach_m > 0 and math.hypot(
+            self.target_ne[0] - x0[0], self.target_ne[1] - x0[1]) < self.approach_m
+        if near and not self._approaching:
+            self.log(f"GUIDED: final approach within {self.approach_m:g} m: heading for the waypoint at up to "
+                     f"{APPROACH_SPEED_MPS:g} m/s with Rover's heading loop")
+        self._approaching = near
+        return approach_command(x0, self.target_ne, self.wp_speed_mps) if near and self.target_ne else None
 
     def neutral(self, link: Any, state: Any) -> None:
         """Hold the present heading with zero thrust: no pivot towards north."""
@@ -236,6 +280,10 @@ class DryRun:
 
     def release(self, link: Any) -> None:
         """Nothing was taken."""
+
+    def aim(self, target_ne: tuple[float, float] | None) -> None:
+        """As the wrapped path."""
+        self.inner.aim(target_ne)
 
 
 def make_output(output: str, dry_run: bool, params: OtterParameters, ctx: Context, lookahead_steps: int,

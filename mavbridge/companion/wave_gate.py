@@ -24,6 +24,8 @@ import numpy as np
 from mavbridge.waves.source import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
 from vessel.config import ConfigError
 
+WATCH_EVERY_S = 0.1  # before engaging, the source is asked this often whether it knows the sea
+
 
 def describe(est: WaveEstimate) -> str:
     """One line of an estimate: travel direction (° NED), period, wavelength, height, confidence."""
@@ -59,6 +61,7 @@ class WaveGate:
     _spread_on: bool = False
     _rejected: int = 0  # confident estimates the wave model refused
     watched_confident_s: float | None = None  # autopilot time of the first confident estimate, engaged or not
+    _watched_t: float = -math.inf
     _hold: EstimateHold = field(init=False)
 
     def __post_init__(self) -> None:
@@ -73,11 +76,13 @@ class WaveGate:
         self._observe_s += time.perf_counter() - start
 
     def watch(self, t_s: float) -> None:
-        """Before engaging (once per tick): ask the source whether it knows the sea yet, and say so once, with
-        the estimate, when it first does: the skipper learns what the boat has seen before handing it over."""
+        """Before engaging (called at any rate; it asks every WATCH_EVERY_S of autopilot time): whether the source
+        knows the sea yet, said once, with the estimate, when it first does: the skipper learns what the boat has
+        seen before handing it over."""
         self._observe_s = 0.0  # what the source cost while watching is not a control step's
-        if self.watched_confident_s is not None:
+        if self.watched_confident_s is not None or t_s - self._watched_t < WATCH_EVERY_S:
             return
+        self._watched_t = t_s
         start = time.perf_counter()
         est = self.source.estimate(t_s)
         if est is None:

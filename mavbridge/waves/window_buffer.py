@@ -2,11 +2,12 @@
 
 Each valid sample becomes one row: autopilot time; the boat's NED track (the GPS velocity integrated, pulled
 slowly to the GPS position: smooth between fixes and free of their metres of noise, which would be a tenth of a
-wave's phase); its NED velocity and heading; pitch and roll × ``roll_sign`` (the slope along and across the
-hull); the hull's down acceleration from the IMU (a_D = (R·f)_D + g, NaN without one); and, at each new GPS
-fix only, its down position. ``window`` hands out the last ``window_s`` seconds thinned to ``FIT_RATE_HZ``
-(every GPS height kept) and referred to the last sample: t and north/east measured from the boat's time and
-place now. Plain lists grow by one value a field per sample; the fit's arrays are built only when a fit asks.
+wave's phase; re-anchored at the GPS position after a gap in the samples); its NED velocity and heading; pitch
+and roll × ``roll_sign`` (the slope along and across the hull); the hull's down acceleration from the IMU
+(a_D = (R·f)_D + g, NaN without one); and, at each new GPS fix only, its down position. ``window`` hands out
+the last ``window_s`` seconds thinned to ``FIT_RATE_HZ`` (every GPS height kept) and referred to the last
+sample: t and north/east measured from the boat's time and place now. Plain lists grow by one value a field
+per sample; the fit's arrays are built only when a fit asks.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ FIELDS = ("t", "north", "east", "v_north", "v_east", "psi", "along", "across", "
 FIT_RATE_HZ = 10.0  # the fit uses samples at most this often
 TRACK_PULL_S = 30.0  # the dead-reckoned track is pulled to the GPS position with this time constant
 MIN_ROWS = 40  # fewer samples than this make no window
+GAP_S = 0.5  # a longer silence between samples re-anchors the dead-reckoned track at the GPS position
 
 
 def down_acceleration(att: tuple[float, ...], accel_body: object) -> float:
@@ -80,7 +82,7 @@ class MotionWindow:
     def _dead_reckon(self, pos: tuple[float, ...], vel: tuple[float, ...], dt: float) -> tuple[float, ...]:
         """The boat's NED track (m from home) for the wave's phase (see the module docstring)."""
         gps = (pos[0] + vel[0] * self.position_lag_s, pos[1] + vel[1] * self.position_lag_s)
-        if self._track is None:
+        if self._track is None or dt > GAP_S:  # across a gap the velocity is unknown: start again at the fix
             self._track = gps
         else:
             g = min(1.0, dt / TRACK_PULL_S)
