@@ -27,9 +27,10 @@ from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
 DEMO_ENGAGE_AFTER_S = 30.0  # the demo's pilot engages this long after the companion connects (issue 29)
-ATTITUDE_FORM_HELP = ("attitude_target: send the plan's heading (Rover's heading P loop, then its rate loop), its "
-                      "body yaw rate (the rate loop only), or tau: the rate and speed targets that give the plan's "
-                      "steering and throttle through Rover's loops (their gains read at start)")
+ATTITUDE_FORM_HELP = ("attitude_target: tau (default: the rate and speed targets that give the plan's steering and "
+                      "throttle through Rover's loops, their gains read at start, closed on SERVO_OUTPUT_RAW), the "
+                      "plan's body yaw rate (rate: the rate loop only), or its heading (Rover's heading P loop, "
+                      "then its rate loop)")
 
 
 def _speedup(text: str) -> float:

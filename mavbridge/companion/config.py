@@ -38,9 +38,10 @@ class CompanionConfig(LinkSettings):
     lookahead_steps: int = bounded(8, 1, 400, "steps", "attitude_target: plan step whose heading or yaw rate "
                                    "and speed are sent (8 measured best for the rate form; the heading form was "
                                    "measured at 5; tau uses the first step)")
-    attitude_form: str = choice("rate", ATTITUDE_FORMS, "attitude_target: send the plan's heading, its body "
-                                "yaw rate (Rover's rate loop only), or tau (the rate and speed targets that give the "
-                                "plan's steering and throttle through Rover's loops)")
+    attitude_form: str = choice("tau", ATTITUDE_FORMS, "attitude_target: tau (the default: the rate and speed "
+                                "targets for which Rover's loops give the plan's steering and throttle, closed on "
+                                "SERVO_OUTPUT_RAW so that Rover's integrators may stay on), the plan's body yaw rate "
+                                "(rate: Rover's rate loop only) or its heading")
     on_arrival: str = choice("hold", ARRIVAL_ACTIONS, "hold: switch to HOLD at the waypoint; release: only stop")
     max_time_s: float | None = bounded(None, 0.1, 1e6, "s", "end the run after this much autopilot time engaged")
     waves: str = choice("estimated", WAVE_SOURCES, "estimated (from the boat's motion) or scenario (simulation "

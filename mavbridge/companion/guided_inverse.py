@@ -46,6 +46,7 @@ SURGE_MARGIN_MPS = 1.0  # the paper's sea surges the hull past its calm-water fu
 _WINDS_UP = "Rover's integrators wind up against the inverted targets"
 _KICKS = "a D term kicks at every new target, which the inversion does not give"
 _MUST_BE_ZERO = {"ATC_STR_RAT_I": _WINDS_UP, "ATC_SPEED_I": _WINDS_UP, "ATC_STR_RAT_D": _KICKS, "ATC_SPEED_D": _KICKS}
+INTEGRATORS = ("ATC_STR_RAT_I", "ATC_SPEED_I")  # allowed when the output feedback sees what they do
 
 
 def _checked(values: dict[str, float | None]) -> dict[str, float]:
@@ -91,26 +92,34 @@ class RoverLoops:
                    values.get(BRAKE) != 0)
 
     @classmethod
-    def read(cls, link: Any) -> RoverLoops:
-        """Read the gains over the link; LinkError when one is unreadable or unusable, or an I or D term is on."""
+    def read(cls, link: Any, integrators_allowed: bool = False) -> RoverLoops:
+        """Read the gains over the link; LinkError when one is unreadable or unusable, or a D term (or, unless
+        ``integrators_allowed``: the output feedback will see them, an I term) is on."""
         values = {name: link.read_parameter(name) for name in LOOP_PARAMETERS}
         values.update({name: link.read_optional_parameter(name) for name in (*OPTIONAL_LOOP_PARAMETERS, BRAKE)})
         try:
             loops = cls.from_values(values)
         except ValueError as exc:
             raise LinkError(f"attitude_form tau: {exc}") from None
-        problem = loops.gain_problem()
+        problem = loops.gain_problem(integrators_allowed)
         if problem:
             raise LinkError(f"attitude_form tau: {problem}")
         return loops
 
-    def gain_on(self) -> tuple[str, float] | None:
-        """The first I or D gain that is on, (name, value), or None."""
-        return next(((name, gain) for name, gain in self.must_be_zero if gain != 0), None)
+    def gain_on(self, integrators_allowed: bool = False) -> tuple[str, float] | None:
+        """The first I or D gain that is on (I gains only unless ``integrators_allowed``), (name, value), or None."""
+        return next(((name, gain) for name, gain in self.must_be_zero
+                     if gain != 0 and not (integrators_allowed and name in INTEGRATORS)), None)
 
-    def gain_problem(self) -> str | None:
-        """Why the inversion cannot be used with these gains (an integrator or a D term on), or None."""
-        if (on := self.gain_on()) is None:
+    @property
+    def integrators_on(self) -> bool:
+        """Rover's turn-rate or speed integrator is on (its stock gains): the output feedback must see them."""
+        return any(gain != 0 for name, gain in self.must_be_zero if name in INTEGRATORS)
+
+    def gain_problem(self, integrators_allowed: bool = False) -> str | None:
+        """Why the inversion cannot be used with these gains (a D term on, or an integrator unless
+        ``integrators_allowed``), or None."""
+        if (on := self.gain_on(integrators_allowed)) is None:
             return None
         name, gain = on
         return (f"{name} is {gain:g}; set it to 0 ({_MUST_BE_ZERO[name]}); deploy/otter-guided-tau.parm sets it "
@@ -173,9 +182,11 @@ def default_speed(read: Callable[[str], float | None]) -> float:
 
 
 def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n: float, speed_mps: float,
-                 yaw_rate: float) -> tuple[float, float]:
+                 yaw_rate: float, offsets: tuple[float, float] = (0.0, 0.0)) -> tuple[float, float]:
     """(turn-rate target rad/s, speed target m/s) for the plan's first τ (N, N·m) at the plan's initial u (m/s)
-    and r (rad/s): the state as measured, or as predicted to when the command acts with delay compensation."""
+    and r (rad/s): the state as measured, or as predicted to when the command acts with delay compensation;
+    ``offsets`` (throttle, steering) added before the inversion (``guided_feedback``)."""
     _, _, throttle, steering = skid_fractions(params, tau_x, tau_n)
-    return loops.rate_for_steering(steering, yaw_rate), loops.speed_for_throttle(throttle, speed_mps)
+    return (loops.rate_for_steering(steering + offsets[1], yaw_rate),
+            loops.speed_for_throttle(throttle + offsets[0], speed_mps))
 

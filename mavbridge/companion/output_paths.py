@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from mavbridge.companion.guided_feedback import OutputFeedback, read_motors
 from mavbridge.companion.guided_inverse import RoverLoops, default_speed, loop_targets
 from mavbridge.companion.outputs import (
     ATTITUDE_FORMS,
@@ -24,6 +25,7 @@ from mavbridge.companion.outputs import (
     attitude_command,
     neutral_pwm,
     rc_command,
+    skid_fractions,
 )
 from mavbridge.link.connection import LinkError, mavlink
 from mavbridge.preflight.rules import OPTIONAL_PARAMETERS, Context, override_violations
@@ -158,6 +160,34 @@ class RcOverride(_Sending):
                 link.rc_override(self._channels(0, 0))
 
 
+FEEDBACK_WAIT_S = 3.0  # the tau form waits this long (wall) for the first SERVO_OUTPUT_RAW it asked for
+OUTPUT_FEEDBACK_HZ = 20.0
+
+
+def start_feedback(link: Any, loops: RoverLoops, log: Log) -> OutputFeedback | None:
+    """The tau form's output feedback (``guided_feedback``): SERVO_OUTPUT_RAW asked for at OUTPUT_FEEDBACK_HZ and
+    followed. Needed when Rover's integrators are on (its stock gains): LinkError (one line) then if the motors'
+    channels cannot be read or no SERVO_OUTPUT_RAW arrives; with them off it is used where it streams."""
+    try:
+        motors = read_motors(link)
+    except LinkError:
+        if loops.integrators_on:
+            raise
+        return None
+    feedback = OutputFeedback(motors)
+    link.handlers.append(feedback.on_message)
+    link.request_message_interval(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, OUTPUT_FEEDBACK_HZ)
+    if link.wait_for(lambda m: m.get_type() == "SERVO_OUTPUT_RAW", FEEDBACK_WAIT_S) is not None:
+        return feedback
+    link.handlers.remove(feedback.on_message)
+    if loops.integrators_on:
+        raise LinkError("attitude_form tau: Rover's integrators are on (its stock gains) and no SERVO_OUTPUT_RAW "
+                        f"arrived within {FEEDBACK_WAIT_S:g} s to see what they do; stream it (SRn_RC_CHAN), or set "
+                        "ATC_STR_RAT_I and ATC_SPEED_I to 0 (deploy/otter-guided-tau.parm)")
+    log("GUIDED tau form: no SERVO_OUTPUT_RAW; the inversion runs open (Rover's integrators are off)")
+    return None
+
+
 APPROACH_RADIUS_M = 10.0  # GUIDED: the final approach starts this close to the waypoint (about two turning circles)
 APPROACH_SPEED_MPS = 1.0  # ... at most this fast, slowing to 0.3 m/s at the waypoint
 
@@ -183,7 +213,7 @@ class AttitudeTarget(_Sending):
 
     name, required_mode = "attitude_target", MODE_GUIDED
 
-    def __init__(self, lookahead_steps: int, log: Log, form: str = "rate",
+    def __init__(self, lookahead_steps: int, log: Log, form: str = "tau",
                  params: OtterParameters | None = None, approach_m: float = APPROACH_RADIUS_M) -> None:
         if form not in ATTITUDE_FORMS or (form == "tau" and params is None):
             raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)} (tau needs the "
@@ -192,6 +222,7 @@ class AttitudeTarget(_Sending):
         self.approach_m = approach_m
         self.wp_speed_mps = 2.0
         self.loops: RoverLoops | None = None
+        self.feedback: OutputFeedback | None = None
         self.target_ne: tuple[float, float] | None = None
         self._approaching = False
 
@@ -205,20 +236,28 @@ class AttitudeTarget(_Sending):
         but not as planned (``RoverLoops.warnings``)."""
         self.wp_speed_mps = default_speed(link.read_parameter)
         if self.form == "tau":
-            self.loops = loops = RoverLoops.read(link)
+            self.loops = loops = RoverLoops.read(link, integrators_allowed=True)
+            self.feedback = start_feedback(link, loops, self.log)
             self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
-                     f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
+                     f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})"
+                     + ("; closed on SERVO_OUTPUT_RAW" if self.feedback else ""))
             for warning in loops.warnings(self.wp_speed_mps):
                 self.log(f"warning: GUIDED tau form: {warning}")
 
-    def _attitude(self, result: Any) -> AttitudeCommand:
+    def _attitude(self, result: Any, now_ms: int) -> AttitudeCommand:
         """The target for this answer in this path's form."""
         if self.form != "tau":
             return attitude_command(result.states, self.wp_speed_mps, self.lookahead_steps, self.form)
         assert self.loops is not None and self.params is not None, "prepare() first"
         x0 = result.states[0]
+        offsets = (0.0, 0.0)
+        if self.feedback is not None:
+            _, _, throttle, steering = skid_fractions(self.params, float(result.tau[0]), float(result.tau[1]))
+            self.feedback.update(now_ms)
+            self.feedback.asked(now_ms, throttle, steering)
+            offsets = (self.feedback.throttle_offset, self.feedback.steering_offset)
         rate, speed = loop_targets(self.params, self.loops, float(result.tau[0]), float(result.tau[1]),
-                                   float(x0[6]), float(x0[11]))
+                                   float(x0[6]), float(x0[11]), offsets)
         if not (math.isfinite(rate) and math.isfinite(speed)):
             raise ValueError("plan: non-finite turn-rate or speed target")
         return AttitudeCommand(float(x0[5]), max(-1.0, min(1.0, speed / self.wp_speed_mps)), speed, rate)
@@ -226,7 +265,7 @@ class AttitudeTarget(_Sending):
     def compute(self, result: Any, now_ms: int) -> Command:
         """The target in this path's form (see the class docstring) and its log columns; within ``approach_m``
         of the waypoint, the final approach (``approach_command``), said once."""
-        att = self._approach(result) or self._attitude(result)
+        att = self._approach(result) or self._attitude(result, now_ms)
         columns = {"yaw_target_rad": att.yaw_rad, "thrust_frac": att.thrust}
         if att.yaw_rate_rad_s is not None:
             columns["yaw_rate_target_rad_s"] = att.yaw_rate_rad_s
@@ -287,7 +326,7 @@ class DryRun:
 
 
 def make_output(output: str, dry_run: bool, params: OtterParameters, ctx: Context, lookahead_steps: int,
-                log: Log, attitude_form: str = "rate") -> Output:
+                log: Log, attitude_form: str = "tau") -> Output:
     """The strategy for ``output`` (rc_override or attitude_target, in ``attitude_form``), in DryRun if asked."""
     paths: dict[str, Callable[[], Output]] = {
         "rc_override": lambda: RcOverride(params, ctx, log),

@@ -249,9 +249,9 @@ def parameter_findings(report: Report, read: Reader, system_id: int, output: str
 
 def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> None:
     """What GUIDED's tau form needs (``mavbridge.companion.guided_inverse``), judged as `mavbridge run` judges
-    it: Rover's
-    loop gains readable, its I and D gains 0 (FAIL: the companion refuses the form), WP_SPEED at least the speed
-    target full throttle needs and ATC_BRAKE 1 (WARN: the plan's full thrust, or its braking, would be cut)."""
+    it: Rover's loop gains readable, its D gains 0 (FAIL: the companion refuses the form; integrators on are said:
+    the companion then closes the inversion on SERVO_OUTPUT_RAW), WP_SPEED at least the speed target full
+    throttle needs and ATC_BRAKE 1 (WARN: the plan's full thrust, or its braking, would be cut)."""
     from mavbridge.companion.guided_inverse import (
         BRAKE,
         LOOP_PARAMETERS,
@@ -269,13 +269,15 @@ def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> No
     except ValueError as exc:
         report.add(FAIL, "tau form: loop gains", "readable, >= 0", str(exc), "check the link; " + fix)
         return
-    on, gains = loops.gain_on(), "ATC_STR_RAT_I/_D, ATC_SPEED_I/_D 0"
+    on, gains = loops.gain_on(integrators_allowed=True), "ATC_STR_RAT_D, ATC_SPEED_D 0"
     absent = [name for name in loops.absent if name != BRAKE]
     if on:
-        report.add(FAIL, "tau form: I and D gains", gains, f"{on[0]} is {on[1]:g}", fix)
+        report.add(FAIL, "tau form: D gains", gains, f"{on[0]} is {on[1]:g}", fix)
     else:
-        report.add(PASS, "tau form: I and D gains", gains,
-                   "all 0" + (f" ({', '.join(absent)} not on this autopilot: 0)" if absent else ""))
+        integrators = ("; the integrators are on: the companion closes the inversion on SERVO_OUTPUT_RAW"
+                       if loops.integrators_on else "")
+        report.add(PASS, "tau form: D gains", gains, "0" + integrators
+                   + (f" ({', '.join(absent)} not on this autopilot: 0)" if absent else ""))
     wp_speed = default_speed(read)
     needed = loops.full_throttle_target_mps()
     status = WARN if loops.wp_speed_problem(wp_speed) else PASS

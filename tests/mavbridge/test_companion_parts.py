@@ -90,12 +90,13 @@ def test_dry_run_is_the_null_output_of_the_path_it_wraps() -> None:
     assert dry.command(None, result, 1000) == rc.compute(result, 1000).columns  # link unused: nothing is sent
     assert not dry.sends and rc.sends and dry.required_mode == MODE_MANUAL
     assert rc.compute(result, 1000).columns["steering_pwm_us"] > 1500  # more left thrust: steer to starboard
-    guided = make_output("attitude_target", True, otter_parameters(), CTX, 3, print)
+    guided = make_output("attitude_target", True, otter_parameters(), CTX, 3, print, "rate")
     assert isinstance(guided, DryRun) and isinstance(guided.inner, AttitudeTarget)
     assert guided.required_mode == MODE_GUIDED
     columns = guided.command(None, result, 1000)
     assert columns == {"yaw_target_rad": pytest.approx(0.4), "thrust_frac": pytest.approx(0.75),
-                       "yaw_rate_target_rad_s": 0.0}  # the default rate form: the plan's r (0 here)
+                       "yaw_rate_target_rad_s": 0.0}  # the rate form: the plan's r (0 here)
+    assert make_output("attitude_target", True, otter_parameters(), CTX, 3, print).inner.form == "tau"  # default
     bad = _result((0.0, 0.0))
     bad.states[:, 5] = math.nan
     with pytest.raises(ValueError, match="non-finite"):

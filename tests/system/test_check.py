@@ -179,21 +179,27 @@ def test_unreadable_parameters_are_reported_not_refused() -> None:
 
 
 def test_tau_form_needs_are_judged_as_the_companion_judges_them() -> None:
-    """Rover's default gains: FAIL naming the first integrator (the companion refuses the form) and a WARN for
-    WP_SPEED 2 (full thrust cut); with deploy/otter-guided-tau.parm over them, both pass."""
+    """Rover's default gains: the D terms pass (the integrators are on: said, the companion closes the inversion
+    on SERVO_OUTPUT_RAW) and WP_SPEED 2 is a WARN (full thrust cut); a D term on is a FAIL naming it; with
+    deploy/otter-guided-tau.parm over the defaults everything passes."""
     table = ParamTable()
     report = Report()
     tau_form_findings(report, lambda name: table[name] if name in table else None, lambda _name: None)
     by_item = {f.item: f for f in report.findings}
-    gains, wp_speed = by_item["tau form: I and D gains"], by_item["tau form: WP_SPEED"]
-    assert gains.status == FAIL and gains.actual == "ATC_STR_RAT_I is 0.5" and "otter-guided-tau.parm" in gains.fix
+    gains, wp_speed = by_item["tau form: D gains"], by_item["tau form: WP_SPEED"]
+    assert gains.status == PASS and "SERVO_OUTPUT_RAW" in gains.actual
+    kicked = Report()
+    tau_form_findings(kicked, lambda name: 0.05 if name == "ATC_SPEED_D" else (table[name] if name in table else None),
+                      lambda name: 0.05 if name == "ATC_SPEED_D" else None)
+    d_term = {f.item: f for f in kicked.findings}["tau form: D gains"]
+    assert d_term.status == FAIL and d_term.actual == "ATC_SPEED_D is 0.05" and "otter-guided-tau.parm" in d_term.fix
     assert wp_speed.status == WARN and wp_speed.actual == "2 m/s" and ">= 3.04" in wp_speed.fix
     assert by_item["tau form: ATC_BRAKE"].status == WARN  # not readable
     values = {**{d.name: table[d.name] for d in table.defs}, **read_parm(ROOT / "deploy" / "otter-rover.parm"),
               **read_parm(ROOT / "deploy" / "otter-guided-tau.parm")}
     report = Report()
     tau_form_findings(report, values.get, values.get)
-    assert [(f.item, f.status) for f in report.findings] == [("tau form: I and D gains", PASS),
+    assert [(f.item, f.status) for f in report.findings] == [("tau form: D gains", PASS),
                                                              ("tau form: WP_SPEED", PASS),
                                                              ("tau form: ATC_BRAKE", PASS)]
 
@@ -203,6 +209,6 @@ def test_check_for_the_tau_form_passes_with_its_parameter_file(tmp_path: Path) -
     the tau form's parameter files: the form's items pass, and so does everything else."""
     tau = (ROOT / "deploy" / "otter-guided-tau.parm").read_text()
     code, text, rows = _check(tmp_path, tau, "--output", "attitude_target", "--attitude-form", "tau", "--solves", "0")
-    for item in ("tau form: I and D gains", "tau form: WP_SPEED", "tau form: ATC_BRAKE"):
+    for item in ("tau form: D gains", "tau form: WP_SPEED", "tau form: ATC_BRAKE"):
         assert rows[item][0] == PASS, text
     assert code == 0, text

@@ -188,16 +188,19 @@ def test_run_and_check_default_to_the_real_time_solver(tmp_path: Path) -> None:
     assert f"solver: {REAL_TIME_SOLVER}" in (tmp_path / "run" / "config.yaml").read_text()
 
 
-def test_tau_form_against_rovers_integrators_is_refused_before_arming(tmp_path: Path, runs: list[Run]) -> None:
-    """`--attitude-form tau` against an autopilot with Rover's default turn-rate integrator on: one line naming the
-    parameter and the fix, exit 1, neither armed nor moded and no SET_ATTITUDE_TARGET sent."""
-    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+def test_tau_form_against_a_d_term_is_refused_before_arming(tmp_path: Path, runs: list[Run]) -> None:
+    """`--attitude-form tau` against an autopilot with a turn-rate D term on (it kicks at every new target): one
+    line naming the parameter and the fix, exit 1, neither armed nor moded and no SET_ATTITUDE_TARGET sent."""
+    parm = tmp_path / "d.parm"
+    parm.write_text("ATC_STR_RAT_D,0.05\n")
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe", "--params", str(parm)],
+                    udp_outs=1) as sim:
         run = Run(sim.udp_ports[0], tmp_path / "tau", "--output", "attitude_target", "--attitude-form", "tau",
                   "--arm", "--set-mode", "--waypoint", "85,75")
         runs.append(run)
         assert run.wait(180) == 1, run.text()
     refusal = [line for line in run.lines if "attitude_form tau" in line]
-    assert len(refusal) == 1 and "attitude_form tau: ATC_STR_RAT_I is 0.5; set it to 0" in refusal[0], run.text()
+    assert len(refusal) == 1 and "attitude_form tau: ATC_STR_RAT_D is 0.05; set it to 0" in refusal[0], run.text()
     assert "attitude_form rate" in refusal[0], run.text()
     tlog = tmp_path / "tau" / "companion.tlog"
     arm_or_mode = (mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavutil.mavlink.MAV_CMD_DO_SET_MODE)
@@ -205,9 +208,23 @@ def test_tau_form_against_rovers_integrators_is_refused_before_arming(tmp_path: 
     assert _sent(tlog, "PARAM_REQUEST_READ") > 0  # (it did read the gains it refused)
 
 
+def test_tau_form_with_rovers_stock_integrators_closes_on_the_servo_outputs(tmp_path: Path, runs: list[Run]) -> None:
+    """The default GUIDED form against Rover's stock gains (integrators on): taken, SERVO_OUTPUT_RAW asked for and
+    followed, said at start."""
+    with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe"], udp_outs=1) as sim:
+        run = Run(sim.udp_ports[0], tmp_path / "tau", "--output", "attitude_target", "--dry-run", "--waypoint",
+                  "85,75")
+        runs.append(run)
+        run.await_line("closed on SERVO_OUTPUT_RAW", 120)
+        run.stop()
+    assert not any("attitude_form tau:" in line for line in run.lines), run.text()  # not refused
+    assert _sent(tmp_path / "tau" / "companion.tlog", "COMMAND_LONG") > 0  # the interval request among them
+
+
 def test_tau_form_warns_of_what_flies_but_not_as_planned(tmp_path: Path, runs: list[Run]) -> None:
     """Integrators and D terms off but Rover's WP_SPEED 2 and no ATC_BRAKE: the form is taken (no refusal) and the
-    companion warns, before it flies, that full throttle is cut and which parameters it took as defaults."""
+    companion warns, before it flies, that full throttle is cut and which parameters it took as defaults; the
+    output feedback is used where SERVO_OUTPUT_RAW streams, integrators on or off."""
     parm = tmp_path / "gains.parm"
     parm.write_text("ATC_STR_RAT_I,0\nATC_SPEED_I,0\nATC_STR_RAT_D,0\nATC_SPEED_D,0\n")
     with SimProcess(tmp_path / "sim", speedup=5, waves="calm", extra=[HOME, "--wipe", "--params", str(parm)],
