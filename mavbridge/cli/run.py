@@ -168,6 +168,8 @@ def demo_command(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else timestamped_folder()
     if args.sim_params and not Path(args.sim_params).is_file():
         raise ConfigError(f"--sim-params: {args.sim_params} is not a readable file")
+    if not math.isfinite(args.engage_after):
+        raise ConfigError(f"--engage-after: {args.engage_after:g} is not finite; allowed [0, 3600] s")
     if not 0.0 <= args.engage_after <= 3600.0:
         raise ConfigError(f"--engage-after: {args.engage_after:g} is outside the allowed range [0, 3600] s")
     return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form,

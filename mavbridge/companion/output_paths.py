@@ -160,8 +160,26 @@ class RcOverride(_Sending):
                 link.rc_override(self._channels(0, 0))
 
 
-FEEDBACK_WAIT_S = 3.0  # the tau form waits this long (wall) for the first SERVO_OUTPUT_RAW it asked for
+FEEDBACK_WAIT_S = 2.0  # the tau form waits this long (autopilot time) for the first SERVO_OUTPUT_RAW it asked for
+FEEDBACK_WAIT_WALL_S = 30.0  # ... and at most this long in wall time (a held lockstep simulator sends nothing)
 OUTPUT_FEEDBACK_HZ = 20.0
+
+
+def _await_servo_outputs(link: Any) -> bool:
+    """True once a SERVO_OUTPUT_RAW arrives; False after FEEDBACK_WAIT_S of the autopilot's clock (its ATTITUDE
+    stamps) without one, or FEEDBACK_WAIT_WALL_S of wall time."""
+    first: dict[str, int] = {}
+
+    def done(msg: Any) -> bool:
+        if msg.get_type() == "SERVO_OUTPUT_RAW":
+            return True
+        if msg.get_type() != "ATTITUDE":
+            return False
+        now = int(msg.time_boot_ms)
+        return now - first.setdefault("ms", now) > FEEDBACK_WAIT_S * 1000
+
+    msg = link.wait_for(done, FEEDBACK_WAIT_WALL_S)
+    return msg is not None and msg.get_type() == "SERVO_OUTPUT_RAW"
 
 
 def start_feedback(link: Any, loops: RoverLoops, log: Log) -> OutputFeedback | None:
@@ -177,7 +195,7 @@ def start_feedback(link: Any, loops: RoverLoops, log: Log) -> OutputFeedback | N
     feedback = OutputFeedback(motors)
     link.handlers.append(feedback.on_message)
     link.request_message_interval(mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, OUTPUT_FEEDBACK_HZ)
-    if link.wait_for(lambda m: m.get_type() == "SERVO_OUTPUT_RAW", FEEDBACK_WAIT_S) is not None:
+    if _await_servo_outputs(link):
         return feedback
     link.handlers.remove(feedback.on_message)
     if loops.integrators_on:

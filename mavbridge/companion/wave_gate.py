@@ -61,6 +61,7 @@ class WaveGate:
     _spread_on: bool = False
     _rejected: int = 0  # confident estimates the wave model refused
     watched_confident_s: float | None = None  # autopilot time of the first confident estimate, engaged or not
+    first_sample_s: float | None = None  # autopilot time of the first motion sample the source got
     _watched_t: float = -math.inf
     _hold: EstimateHold = field(init=False)
 
@@ -70,6 +71,8 @@ class WaveGate:
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the source (every ATTITUDE), timed."""
         start = time.perf_counter()
+        if self.first_sample_s is None:
+            self.first_sample_s = sample.t_s
         self.samples += 1
         self.imu_samples += sample.accel_body is not None
         self.source.observe(sample)
@@ -173,6 +176,7 @@ class WaveGate:
             "source": self.source.name,
             "time_to_confident_s": None if self.first_confident_s is None or self.first_step_s is None
             else round(max(self.first_confident_s - self.first_step_s, 0.0), 3),
+            "first_sample_at_s": None if self.first_sample_s is None else round(self.first_sample_s, 3),
             "first_confident_at_s": None if self.watched_confident_s is None else round(self.watched_confident_s, 3),
             "roll_term_fraction": round(self.roll_steps / self.steps, 4) if self.steps else None,
             "sea_statistics_fraction": round(self.spread_steps / self.steps, 4) if self.steps else None,
