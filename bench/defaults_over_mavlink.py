@@ -12,9 +12,9 @@ Seas: ``paper`` (scenarios/balanced.yaml, 1.75 m / 35 m / 6 s towards West) and 
 (scenarios/balanced_other_sea.yaml, 1.5 m / 30 m / 5.5 s towards 150°, a sea the controller was not tuned on).
 
 Prints per pair: Direct's and Balanced's average roll and arrival time (from engaging), the cut, the bound
-1.25 × T_direct / (1 − cut) on Balanced's arrival and the ratio to it, the time from the estimator's first
-motion sample to its first confident wave estimate (autopilot time), and, from the simulator's true path after engaging, how far
-Balanced went past the waypoint along the line from where it engaged and how many turns it made around it
+1.25 × T_direct / (1 − cut) on Balanced's arrival and the ratio to it, the time from the estimator's first motion
+sample to its first confident wave estimate (autopilot time), and, from the simulator's true path after engaging,
+how far Balanced went past the waypoint along the line from where it engaged and how many turns it made around it
 within 25 m (``mavbridge.lab.path_metrics``); then per path × sea the mean and smallest cut. Paced runs on a
 shared machine are not exactly repeatable: the seed fixes the sea, not the scheduler. About 1 minute a pair.
 """
