@@ -131,9 +131,11 @@ class _Translation:
 
     def _mode(self, m: Any) -> Iterator[Any]:
         number = getattr(m, "ModeNum", None)
-        if number is None:
-            number = m.Mode if not isinstance(m.Mode, str) else \
+        if number is None and isinstance(m.Mode, str):
+            number = int(m.Mode) if m.Mode.strip().isdigit() else \
                 (mavutil.mode_mapping_byname(self._vehicle()) or {}).get(m.Mode.upper())
+        elif number is None:
+            number = m.Mode
         if number is not None:
             self.mode = int(number)
             if not self.named:
@@ -216,8 +218,8 @@ class DataflashReader:
     def _check_end(self, reader: Any, t: float) -> None:
         """A binary log whose last message runs past the end of the file was cut short: say where."""
         formats, offsets, counts = (getattr(reader, name, None) for name in ("formats", "offsets", "counts"))
-        if formats is None or offsets is None or counts is None:
-            return
+        if not isinstance(counts, list) or formats is None or offsets is None:
+            return  # a text log: read line by line, nothing to cut
         ends = [(int(offsets[k][counts[k] - 1]), formats[k].len) for k in range(256)
                 if counts[k] > 0 and k in formats]
         cut = [ofs for ofs, length in ends if ofs + length > reader.data_len]

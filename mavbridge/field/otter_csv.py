@@ -60,6 +60,14 @@ def number(text: str, repaired: Counter[str]) -> float | None:
     return None
 
 
+def _local_time(cell: str) -> str:
+    """The first column's time as a reader writes it, '2024-03-22 12:42:29 (the log's local time)'."""
+    try:
+        return datetime.strptime(cell.strip(), TIME_FORMAT).strftime("%Y-%m-%d %H:%M:%S (the log's local time)")
+    except ValueError:
+        return ""
+
+
 class OtterCsvReader:
     """``LogReader`` for an Otter API CSV (see the module docstring)."""
 
@@ -104,7 +112,7 @@ class OtterCsvReader:
                     continue
                 if first_t is None:
                     first_t = row_t
-                    self.info.start_text = f"{cells[0].strip().replace('_', ' ', 1)} (the log's local time)"
+                    self.info.start_text = _local_time(cells[0])
                 t = row_t - first_t
                 yield from self._row(t, cells, counts, repaired, last)
                 if progress is not None and counts["rows"] % 2000 == 0:

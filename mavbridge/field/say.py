@@ -71,4 +71,4 @@ def mission_item(seq: int, command: int, lat_deg: float, lon_deg: float, alt_m: 
 
 def parameter(name: str, value: float) -> object:
     """PARAM_VALUE ``name`` = ``value`` (as a float, which is how the companion reads it)."""
-    return mavlink.MAVLink_param_value_message(name[:16], float(value), mavlink.MAV_PARAM_TYPE_REAL32, 0, 0)
+    return mavlink.MAVLink_param_value_message(name.encode()[:16], float(value), mavlink.MAV_PARAM_TYPE_REAL32, 0, 0)

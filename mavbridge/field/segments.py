@@ -7,8 +7,9 @@ clock) that follow each other within ``ENGAGEMENT_GAP_S``. The companion's run f
 log: the log's own folder (``companion.tlog``), or a ``companion/`` folder in it or beside it (a demo's
 ``sim/sim_vehicle.tlog``).
 
-Per stretch: duration, distance (counted in steps of at least ``DISTANCE_STEP_M``, so that GPS jitter at rest
-adds nothing), mean speed (distance over duration), average and maximum |roll| over its attitude samples.
+Per stretch: duration, distance (the positions averaged over ``DISTANCE_BLOCK_S``, then counted in steps of at
+least ``DISTANCE_STEP_M``, so that GPS jitter at rest adds nothing), mean speed (distance over duration),
+average and maximum |roll| over its attitude samples.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 from mavbridge.field.trial import Trial
 
 DISTANCE_STEP_M = 1.0
+DISTANCE_BLOCK_S = 2.0
 ENGAGEMENT_GAP_S = 2.0  # control steps further apart than this (autopilot time) belong to two engagements
 COMPANION_LOG = "companion.csv"
 
@@ -51,16 +53,21 @@ class Segment:
         """One line for the terminal."""
         roll = (f"avg roll {self.avg_roll_deg:.2f} deg, max {self.max_roll_deg:.2f} deg"
                 if self.avg_roll_deg is not None else "no attitude")
-        moved = (f"{self.distance_m:.1f} m at {self.mean_speed_m_s:.2f} m/s" if self.distance_m is not None
-                 else "no position")
+        speed = f" at {self.mean_speed_m_s:.2f} m/s" if self.mean_speed_m_s is not None else ""
+        moved = f"{self.distance_m:.1f} m{speed}" if self.distance_m is not None else "no position"
         return (f"{self.label:<22} t {self.start_s:8.1f} .. {self.end_s:8.1f} s  {self.duration_s:7.1f} s  "
                 f"{moved}  {roll}")
 
 
-def distance(north: np.ndarray, east: np.ndarray, step_m: float = DISTANCE_STEP_M) -> float:
-    """Path length counted from anchor to anchor, a new anchor once the boat is ``step_m`` from the last."""
+def distance(t: np.ndarray, north: np.ndarray, east: np.ndarray, step_m: float = DISTANCE_STEP_M) -> float:
+    """Path length of the positions averaged over DISTANCE_BLOCK_S blocks, counted from anchor to anchor, a new
+    anchor once the boat is ``step_m`` from the last."""
     if north.size == 0:
         return 0.0
+    block = np.floor((t - t[0]) / DISTANCE_BLOCK_S).astype(int)
+    count = np.bincount(block)
+    kept = count > 0
+    north, east = (np.bincount(block, weights=v)[kept] / count[kept] for v in (north, east))
     total, anchor_n, anchor_e = 0.0, float(north[0]), float(east[0])
     for n, e in zip(north.tolist(), east.tolist(), strict=True):
         d = math.hypot(n - anchor_n, e - anchor_e)
@@ -76,7 +83,7 @@ def segment(trial: Trial, label: str, start_s: float, end_s: float) -> Segment:
     roll = np.degrees(np.abs(att[in_att, 1]))
     in_track = (track[:, 0] >= start_s) & (track[:, 0] <= end_s)
     duration = max(end_s - start_s, 0.0)
-    dist = distance(track[in_track, 1], track[in_track, 2]) if in_track.any() else None
+    dist = distance(track[in_track, 0], track[in_track, 1], track[in_track, 2]) if in_track.any() else None
     return Segment(label, start_s, end_s, duration, dist,
                    dist / duration if dist is not None and duration > 0 else None,
                    float(roll.mean()) if roll.size else None, float(roll.max()) if roll.size else None,
@@ -90,7 +97,8 @@ def mode_segments(trial: Trial) -> list[Segment]:
     out = []
     for i, change in enumerate(trial.modes):
         end = trial.modes[i + 1].t_s if i + 1 < len(trial.modes) else trial.end_s
-        out.append(segment(trial, change.label, change.t_s, end))
+        if end > change.t_s or i + 1 == len(trial.modes):  # a mode left at once (then armed) is no segment
+            out.append(segment(trial, change.label, change.t_s, end))
     return out
 
 

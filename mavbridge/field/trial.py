@@ -100,7 +100,6 @@ class TrialRecorder:
     _home: tuple[float, float] | None = None
     _imu_counts: Counter[str] = field(default_factory=Counter)
     _imu_pinned: bool = False
-    _first_t: float | None = None
     _last_t: float = 0.0
     _handlers: dict[str, Callable[[float, Any], None]] = field(default_factory=dict)
 
@@ -113,8 +112,6 @@ class TrialRecorder:
 
     def take(self, t: float, msg: Any) -> None:
         """One message of the log at ``t`` (s on the log's timeline)."""
-        if self._first_t is None:
-            self._first_t = t
         if t > self._last_t:
             self._last_t = t
         handler = self._handlers.get(msg.get_type())
@@ -190,9 +187,10 @@ class TrialRecorder:
             raise LogError(f"LOG: {self.info.path}: {what} in this {self.info.format} log: nothing to report")
         waypoints, mission_home = self._mission()
         origin = None if self.state.home_lat_deg is None else (self.state.home_lat_deg, self.state.home_lon_deg)
-        return Trial(self.info, attitude, np.frombuffer(self._track, dtype=float).reshape(-1, 4).copy(), origin,
-                     self._home or mission_home, list(self._modes), waypoints, dict(self._params),
-                     self._first_t or 0.0, self._last_t, self.state.rejected, self.state.imu_kind)
+        track = np.frombuffer(self._track, dtype=float).reshape(-1, 4).copy()
+        start = min(float(attitude[0, 0]), float(track[0, 0]) if track.size else math.inf)
+        return Trial(self.info, attitude, track, origin, self._home or mission_home, list(self._modes), waypoints,
+                     dict(self._params), start, self._last_t, self.state.rejected, self.state.imu_kind)
 
 
 def record(messages: Iterable[TimedMessage], info: LogInfo,
