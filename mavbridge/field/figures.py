@@ -16,7 +16,7 @@ from mavbridge.field.segments import Segment
 from mavbridge.field.spectrum import Spectrum
 from mavbridge.field.trial import Trial
 
-MAX_POINTS = 20000
+MAX_POINTS = 8000
 DPI = 90
 
 

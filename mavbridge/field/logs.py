@@ -95,6 +95,15 @@ def check_file(path: Path, flag: str = "LOG") -> None:
         raise LogError(f"{flag}: {path} is empty (expected {KINDS})")
 
 
+def check_out(out: str | None) -> None:
+    """LogError (one line naming --out) when the output folder cannot be made: it, or a folder above it, is a file."""
+    if out is None:
+        return
+    for folder in (Path(out), *Path(out).parents):
+        if folder.exists() and not folder.is_dir():
+            raise LogError(f"--out: {out}: {folder} is a file, not a folder")
+
+
 def open_log(path: Path, fmt: str = "auto", sysid: int | None = None, outputs: bool = False) -> LogReader:
     """A reader for ``path`` in ``fmt`` (auto: found from its first bytes); ``sysid`` picks the autopilot of a
     MAVLink log that holds several; ``outputs``: the RC inputs, servo outputs and parameters too (a replay's).

@@ -19,7 +19,7 @@ from __future__ import annotations
 import csv
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +29,9 @@ from mavbridge.companion.outputs import skid_fractions
 from mavbridge.companion.rover_modes import mode_name
 from mavbridge.companion.state import StateEstimate
 from mavbridge.field.boat import BOAT_COLUMNS, BoatOutputs, LogParameters
-from mavbridge.field.logs import LogError, LogReader, open_log
+from mavbridge.field.logs import LogError, LogReader, check_out, open_log
 from mavbridge.field.progress import ProgressLine
-from mavbridge.field.trial import Trial, mode_of, record
+from mavbridge.field.trial import Trial, mode_of, on_timeline, record
 from mavbridge.lab.runlog import STATE_COLUMNS, WAVE_COLUMNS
 from mavbridge.link.connection import LinkError, mavlink
 
@@ -91,7 +91,7 @@ class Flight:
             before = self.state.rejected
             self.state.on_message(msg)
             if kind == "ATTITUDE" and self.state.rejected == before and self.state.ready():
-                self.gate.observe(replace(self.state.motion_sample(), t_s=t))
+                self.gate.observe(on_timeline(self.state.motion_sample(), t))
                 self._tick(t)
 
     def _tick(self, t: float) -> None:
@@ -238,11 +238,10 @@ def replay_command(req: ReplayRequest) -> int:
     from mavbridge.field.figures import replay_figure
     from mavbridge.lab.runlog import fresh_run_folder
 
+    check_out(req.out)
     reader: LogReader = open_log(Path(req.log), req.fmt, req.sysid, outputs=True)
     config, window = _config(req), _window(req)
     scenario = single_scenario(req.scenario, req.solver)
-    if req.out is not None and Path(req.out).is_file():
-        raise LogError(f"--out: {req.out} is a file, not a folder")
     progress = ProgressLine(f"replay: {reader.info.path.name} (its parameters and mission)")
     try:
         trial = record(reader.messages(progress), reader.info)

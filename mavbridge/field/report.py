@@ -3,7 +3,8 @@
 Per log: the whole log's average |roll| (every attitude sample of the autopilot), its modes as segments and
 our companion's engagements where its run folder lies beside the log (``segments``), the sea the companion's
 wave estimator sees replayed over the log (``sea``), and the roll spectrum (``spectrum``). The log is streamed
-once: the estimator runs as the messages go by, and only compact arrays are kept. Every log is opened (its
+once: the estimator runs as the motion samples come (the reading in a child process, ``pipeline``: two
+cores), and only compact arrays are kept. Every log is opened (its
 format found, its autopilot identified) before any is analysed, so a file that is not a log stops the report
 before anything is written; a log without attitude among several is left out with a line (alone, it is the
 error). ``DIR/report.html`` (one self-contained page, figures embedded) and ``DIR/report.json`` (the same
@@ -23,12 +24,13 @@ from typing import Any
 
 import numpy as np
 
-from mavbridge.field.logs import LogError, LogReader, open_log
+from mavbridge.field.logs import LogError, LogReader, check_out, open_log
+from mavbridge.field.pipeline import record_on_two_cores
 from mavbridge.field.progress import ProgressLine
 from mavbridge.field.sea import SERIES_KEYS, SeaWatch, sea_line
 from mavbridge.field.segments import Segment, companion_folder, engagements, mode_segments
 from mavbridge.field.spectrum import Spectrum, roll_spectrum
-from mavbridge.field.trial import Trial, record
+from mavbridge.field.trial import Trial
 
 
 @dataclass(frozen=True)
@@ -96,7 +98,7 @@ def analyse(reader: LogReader, setup: EstimatorSetup) -> LogReport:
     progress = ProgressLine(f"report: {reader.info.path.name}")
     sea = SeaWatch(setup.fresh())
     try:
-        trial = record(reader.messages(progress), reader.info, sea.observe)
+        trial = record_on_two_cores(reader, sea.observe, progress)
     finally:
         progress.done()
     folder = companion_folder(reader.info.path) if reader.info.format != "otter-csv" else None
@@ -185,10 +187,9 @@ def report_command(paths: list[str], fmt: str, sysid: int | None, config: str | 
     from mavbridge.field.page import write_page
     from mavbridge.lab.runlog import fresh_run_folder
 
+    check_out(out)
     readers = open_all(paths, fmt, sysid)
     setup = estimator_setup(config, scenario)
-    if out is not None and Path(out).is_file():
-        raise LogError(f"--out: {out} is a file, not a folder")
     reports = analyse_all(readers, setup)
     for r in reports:
         print("\n".join(report_lines(r)))

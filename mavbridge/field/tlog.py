@@ -17,12 +17,11 @@ from __future__ import annotations
 import struct
 from collections import Counter
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any, BinaryIO, NamedTuple
 
-from pymavlink.generator.mavcrc import x25crc
+from pymavlink.generator.mavcrc import mcrf4xx, x25crc
 
 from mavbridge.field.logs import LogError, LogInfo, Progress, TimedMessage
 from mavbridge.link.connection import MAV_AUTOPILOT_INVALID, mavlink
@@ -49,8 +48,7 @@ REBOOT_MS = 5000  # the autopilot's clock this far behind the newest heard: it r
 PENDING_MAX = 10000  # untimed messages held until the first timed one
 
 
-@dataclass(frozen=True)
-class Frame:
+class Frame(NamedTuple):
     """One frame of the log: arrival stamp (Unix µs), where it starts in the file, its header and its bytes."""
 
     stamp_us: int
@@ -62,39 +60,31 @@ class Frame:
 
 
 Keep = Callable[[int, int, int], bool]  # (msgid, sysid, compid): is the frame wanted
+PAD = bytes(32)  # after the end of the file: never a frame, and every header read stays inside the buffer
 
 
-def _frame_size(data: bytes | bytearray, i: int) -> int | None:
-    """Bytes of the frame whose stamp starts at ``i`` (stamp included); None if no frame starts there.
-    Needs data[i + 8 : i + 11]."""
+def _frame_at(data: bytes, i: int) -> tuple[int, int, int, int, int] | None:
+    """(stamp µs, size with the stamp, msgid, sysid, compid) of the frame whose stamp starts at ``i``; None when no
+    plausible frame starts there. Needs 18 bytes from ``i``."""
     stx = data[i + 8]
     if stx == V2:
-        return 8 + 12 + data[i + 9] + (13 if data[i + 10] & 1 else 0)
-    if stx == V1:
-        return 8 + 8 + data[i + 9]
-    return None
-
-
-def _header(data: bytes | bytearray, i: int) -> tuple[int, int, int]:
-    """(msgid, sysid, compid) of the frame at ``i``."""
-    if data[i + 8] == V2:
-        return data[i + 15] | data[i + 16] << 8 | data[i + 17] << 16, data[i + 13], data[i + 14]
-    return data[i + 13], data[i + 11], data[i + 12]
-
-
-def _plausible(data: bytes | bytearray, i: int) -> bool:
+        size = 20 + data[i + 9] + (13 if data[i + 10] & 1 else 0)
+        msgid, sysid, compid = data[i + 15] | data[i + 16] << 8 | data[i + 17] << 16, data[i + 13], data[i + 14]
+    elif stx == V1:
+        size, msgid, sysid, compid = 16 + data[i + 9], data[i + 13], data[i + 11], data[i + 12]
+    else:
+        return None
     stamp = STAMP.unpack_from(data, i)[0]
-    return PLAUSIBLE_US[0] <= stamp <= PLAUSIBLE_US[1] and data[i + 8] in (V1, V2)
+    return (stamp, size, msgid, sysid, compid) if PLAUSIBLE_US[0] <= stamp <= PLAUSIBLE_US[1] else None
 
 
 def looks_like_tlog(head: bytes) -> bool:
     """True when the file starts with two tlog frames (or one that fills it)."""
-    if len(head) < 11 or not _plausible(head, 0):
+    padded = head + PAD
+    first = _frame_at(padded, 0) if len(head) >= 16 else None
+    if first is None or first[1] > len(head):
         return False
-    size = _frame_size(head, 0)
-    if size is None or size > len(head):
-        return False
-    return size + 11 > len(head) or _plausible(head, size)
+    return first[1] + 16 > len(head) or _frame_at(padded, first[1]) is not None
 
 
 class FrameStream:
@@ -109,34 +99,36 @@ class FrameStream:
         self.cut: int | None = None  # file offset of an incomplete last frame
 
     def __iter__(self) -> Iterator[Frame]:
-        data, base, i = b"", 0, 0
+        data, end, base, i, eof = b"", 0, 0, 0, False  # data[end:] is PAD once the file is read to its end
+        keep = self.keep
         while True:
-            if len(data) - i < 8 + 11 + 280:
+            if end - i < 300 and not eof:
                 more = self.handle.read(CHUNK)
-                data, base, i = data[i:] + more, base + i, 0
                 self.bytes_read += len(more)
-                if not more and len(data) < 11:
-                    if data:
-                        self.cut = base
-                    return
-            size = _frame_size(data, i) if _plausible(data, i) else None
-            if size is None:
-                i = self._resync(data, i, base)
+                data, base, i = data[i:end] + more, base + i, 0
+                end, eof = len(data), not more
+                data += PAD if eof else b""
+            if end - i < 16:  # less than the smallest frame is left
+                self.cut = base + i if end > i else None
+                return
+            found = _frame_at(data, i)
+            if found is None:
+                i = self._resync(data, i, base, end)
                 continue
-            if i + size > len(data):  # only at the end of the file: a frame cut short
+            stamp, size, msgid, sysid, compid = found
+            if i + size > end:  # only at the end of the file: a frame cut short
                 self.cut = base + i
                 return
-            msgid, sysid, compid = _header(data, i)
-            if self.keep is None or self.keep(msgid, sysid, compid):
-                yield Frame(STAMP.unpack_from(data, i)[0], base + i, msgid, sysid, compid, data[i + 8:i + size])
+            if keep is None or keep(msgid, sysid, compid):
+                yield Frame(stamp, base + i, msgid, sysid, compid, data[i + 8:i + size])
             i += size
 
-    def _resync(self, data: bytes, i: int, base: int) -> int:
-        """Skip bytes that are not a frame, up to the next plausible stamp and start byte."""
+    def _resync(self, data: bytes, i: int, base: int, end: int) -> int:
+        """Skip bytes that are not a frame, up to the next plausible stamp and start byte (or the buffer's end)."""
         if self.first_skip is None:
             self.first_skip = base + i
         j = i + 1
-        while j + 11 <= len(data) and not _plausible(data, j):
+        while j + 16 <= end and _frame_at(data, j) is None:
             j += 1
         self.skipped_bytes += j - i
         return j
@@ -243,19 +235,20 @@ class TlogReader:
             yield from ((clock.last_t or 0.0, m) for m in pending)
         self._conclude(stream, clock, others, crc_errors)
 
-    def _timed(self, msg: Any, frame: Frame, clock: BootClock, pending: list[Any]) -> Iterator[TimedMessage]:
+    def _timed(self, msg: Any, frame: Frame, clock: BootClock, pending: list[Any]) -> list[TimedMessage]:
         """``msg`` on the timeline: its own time_boot_ms, else the autopilot time heard last (held until one is)."""
         boot_ms = getattr(msg, "time_boot_ms", None)
         if isinstance(boot_ms, int) and (frame.sysid, frame.compid) == self.autopilot:
             t = clock.at(boot_ms, frame.stamp_us / 1e6)
-            if pending:
-                yield from ((t, m) for m in pending)
-                pending.clear()
-            yield t, msg
-        elif clock.last_t is None and len(pending) < PENDING_MAX:
+            if not pending:
+                return [(t, msg)]
+            held = [(t, m) for m in pending]
+            pending.clear()
+            return [*held, (t, msg)]
+        if clock.last_t is None and len(pending) < PENDING_MAX:
             pending.append(msg)
-        else:
-            yield clock.last_t or 0.0, msg
+            return []
+        return [(clock.last_t or 0.0, msg)]
 
     def _conclude(self, stream: FrameStream, clock: BootClock, others: Counter[tuple[int, int]],
                   crc_errors: int) -> None:
@@ -295,21 +288,37 @@ class Decoder:
 
     def __init__(self) -> None:
         self.parser = mavlink.MAVLink(None)
-        self.flat = {i: mavlink.mavlink_map[i] for i in FLAT if _is_flat(mavlink.mavlink_map[i])}
+        self.flat = {i: _Flat(mavlink.mavlink_map[i]) for i in FLAT if _is_flat(mavlink.mavlink_map[i])}
 
     def __call__(self, frame: Frame) -> Any:
         """The message, None when the frame does not decode (a bad CRC, a damaged or unknown message)."""
-        kind = self.flat.get(frame.msgid)
-        if kind is None:
+        flat = self.flat.get(frame.msgid)
+        if flat is None:
             return _decode(self.parser, frame)
         raw = frame.raw
         head, sign = (10, 13 if raw[2] & 1 else 0) if raw[0] == V2 else (6, 0)
         end = len(raw) - 2 - sign
-        if x25crc(raw[1:end] + bytes((kind.crc_extra,))).crc != raw[end] | raw[end + 1] << 8:
+        if _crc(raw[1:end] + flat.extra) != raw[end] | raw[end + 1] << 8:
             return None
-        payload, size = raw[head:end], kind.unpacker.size
-        values = kind.unpacker.unpack(payload[:size] if len(payload) >= size else payload + bytes(size - len(payload)))
-        return kind(*[values[i] for i in kind.orders])
+        payload = raw[head:end]
+        if len(payload) != flat.size:  # MAVLink 2 trims trailing zeros (and extensions may be absent or more)
+            payload = (payload + bytes(flat.size))[:flat.size]
+        values = flat.unpack(payload)
+        return flat.kind(*values) if flat.orders is None else flat.kind(*[values[i] for i in flat.orders])
+
+
+class _Flat:
+    """What decoding one flat message kind needs: its class, unpacker, CRC extra and wire order (None: as is)."""
+
+    def __init__(self, kind: Any) -> None:
+        self.kind, self.unpack, self.size = kind, kind.unpacker.unpack, kind.unpacker.size
+        self.extra = bytes((kind.crc_extra,))
+        self.orders = None if list(kind.orders) == list(range(len(kind.orders))) else list(kind.orders)
+
+
+def _crc(data: bytes) -> int:
+    """MAVLink's CRC-16/MCRF4XX (pymavlink's: its C implementation when installed)."""
+    return mcrf4xx(data, 0xFFFF) if mcrf4xx is not None else x25crc(data).crc
 
 
 def _is_flat(kind: Any) -> bool:

@@ -16,7 +16,7 @@ import math
 from array import array
 from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -76,6 +76,11 @@ class Trial:
         return float(1.0 / np.median(gaps)) if gaps.size else 0.0
 
 
+def on_timeline(sample: MotionSample, t: float) -> MotionSample:
+    """The state's motion sample stamped ``t`` on the log's timeline instead of the autopilot's clock."""
+    return MotionSample(t, sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned, sample.accel_body)
+
+
 def mode_of(heartbeat: Any) -> str:
     """The autopilot's mode by name (pymavlink's tables: ArduPilot's by vehicle type, PX4's)."""
     try:
@@ -131,13 +136,14 @@ class TrialRecorder:
     def _on_attitude(self, t: float, msg: Any) -> None:
         if not self._accepted(msg):
             return
-        self._att.extend((t, *(float(v) for v in self.state.attitude[0:3])))
+        self._att.append(t)
+        self._att.extend(self.state.attitude[0:3].tolist())
         if not self._imu_pinned and self._att[0] + IMU_CHOICE_S <= t:
             self._imu_pinned = True
             if self._imu_counts:
                 self.state.use_imu(self._imu_counts.most_common(1)[0][0])
         if self.on_motion is not None and self.state.ready():
-            self.on_motion(replace(self.state.motion_sample(), t_s=t))
+            self.on_motion(on_timeline(self.state.motion_sample(), t))
 
     def _on_global_position_int(self, t: float, msg: Any) -> None:
         if self.state.home_lat_deg is None and (msg.lat or msg.lon):
