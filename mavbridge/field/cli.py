@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import math
 import shlex
-import sys
 from typing import Any
 
 from mavbridge.cli.args import REAL_TIME_SOLVER, SOLVER_HELP, parse_north_east
@@ -85,15 +84,23 @@ def add_replay_parser(sub: Any) -> None:
     replay.add_argument("--to", dest="stop", type=log_time, metavar="S", help="replay up to this time of the log (s)")
 
 
-def _command_line() -> str:
-    return "mavbridge " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else "mavbridge report"
+def command_line(args: argparse.Namespace, positional: list[str], flags: dict[str, str]) -> str:
+    """The command as given (for the page's 'made by' line): the positionals and the flags that were set."""
+    words = ["mavbridge", args.command, *positional]
+    for flag, name in flags.items():
+        value = getattr(args, name, None)
+        if value is not None and value != "auto":
+            words += [flag, ",".join(f"{v:g}" for v in value) if isinstance(value, tuple) else str(value)]
+    return " ".join(shlex.quote(w) for w in words)
 
 
 def report_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge report`."""
     from mavbridge.field.report import report_command as run
 
-    return run(args.log, args.format, args.sysid, args.config, args.scenario, args.out, _command_line())
+    flags = {"--out": "out", "--format": "format", "--sysid": "sysid", "--config": "config", "--scenario": "scenario"}
+    return run(args.log, args.format, args.sysid, args.config, args.scenario, args.out,
+               command_line(args, args.log, flags))
 
 
 def replay_command(args: argparse.Namespace) -> int:

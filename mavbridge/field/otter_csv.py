@@ -106,6 +106,9 @@ class OtterCsvReader:
             for line in handle:
                 done += len(line)
                 cells = line.rstrip("\r\n").split(";")
+                if len(cells) < len(self.columns):
+                    self._short_row(line, t, counts)
+                    continue
                 row_t = self._time(cells, repaired)
                 if row_t is None:
                     counts["rows without a readable time"] += 1
@@ -118,6 +121,14 @@ class OtterCsvReader:
                 if progress is not None and counts["rows"] % 2000 == 0:
                     progress(done / max(self.info.size_bytes, 1), t)
         self._conclude(counts, repaired, last)
+
+    def _short_row(self, line: str, t: float, counts: Counter[str]) -> None:
+        """A row with fewer cells than the header: the file's cut-off end, or a damaged row (skipped, counted)."""
+        if line.endswith("\n"):
+            counts["rows with fewer cells than the header"] += 1
+        else:
+            self.info.stopped = (f"the file ends inside a row (cut short): read up to t = {t:.1f} s, the last "
+                                 "row left out")
 
     def _row(self, t: float, cells: list[str], counts: Counter[str], repaired: Counter[str],
              last: dict[str, Any]) -> Iterator[TimedMessage]:

@@ -219,3 +219,13 @@ def test_positions_are_metres_from_the_first_fix(tmp_path: Path) -> None:
     end = ned_from_latlon(*HOME, *motion.latlon(motion.t.size - 2))
     assert trial.track[-1, 1:3] == pytest.approx(end, abs=0.02)
     assert trial.track[-1, 3] == pytest.approx(2.0, abs=0.01)
+
+
+def test_an_otter_csv_cut_inside_a_row_is_read_up_to_it(tmp_path: Path) -> None:
+    path, rows = _otter_file(tmp_path)
+    text = path.read_text()
+    path.write_text(text[:len(text) - 40])  # the last row loses its end (and its newline)
+    reader = open_log(path)
+    trial = record(reader.messages(), reader.info)
+    assert reader.info.stopped is not None and "ends inside a row" in reader.info.stopped
+    assert trial.attitude[-1, 0] < rows[-1].t

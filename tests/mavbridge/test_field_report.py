@@ -136,6 +136,22 @@ def test_report_prints_writes_a_self_contained_page_and_never_overwrites(tmp_pat
         == json.dumps(data, indent=1) + "\n"
 
 
+def test_a_tlog_cut_short_is_reported_up_to_where_it_stops(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "cut.tlog"
+    write_tlog(log, motion_frames(sine_motion(30.0)))
+    data = log.read_bytes()
+    log.write_bytes(data[:len(data) - 20])
+    code, text, err = _report([str(log), "--out", str(tmp_path / "r")], capsys)
+    assert code == 0, err
+    assert re.search(rf"^  cut short: the file ends inside a message at byte \d+ of {len(data) - 20} \(cut short\): "
+                     r"read up to t = 3\d\.\d s$", text, re.M), text
+    entry = json.loads((tmp_path / "r" / "report.json").read_text())["logs"][0]
+    assert "ends inside a message" in entry["cut_short"]
+    assert f"made by <code>mavbridge report {log} --out {tmp_path / 'r'}</code>" in \
+        (tmp_path / "r" / "report.html").read_text()
+
+
 def test_report_of_several_logs_leaves_out_one_without_attitude(tmp_path: Path,
                                                                  capsys: pytest.CaptureFixture[str]) -> None:
     good, empty = tmp_path / "good.csv", tmp_path / "empty.csv"
