@@ -13,7 +13,6 @@ figures) are written last, in a fresh folder: nothing already there is overwritt
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import sys
@@ -35,16 +34,24 @@ from mavbridge.field.trial import Trial
 
 @dataclass(frozen=True)
 class EstimatorSetup:
-    """The companion's wave estimator for the report (a pristine copy per log) and how it was set up."""
+    """How the companion's wave estimator is made for the report (a new one per log), and what it was told."""
 
-    prototype: Any
+    scenario: Any
     roll_sign: float
     position_lag_s: float
-    vessel: str
+
+    @property
+    def vessel(self) -> str:
+        """The Otter parameter set the hull's response is calibrated on."""
+        return str(self.scenario.vessel)
 
     def fresh(self) -> Any:
-        """A new estimator that has seen nothing (the calibration is done once, in the prototype)."""
-        return copy.deepcopy(self.prototype)
+        """A new estimator that has seen nothing, made as `mavbridge run` makes it (the calibration on the vessel
+        model takes a few tenths of a second)."""
+        from mavbridge.companion.wave_gate import make_wave_source
+
+        return make_wave_source("estimated", self.scenario.sea.waves(), self.roll_sign, self.position_lag_s,
+                                self.scenario.params())
 
     def row(self) -> dict[str, Any]:
         """For report.json."""
@@ -56,15 +63,11 @@ def estimator_setup(config_path: str | None, scenario_path: str | None) -> Estim
     hull, roll sign +1, and the paper's Balanced scenario's vessel)."""
     from mavbridge.cli.args import single_scenario
     from mavbridge.companion.config import load_companion_config
-    from mavbridge.companion.wave_gate import make_wave_source
     from vessel.argtypes import naming
 
     with naming("--config"):
         config = load_companion_config(config_path)  # the connection is not checked: nothing is connected to
-    scenario = single_scenario(scenario_path, None)
-    source = make_wave_source("estimated", scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
-                              scenario.params())
-    return EstimatorSetup(source, config.wave_roll_sign, config.wave_position_lag_s, scenario.vessel)
+    return EstimatorSetup(single_scenario(scenario_path, None), config.wave_roll_sign, config.wave_position_lag_s)
 
 
 @dataclass
