@@ -54,6 +54,8 @@ def _child(reader: LogReader, progress: Progress | None, send: Any) -> None:
         send.send(("trial", trial))
     except LogError as exc:
         send.send(("error", str(exc)))
+    except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the parent says it, once
+        pass
     except Exception as exc:  # anything else: said, not lost in a child
         send.send(("failed", f"{type(exc).__name__}: {exc}"))
     finally:
