@@ -3,6 +3,7 @@ run by the demo test on the folder it has made anyway, so the whole system is fl
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 from pathlib import Path
@@ -21,10 +22,16 @@ def _engaged_roll(engagements: list[dict]) -> float:
 
 
 def check_demo_reports(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """The report of both tlogs finds the companion's engagement where its metrics put it, with about its average
-    roll; a replay of the companion's tlog over the last seconds reaches the waypoint when the companion did."""
+    """The report of both tlogs finds the companion's engagement where its log puts it, with about its average
+    roll; a replay of the companion's tlog over the last seconds reaches the waypoint when the companion did.
+
+    A loaded machine makes the companion skip ticks (72 % of them at load 7): its last control step can then be
+    seconds before the tick that saw the arrival, and the replay, which steps every tick of the log's clock,
+    sees the arrival between the two."""
     metrics = json.loads((run / "companion" / "metrics.json").read_text())
     engaged, arrived = metrics["engaged_at_s"], metrics["engaged_at_s"] + metrics["time_to_waypoint_s"]
+    with (run / "companion" / "companion.csv").open(newline="") as handle:
+        last_step = float(list(csv.DictReader(handle))[-1]["t_s"])
     sim_log, companion_log = run / "sim" / "sim_vehicle.tlog", run / "companion" / "companion.tlog"
     capsys.readouterr()
     assert main(["report", str(sim_log), str(companion_log), "--out", str(run / "report")]) == 0
@@ -34,10 +41,11 @@ def check_demo_reports(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
         assert entry["companion_run"] == str((run / "companion").resolve())
         first, last = entry["engagements"][0], entry["engagements"][-1]
         assert first["start_s"] == pytest.approx(engaged, abs=0.01)  # one clock: the autopilot's
-        assert last["end_s"] == pytest.approx(arrived, abs=0.5)
+        assert last["end_s"] == pytest.approx(last_step, abs=1e-6) and last_step < arrived
         assert _engaged_roll(entry["engagements"]) == pytest.approx(metrics["avg_roll_deg"], rel=0.15)
         assert any(m["label"] == "MANUAL (armed)" for m in entry["modes"])
     assert out.count("engagements of our companion") == 2
-    assert main(["replay", str(companion_log), "--from", f"{arrived - 8:.1f}", "--out", str(run / "replay")]) == 0
+    start = min(arrived - 8.0, last_step - 1.0)
+    assert main(["replay", str(companion_log), "--from", f"{start:.1f}", "--out", str(run / "replay")]) == 0
     found = ARRIVAL.search(capsys.readouterr().out)
-    assert found and float(found.group(1)) == pytest.approx(arrived, abs=0.5)
+    assert found and last_step < float(found.group(1)) <= arrived + 1e-6, (found, last_step, arrived)
