@@ -26,8 +26,9 @@ def check_demo_reports(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
     roll; a replay of the companion's tlog over the last seconds reaches the waypoint when the companion did.
 
     A loaded machine makes the companion skip ticks (72 % of them at load 7): its last control step can then be
-    seconds before the tick that saw the arrival, and the replay, which steps every tick of the log's clock,
-    sees the arrival between the two."""
+    seconds before the tick that saw the arrival, and the replay, which steps every tick of the log's clock, can
+    see the boat dip inside the acceptance radius (2 m) at a tick the companion skipped: it reaches the waypoint
+    no later than the companion did, and within the few seconds a burst of skipped ticks spans."""
     metrics = json.loads((run / "companion" / "metrics.json").read_text())
     engaged, arrived = metrics["engaged_at_s"], metrics["engaged_at_s"] + metrics["time_to_waypoint_s"]
     with (run / "companion" / "companion.csv").open(newline="") as handle:
@@ -48,4 +49,4 @@ def check_demo_reports(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
     start = min(arrived - 8.0, last_step - 1.0)
     assert main(["replay", str(companion_log), "--from", f"{start:.1f}", "--out", str(run / "replay")]) == 0
     found = ARRIVAL.search(capsys.readouterr().out)
-    assert found and last_step < float(found.group(1)) <= arrived + 1e-6, (found, last_step, arrived)
+    assert found and arrived - 3.0 <= float(found.group(1)) <= arrived + 1e-6, (found, last_step, arrived)
