@@ -28,8 +28,10 @@ ROOMS = {  # a room, and the rooms (other than itself and its own subpackages) i
     "mavbridge.preflight": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.nmpc", "mavbridge.lab",
                             "mavbridge.cli"},
     "mavbridge.sweep": {"vessel", "vessel.sea", "mavbridge.lab", "mavbridge.nmpc", "mavbridge.cli"},
+    "mavbridge.field": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.waves", "mavbridge.nmpc",
+                        "mavbridge.lab", "mavbridge.preflight", "mavbridge.cli"},
     "mavbridge.cli": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.lab", "mavbridge.nmpc",
-                      "mavbridge.preflight", "mavbridge.sweep", "mavbridge.waves"},
+                      "mavbridge.preflight", "mavbridge.sweep", "mavbridge.waves", "mavbridge.field"},
     "mission": {"vessel"},
 }
 

@@ -1,5 +1,5 @@
 """``mavbridge`` console script: ``experiment`` (in-process), ``run`` (the companion), ``demo`` (everything),
-``check`` (preflight against any ArduPilot Rover)."""
+``check`` (preflight against any ArduPilot Rover), ``report`` and ``replay`` (a trial's logs)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from pathlib import Path
 from mavbridge.cli.args import positive
 from mavbridge.cli.run import add_demo_parser, add_run_parser, demo_command, run_command
 from mavbridge.cli.signing import add_signing_parser, signing_command
+from mavbridge.field.cli import add_replay_parser, add_report_parser, replay_command, report_command
 from mavbridge.nmpc.config import SOLVERS
 from mavbridge.preflight.cli import add_check_parser, check_command
 from mavbridge.sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
@@ -55,6 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_sweep_parser(sub)
     add_tune_parser(sub)
     add_signing_parser(sub)
+    add_report_parser(sub)
+    add_replay_parser(sub)
     return parser
 
 
@@ -101,21 +104,12 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad input prints one line to stderr and exits with code 2."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     args = build_parser().parse_args(argv)
+    commands = {"experiment": _experiment, "run": run_command, "demo": demo_command, "check": check_command,
+                "sweep": sweep_command, "tune": tune_command, "signing": signing_command, "report": report_command,
+                "replay": replay_command}
     try:
-        if args.command == "experiment":
-            return _experiment(args)
-        if args.command == "run":
-            return run_command(args)
-        if args.command == "demo":
-            return demo_command(args)
-        if args.command == "check":
-            return check_command(args)
-        if args.command == "sweep":
-            return sweep_command(args)
-        if args.command == "tune":
-            return tune_command(args)
-        if args.command == "signing":
-            return signing_command(args)
+        if args.command in commands:
+            return commands[args.command](args)
     except (ConfigError, ValueError) as exc:
         sys.stderr.write(f"mavbridge: error: {_first_line(exc)}\n")
         return 2

@@ -37,6 +37,11 @@ REPO = Path(__file__).resolve().parents[2]
 SCENARIO = str(REPO / "scenarios" / "calm_short.yaml")  # a valid single-run scenario (absolute path)
 SWEEP_SPEC = str(REPO / "scenarios" / "sweep-example.yaml")  # a valid sweep spec
 
+OTTER_CSV = ";current_time;lat;lon;current_course_over_ground;current_speed;current_orientation_1;" \
+    "current_orientation_2;current_orientation_3\n" + "".join(
+        f"2024-03-22_12:42:{10 + i // 10:02d}:{i % 10 * 100000:06d};{1711107730 + i / 10:.1f};59.9074{i:02d};10.7177;"
+        f"50.0;1.0;{(i % 7 - 3) * 0.8 if i else 0.0:.1f};0.5;50.0\n" for i in range(25))
+
 FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None: an empty folder)
     "afile.txt": "keep me\n",  # an existing file: not a folder, not YAML of settings
     "adir": None,  # an existing (empty) folder: not a file
@@ -47,6 +52,7 @@ FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None
     "bad.parm": "SYSID_THISMAV banana\n",  # a .parm line whose value is not a number
     "bad_config.yaml": "system_id: 300\n",  # a companion YAML with a field out of range
     "cfg_ok.yaml": "system_id: 250\n",  # a valid companion YAML (a bad flag on top must name the flag)
+    "otter.csv": OTTER_CSV,  # a valid Otter API log (mavbridge report/replay): a placeholder row, then 2 s of motion
 }
 
 # Flags every parser has: not a value to get wrong (help prints and exits 0 by design).

@@ -24,6 +24,8 @@ CHECK = "mavbridge check --solves 0"
 SWEEP = f"mavbridge sweep {SWEEP_SPEC}"
 TUNE = f"mavbridge tune {SCENARIO} --max-time 100"
 SIGN = "mavbridge signing setup --signing-passphrase-file pass.txt"
+REPORT = "mavbridge report otter.csv"
+REPLAY = "mavbridge replay otter.csv --waypoint 10,0"
 NAN, FINITE, CHOICE = "nan", "finite", "invalid choice"
 
 
@@ -150,6 +152,47 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge signing setup --timeout": [(f"{SIGN} --timeout 0",), (f"{SIGN} --timeout {NAN}", FINITE),
                                           (f"{SIGN} --timeout -1",)],
 }
+
+
+
+def _log_cases(base: str) -> dict[str, list[tuple[str, ...]]]:
+    """The flags `report` and `replay` share: the log's format, the autopilot, the companion YAML, the scenario."""
+    command = base.split()[1]
+    return {
+        f"mavbridge {command} --out": [(f"{base} --out afile.txt", "afile.txt"),
+                                       (f"{base} --out afile.txt/run", "afile.txt")],
+        f"mavbridge {command} --format": [(f"{base} --format excel", CHOICE),
+                                          (f"{base} --format tlog", "otter.csv", "looks like otter-csv")],
+        f"mavbridge {command} --sysid": [(f"{base} --sysid 0", "[1, 255]"), (f"{base} --sysid 300", "[1, 255]"),
+                                         (f"{base} --sysid one",), (f"{base} --sysid 3", ".tlog logs only")],
+        f"mavbridge {command} --config": [(f"{base} --config no/such.yaml", "no/such.yaml"),
+                                          (f"{base} --config broken.yaml", "broken.yaml"),
+                                          (f"{base} --config bad_config.yaml", "system_id", "[1, 255]")],
+        f"mavbridge {command} --scenario": [(f"{base} --scenario no/such.yaml", "no/such.yaml"),
+                                            (f"{base} --scenario adir", "adir")],
+    }
+
+
+CASES.update({
+    "mavbridge report log": [("mavbridge report no/such.csv", "no/such.csv"), ("mavbridge report adir", "adir"),
+                             ("mavbridge report empty.yaml", "empty.yaml", "empty"),
+                             ("mavbridge report afile.txt", "afile.txt", "not a log"),
+                             ("mavbridge report otter.csv afile.txt", "afile.txt", "not a log")],
+    **_log_cases(REPORT),
+    "mavbridge replay log": [("mavbridge replay no/such.csv", "no/such.csv"),
+                             ("mavbridge replay afile.txt", "afile.txt", "not a log"),
+                             ("mavbridge replay otter.csv", "otter.csv", "--waypoint")],
+    **_log_cases(REPLAY),
+    "mavbridge replay --solver": [(f"{REPLAY} --solver fast", CHOICE)],
+    "mavbridge replay --output": [(f"{REPLAY} --output servo", CHOICE)],
+    "mavbridge replay --attitude-form": [(f"{REPLAY} --attitude-form yaw", CHOICE),
+                                         (f"{REPLAY} --attitude-form tau", "--output attitude_target only")],
+    "mavbridge replay --waypoint": [("mavbridge replay otter.csv --waypoint 1,2,3", "N,E"),
+                                    (f"mavbridge replay otter.csv --waypoint {NAN},0", FINITE)],
+    "mavbridge replay --from": [(f"{REPLAY} --from -1", "[0, inf)"), (f"{REPLAY} --from {NAN}", "[0, inf)"),
+                                (f"{REPLAY} --from soon",)],
+    "mavbridge replay --to": [(f"{REPLAY} --to -1", "[0, inf)"), (f"{REPLAY} --from 10 --to 5", "--from")],
+})
 
 NO_BAD_VALUE: dict[str, str] = {
     "mavbridge run --lockstep": "a switch: no value to get wrong (simulation only, documented)",

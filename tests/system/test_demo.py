@@ -9,12 +9,13 @@ from pathlib import Path
 
 import pytest
 
+from tests.system.field_checks import check_demo_reports
 from tests.system.tlogs import assert_each_attitude_once, assert_tlogs_line_up
 
 pytestmark = pytest.mark.slow
 
 
-def test_demo_reaches_the_waypoint_and_leaves_a_run_folder(tmp_path: Path) -> None:
+def test_demo_reaches_the_waypoint_and_leaves_a_run_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "demo"
     done = subprocess.run([sys.executable, "-m", "mavbridge.cli", "demo", "--speedup", "8", "--out", str(out)],
                           capture_output=True, text=True, timeout=400)
@@ -39,6 +40,7 @@ def test_demo_reaches_the_waypoint_and_leaves_a_run_folder(tmp_path: Path) -> No
         assert (out / name).stat().st_size > 1000, name
     leftovers = subprocess.run(["pgrep", "-f", str(out)], capture_output=True, text=True)
     assert leftovers.stdout.strip() == "", "processes left behind"
+    check_demo_reports(out, capsys)  # issue 30: the report and the replay of this run folder
 
 
 def test_demo_bad_speedup_is_one_line(tmp_path: Path) -> None:
