@@ -35,7 +35,7 @@ from mavbridge.waves.settings import EstimatorSettings
 from mavbridge.waves.source import MotionSample, WaveEstimate
 from mavbridge.waves.spread import SlopeSpread
 from mavbridge.waves.window_buffer import MotionWindow
-from mavbridge.waves.window_fit import Fit, Stages, initial_guess, refine_stages
+from mavbridge.waves.window_fit import Fit, Stages, dominant_encounter_frequency, initial_guess, refine_stages
 from mavbridge.waves.window_model import HullResponse, WaveParams
 
 STAGE_S = 0.09  # at most one stage of a fit per this much sample time (one per 0.1 s control step)
@@ -78,6 +78,7 @@ class WindowEstimator:
         self._job: Stages[Fit | None] | None = None  # the fit in progress
         self._stage_t = -math.inf  # sample time of its last stage
         self._previous: Fit | None = None
+        self._omega_e_seen: float | None = None  # the slope's dominant encounter frequency at the last cold start
         self._confidence = 0.0
         self.fits = self.cold_starts = 0
 
@@ -151,7 +152,8 @@ class WindowEstimator:
             fit = yield from refine_stages(window, self._moved(self._fit.wave), self.hull, WARM_ITERATIONS,
                                            self._fit.noise)
         if fit is None or self._slope_explained(fit) < 0.5:
-            start = initial_guess(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s)
+            self._omega_e_seen = dominant_encounter_frequency(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s)
+            start = initial_guess(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s, self._omega_e_seen)
             self.cold_starts += 1
             yield
             fit = (yield from refine_stages(window, start, self.hull)) if start is not None else None
@@ -247,16 +249,19 @@ class WindowEstimator:
         return self._spread.covariance(self.s.min_slope_rad)
 
     def encounter_frequency(self) -> float:
-        """The fitted encounter frequency ω_e (rad/s) at the boat's mean velocity; 0 before the first fit."""
+        """The encounter frequency ω_e (rad/s): the fit's at the boat's mean velocity, or without a fit the slope's
+        dominant one in the last window (a hull that does not heave shows it too); 0 before any window."""
         fit = self._fit
-        return 0.0 if fit is None else fit.wave.omega - fit.wave.k * self._mean_velocity_along(fit.wave.chi)
+        if fit is None:
+            return self._omega_e_seen or 0.0
+        return fit.wave.omega - fit.wave.k * self._mean_velocity_along(fit.wave.chi)
 
     def diagnostics(self) -> dict[str, float]:
         """What the fit shows: ω_e, the wave's axis (° NED), the confidence, the share explained, the slope."""
         fit = self._fit
         if fit is None:
-            return {"encounter_freq_rad_s": 0.0, "lock": 0.0, "axis_deg": 0.0, "fit_quality": 0.0,
-                    "slope_amp_rad": 0.0}
+            return {"encounter_freq_rad_s": self.encounter_frequency(), "lock": 0.0, "axis_deg": 0.0,
+                    "fit_quality": 0.0, "slope_amp_rad": 0.0}
         return {"encounter_freq_rad_s": self.encounter_frequency(), "lock": self._current_confidence(),
                 "axis_deg": math.degrees(fit.wave.chi), "fit_quality": self._slope_explained(fit),
                 "slope_amp_rad": fit.wave.amplitude * fit.wave.k}

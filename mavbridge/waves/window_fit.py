@@ -107,10 +107,12 @@ def _phasor(t: np.ndarray, values: np.ndarray, omega: float) -> complex | None:
     return complex(a, -b)
 
 
-def initial_guess(w: Window, omega_min: float, omega_max: float) -> WaveParams | None:
-    """A first wave from the window alone (encounter-frame phasors, then ``solve_with_heave``); None when the
-    window shows no dominant frequency or no heave (IMU or GPS) to size k with."""
-    omega_e = dominant_encounter_frequency(w, omega_min, omega_max)
+def initial_guess(w: Window, omega_min: float, omega_max: float, omega_e: float | None = None) -> WaveParams | None:
+    """A first wave from the window alone (encounter-frame phasors at ``omega_e``, by default the slope's
+    ``dominant_encounter_frequency``, then ``solve_with_heave``); None when the window shows no dominant frequency
+    or no heave (IMU or GPS) to size k with."""
+    if omega_e is None:
+        omega_e = dominant_encounter_frequency(w, omega_min, omega_max)
     if omega_e is None:
         return None
     s_n = w.along * np.cos(w.psi) - w.across * np.sin(w.psi)
