@@ -4,14 +4,16 @@ A ``WaveSource`` fed by what an ArduPilot Rover streams (``MotionSample``: ATTIT
 velocity, the IMU's specific force where streamed), on the autopilot's clock. Each sample is reduced to a
 few numbers and kept (``window_s`` seconds of them): the boat's NED position and velocity, its heading, pitch
 and roll × ``roll_sign`` (the slope along and across the hull), the hull's down acceleration from the IMU
-(a_D = (R·f)_D + g) and, at each new GPS fix, its down position. Every ``fit_interval_s`` the wave
+(a_D = (R·f)_D + g) and, at each new GPS fix, its down position. Every ``fit_interval_s`` (twice that
+once confident: a regular sea changes slowly, and the step's budget is shared with the NMPC) the wave
 ζ = a·sin(ω t − k (N cos χ + E sin χ) + ε) is fitted to the window by ``window_fit``: warm from the last
 fit, else from the window alone. Because the boat's own track is inside the wave's phase, the fit needs no
 settling after a turn or a change of speed, and k comes from the ratio of slope to heave, no dispersion
 relation (the paper's wave is not a deep-water one).
 
 Confidence (0..1) is the product of: the share of the slope the wave explains, the fit's standard errors of
-period, wavelength, direction and height (widened for correlated samples) against 1 %, 3 %, 3° and 5 %, the
+period, wavelength, direction and height (widened for correlated samples: full up to 1 %, 3.3 %, 3.3° and 5 %,
+nothing at twice those, a third and two thirds of what issue 29 allows the estimate to be off by), the
 window covering at least 1.5 encounter periods, the slope being a sea (above ``min_slope_rad``) and the
 last two fits agreeing. ``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for
 logs); ``spread`` gives the NED covariance of the slope the wave does not explain (once confident: the fit's
@@ -126,7 +128,8 @@ class WindowEstimator:
         a millisecond), or start the next fit when one is due: a fit is spread over several control steps (one
         stage per ``STAGE_S``) so that no step carries a whole one."""
         if self._job is None:
-            if t - self._fit_t < self.s.fit_interval_s:
+            interval = self.s.fit_interval_s * (2.0 if self._confidence >= self.s.min_confidence else 1.0)
+            if t - self._fit_t < interval:
                 return
             self._fit_t = t
             self._job = self._fit_stages(t)

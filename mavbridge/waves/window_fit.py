@@ -136,22 +136,23 @@ def initial_guess(w: Window, omega_min: float, omega_max: float, omega_e: float 
 def _stack(w: Window, p: WaveParams, hull: HullResponse, offsets: np.ndarray,
            noise: dict[str, float]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """Weighted residuals (measured − model)/σ, their Jacobian (five wave columns, then one offset column per
-    channel with data, in ``CHANNELS`` order) and the raw residuals per channel."""
-    rows, jacs, raw = [], [], {}
+    channel the window uses, in ``CHANNELS`` order) and the raw residuals per channel."""
     models = channel_models(w, p, hull)
-    active = [name for name in CHANNELS if np.any(_has(getattr(w, name)))]
-    for column, name in enumerate(active):
-        model, jac = models[name]
-        values = getattr(w, name)
-        ok = _has(values)
-        res = values[ok] - model[ok] - offsets[CHANNELS.index(name)]
-        raw[name] = res
-        full = np.zeros((res.size, 5 + len(active)))
-        full[:, 0:5] = jac[ok]
-        full[:, 5 + column] = 1.0
-        rows.append(res / noise[name])
-        jacs.append(full / noise[name])
-    return np.concatenate(rows), np.vstack(jacs), raw
+    active = list(models)
+    sizes = [int(np.count_nonzero(w.valid[name])) for name in active]
+    res = np.empty(sum(sizes))
+    jac = np.zeros((res.size, 5 + len(active)))
+    raw, row = {}, 0
+    for column, (name, size) in enumerate(zip(active, sizes, strict=True)):
+        model, jacobian = models[name]
+        ok = w.valid[name]
+        rows = slice(row, row + size)
+        raw[name] = getattr(w, name)[ok] - model[ok] - offsets[CHANNELS.index(name)]
+        res[rows] = raw[name] / noise[name]
+        jac[rows, 0:5] = jacobian[ok] / noise[name]
+        jac[rows, 5 + column] = 1.0 / noise[name]
+        row += size
+    return res, jac, raw
 
 
 def _apply(p: WaveParams, offsets: np.ndarray, step: np.ndarray, active: list[str]) -> tuple[WaveParams, np.ndarray]:

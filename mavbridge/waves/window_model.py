@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -52,6 +53,33 @@ class Window:
     def span_s(self) -> float:
         """Seconds the window covers."""
         return float(self.t[-1] - self.t[0]) if self.t.size > 1 else 0.0
+
+    @cached_property
+    def channels(self) -> tuple[str, ...]:
+        """The channels with samples, in ``CHANNELS`` order; the GPS height only without the IMU's heave (half the
+        samples or more), whose acceleration sizes the heave far better than a height with 0.3 m of noise."""
+        have = [name for name in CHANNELS if np.any(self.valid[name])]
+        if "accel" in have and np.count_nonzero(self.valid["accel"]) >= self.t.size // 2:
+            have = [name for name in have if name != "down"]
+        return tuple(have)
+
+    @cached_property
+    def valid(self) -> dict[str, np.ndarray]:
+        """Per channel, which samples hold a value."""
+        return {name: np.isfinite(getattr(self, name)) for name in CHANNELS}
+
+    @cached_property
+    def cos_psi(self) -> np.ndarray:
+        return np.cos(self.psi)
+
+    @cached_property
+    def sin_psi(self) -> np.ndarray:
+        return np.sin(self.psi)
+
+    @cached_property
+    def mean_velocity(self) -> tuple[float, float]:
+        """The window's mean NED velocity (m/s)."""
+        return float(np.mean(self.v_north)), float(np.mean(self.v_east))
 
 
 @dataclass(frozen=True)
@@ -91,10 +119,11 @@ class WaveParams:
 
 
 def _geometry(w: Window, p: WaveParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(s = p·d, s⊥ = p·d⊥, Φ = ω t − k s) per sample."""
+    """(s = p·d, s⊥ = p·d⊥, Φ = ω t − k s, (sin Φ, cos Φ)) per sample."""
     d_n, d_e = math.cos(p.chi), math.sin(p.chi)
     s = w.north * d_n + w.east * d_e
-    return s, -w.north * d_e + w.east * d_n, p.omega * w.t - p.k * s
+    phi = p.omega * w.t - p.k * s
+    return s, -w.north * d_e + w.east * d_n, phi, (np.sin(phi), np.cos(phi))
 
 
 def _zeta(p: WaveParams, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -103,13 +132,22 @@ def _zeta(p: WaveParams, phase: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     return p.alpha * sin + p.beta * cos, p.alpha * cos - p.beta * sin, sin, cos
 
 
+def _lagged(p: WaveParams, trig: tuple[np.ndarray, np.ndarray], lag: float) -> tuple[np.ndarray, ...]:
+    """``_zeta`` at the phases less a constant ``lag``, from their sin and cos (a rotation, no new sines)."""
+    sin0, cos0 = trig
+    c, s = math.cos(lag), math.sin(lag)
+    sin, cos = sin0 * c - cos0 * s, cos0 * c + sin0 * s
+    return p.alpha * sin + p.beta * cos, p.alpha * cos - p.beta * sin, sin, cos
+
+
 def _slope_channel(w: Window, p: WaveParams, geo: tuple, gain: float, lag: float,
                    across: bool) -> tuple[np.ndarray, np.ndarray]:
     """Model and Jacobian (columns ω, k, χ, α, β) of the pitch (``across`` False) or roll channel."""
-    s, s_perp, phi = geo
-    zeta, dzeta, sin, cos = _zeta(p, phi - lag)
-    rel = p.chi - w.psi
-    f, f_chi = (np.sin(rel), np.cos(rel)) if across else (np.cos(rel), -np.sin(rel))
+    s, s_perp, _, trig = geo
+    zeta, dzeta, sin, cos = _lagged(p, trig, lag)
+    d_n, d_e = math.cos(p.chi), math.sin(p.chi)
+    cos_rel, sin_rel = d_n * w.cos_psi + d_e * w.sin_psi, d_e * w.cos_psi - d_n * w.sin_psi  # of χ − ψ
+    f, f_chi = (sin_rel, cos_rel) if across else (cos_rel, -sin_rel)
     gk = gain * p.k
     model = -gk * f * dzeta
     jac = np.column_stack([gk * f * zeta * w.t, -gain * f * dzeta - gk * f * zeta * s,
@@ -120,10 +158,10 @@ def _slope_channel(w: Window, p: WaveParams, geo: tuple, gain: float, lag: float
 def _accel_channel(w: Window, p: WaveParams, geo: tuple) -> tuple[np.ndarray, np.ndarray]:
     """Model (ω̄_e² ζ, the hull's down acceleration) and its Jacobian (ω, k, χ, α, β); ω̄_e = ω − k d·v̄ at the
     window's mean velocity v̄ (see the module docstring for why not the instantaneous one)."""
-    s, s_perp, phi = geo
-    zeta, dzeta, sin, cos = _zeta(p, phi)
+    s, s_perp, _, trig = geo
+    zeta, dzeta, sin, cos = _lagged(p, trig, 0.0)
     d_n, d_e = math.cos(p.chi), math.sin(p.chi)
-    v_n, v_e = float(np.mean(w.v_north)), float(np.mean(w.v_east))
+    v_n, v_e = w.mean_velocity
     v_d, v_perp = v_n * d_n + v_e * d_e, -v_n * d_e + v_e * d_n
     we = p.omega - p.k * v_d
     we2 = we * we
@@ -134,7 +172,7 @@ def _accel_channel(w: Window, p: WaveParams, geo: tuple) -> tuple[np.ndarray, np
 
 def _down_channel(w: Window, p: WaveParams, geo: tuple, lag_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Model (−ζ, the GPS down position, its lag as a phase) and its Jacobian (ω, k, χ, α, β)."""
-    s, s_perp, phi = geo
+    s, s_perp, phi, _ = geo
     we = p.omega - p.k * (w.v_north * math.cos(p.chi) + w.v_east * math.sin(p.chi))
     zeta, dzeta, sin, cos = _zeta(p, phi - we * lag_s)
     jac = np.column_stack([-dzeta * w.t, dzeta * s, dzeta * p.k * s_perp, -sin, -cos])
@@ -142,9 +180,11 @@ def _down_channel(w: Window, p: WaveParams, geo: tuple, lag_s: float) -> tuple[n
 
 
 def channel_models(w: Window, p: WaveParams, hull: HullResponse) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per channel: (model, Jacobian of the wave's five parameters) at every sample."""
+    """Per channel the window uses (``Window.channels``): (model, Jacobian of the wave's five parameters) at
+    every sample."""
     geo = _geometry(w, p)
-    return {"along": _slope_channel(w, p, geo, hull.pitch_gain, hull.pitch_lag_rad, False),
-            "across": _slope_channel(w, p, geo, hull.roll_gain, hull.roll_lag_rad, True),
-            "accel": _accel_channel(w, p, geo),
-            "down": _down_channel(w, p, geo, hull.down_lag_s)}
+    builders = {"along": lambda: _slope_channel(w, p, geo, hull.pitch_gain, hull.pitch_lag_rad, False),
+                "across": lambda: _slope_channel(w, p, geo, hull.roll_gain, hull.roll_lag_rad, True),
+                "accel": lambda: _accel_channel(w, p, geo),
+                "down": lambda: _down_channel(w, p, geo, hull.down_lag_s)}
+    return {name: builders[name]() for name in w.channels}
