@@ -156,6 +156,7 @@ class WindowEstimator:
                                            self._fit.noise)
         if fit is None or self._slope_explained(fit) < 0.5:
             self._omega_e_seen = dominant_encounter_frequency(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s)
+            yield
             start = initial_guess(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s, self._omega_e_seen)
             self.cold_starts += 1
             yield
