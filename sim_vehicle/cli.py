@@ -168,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"where parameter changes persist (default {DEFAULT_STORE}); missions go next to it",
     )
     p.add_argument("--wipe", action="store_true", help="forget stored parameters and missions first")
-    p.add_argument("--hide-params", type=parameter_names, default=frozenset(), metavar="NAME,...",
+    p.add_argument("--hide-params", type=parameter_names, metavar="NAME,...",
                    help="serve these parameters as an autopilot whose firmware lacks them: not listed, a read or set "
                         "answered as for an unknown name (the simulation still uses their values; for tests)")
     p.add_argument("--no-param-error", action="store_true",
@@ -319,7 +319,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.serial is not None:
             check_serial(args.serial[0])
         params = _load_params(args)
-        unknown = sorted(name for name in args.hide_params if name not in params)
+        hidden = args.hide_params or frozenset()
+        unknown = sorted(name for name in hidden if name not in params)
         if unknown:
             raise ConfigError(f"--hide-params: {', '.join(unknown)} is not a parameter of this simulator")
         if args.signing_passphrase is not None:
@@ -345,7 +346,7 @@ def main(argv: list[str] | None = None) -> int:
             lockstep_period_s=args.lockstep,
             lockstep_timeout_s=args.lockstep_timeout,
             lockstep_start_s=args.lockstep_start,
-            hidden_params=args.hide_params,
+            hidden_params=hidden,
             param_errors=not args.no_param_error,
         )
         announce_compiling(opts)
