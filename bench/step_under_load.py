@@ -1,6 +1,7 @@
 """Benchmark: the companion's whole control step on a quiet computer and beside two CPU spinners, side by side.
 
-Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realtime] [--watch 60] [--seed 1]
+Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realtime] [--conditions NAME,...]
+     [--watch 60] [--seed 1] [--spinners 2]
 
 The step is `mavbridge run`'s, made of its own parts as it builds them: the state from the autopilot's
 messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate``
@@ -19,7 +20,8 @@ estimator's observes: the companion's whole work per period). Missed ticks are t
 period or more late (skipped, as the companion skips them). Conditions, each on a fresh set of parts: quiet;
 two spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two spinners
 with the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where the
-system has one; its line is printed). The load average is printed before and after each.
+system has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten
+minutes. The load average (1 min) is printed before and after each.
 """
 
 from __future__ import annotations
@@ -143,6 +145,7 @@ class Timings:
     """What one condition measured (ms, wall clock)."""
 
     steps_ms: list[float] = field(default_factory=list)
+    handling_ms: list[float] = field(default_factory=list)  # of each step: the messages since the previous one
     late_ms: list[float] = field(default_factory=list)  # the tick's ATTITUDE due to the start of its step
     missed: int = 0
 
@@ -179,6 +182,7 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         begin = time.perf_counter()
         step.control(now_ms)
         out.steps_ms.append((time.perf_counter() - begin + handled_s) * 1e3)
+        out.handling_ms.append(handled_s * 1e3)
         out.late_ms.append((begin - attitude_due) * 1e3)  # from the ATTITUDE's arrival to the step's start
         handled_s = 0.0
         out.missed += missed
@@ -210,8 +214,8 @@ def load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
 
-def run_condition(name: str, rec: Recording, args: argparse.Namespace, scenario: Any,
-                  around: Callable[[], Any]) -> dict[str, Any]:
+def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: argparse.Namespace,
+                  scenario: Any) -> dict[str, Any]:
     """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not)."""
     waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params())
     with build_nmpc(scenario, waves) as nmpc, around():
@@ -229,7 +233,8 @@ def figures(row: dict[str, Any]) -> str:
     steps, late, solve = (np.asarray(v, float) for v in (t.steps_ms, t.late_ms or [math.nan], row["solve_ms"]))
     return (f"{row['name']:<26} {len(steps):>6} {np.median(steps):>8.3f} {np.percentile(steps, 99):>8.3f} "
             f"{steps.max():>8.3f} {t.missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
-            f"{np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} {row['roll_term']:>6.0%} {row['load']:>12}")
+            f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
+            f"{row['roll_term']:>6.0%} {row['load']:>12}")
 
 
 def main() -> None:
@@ -241,7 +246,13 @@ def main() -> None:
     p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
     p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
     p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
+    p.add_argument("--conditions", default=None, metavar="NAME,...",
+                   help="which of quiet,spinners,realtime to run (default quiet,spinners, and realtime with "
+                        "--realtime); e.g. --conditions realtime --duration 600 for the 10 minutes alone")
     args = p.parse_args()
+    chosen = (args.conditions or "quiet,spinners" + (",realtime" if args.realtime else "")).split(",")
+    if not set(chosen) <= {"quiet", "spinners", "realtime"}:
+        p.error(f"--conditions: {args.conditions!r}: names are quiet, spinners, realtime")
     scenario = single_scenario(None, args.solver)
     print(f"recording {args.watch + args.duration:g} s of telemetry (sim-vehicle, paper waves, seed {args.seed}, "
           f"speedup {RECORD_SPEEDUP:g}) ...", flush=True)
@@ -249,19 +260,19 @@ def main() -> None:
         rec = record(args.watch + args.duration + 1, args.seed, Path(work))
     print(f"{len(rec.messages)} messages; {os.cpu_count()} CPUs; load {load()}; solver {args.solver}; "
           f"replayed at speedup 1, {args.duration:g} s per condition", flush=True)
-    conditions = [("quiet", nullcontext),
-                  (f"{args.spinners} spinners", lambda: spinners(args.spinners))]
-    rows = [run_condition(name, rec, args, scenario, around) for name, around in conditions]
-    if args.realtime:
+    conditions = {"quiet": ("quiet", nullcontext),
+                  "spinners": (f"{args.spinners} spinners", lambda: spinners(args.spinners))}
+    rows = [run_condition(*conditions[name], rec, args, scenario) for name in chosen if name in conditions]
+    if "realtime" in chosen:  # last: the process stays real-time
         from mavbridge.cli.realtime import apply_realtime
 
         print(apply_realtime().line(), flush=True)
-        rows.append(run_condition(f"{args.spinners} spinners + realtime", rec, args, scenario,
-                                  lambda: spinners(args.spinners)))
+        rows.append(run_condition(f"{args.spinners} spinners + realtime", lambda: spinners(args.spinners), rec,
+                                  args, scenario))
     print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'max':>8} {'missed':>7} {'solve':>8} "
-          f"{'solve':>8} {'late p99':>8} {'late':>8} {'roll':>6} {'load 1 min':>12}")
-    print(f"{'(step = handling + control, ms)':<26} {'':>6} {'':>8} {'':>8} {'':>8} {'ticks':>7} {'median':>8} "
-          f"{'p99':>8} {'':>8} {'max':>8} {'term':>6} {'':>12}")
+          f"{'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} {'load 1 min':>12}")
+    print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'':>8} {'ticks':>7} {'median':>8} "
+          f"{'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12}")
     for row in rows:
         print(figures(row))
 
