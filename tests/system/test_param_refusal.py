@@ -36,12 +36,12 @@ def run(port: int, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(cmd, capture_output=True, text=True, timeout=180)
 
 
-def sent_by_companion(tlog: Path) -> dict[str, list]:
-    """Every message the companion sent (system 255), by type, from a .tlog."""
+def sent_by_companion(tlog: Path, component: int = 191) -> dict[str, list]:
+    """Every message the companion (255/``component``) sent, by type, from a .tlog."""
     log = mavutil.mavlink_connection(str(tlog))
     sent: dict[str, list] = {}
     while (msg := log.recv_match()) is not None:
-        if msg.get_srcSystem() == 255 and msg.get_type() != "BAD_DATA":
+        if (msg.get_srcSystem(), msg.get_srcComponent()) == (255, component) and msg.get_type() != "BAD_DATA":
             sent.setdefault(msg.get_type(), []).append(msg)
     return sent
 
@@ -50,11 +50,11 @@ def test_a_parameter_the_autopilot_lacks_is_refused_in_one_line_and_nothing_but_
     with SimProcess(tmp_path / "sim", speedup=5, extra=[HOME, "--wipe", "--hide-params", "RC3_TRIM"],
                     udp_outs=2) as sim:
         done = run(sim.udp_ports[0], tmp_path / "run")
-        sent = sent_by_companion(sim.log_dir / "sim_vehicle.tlog")  # what reached the autopilot (before the check)
         out = io.StringIO()
-        with redirect_stdout(out):
+        with redirect_stdout(out):  # (as component 190: its requests are told apart from the run's in the tlog)
             code = main(["check", "--connect", f"udpin:127.0.0.1:{sim.udp_ports[1]}", "--timeout", "10",
-                         "--solves", "0", "--waypoint", "20,15"])
+                         "--solves", "0", "--waypoint", "20,15", "--compid", "190"])
+    sent = sent_by_companion(sim.log_dir / "sim_vehicle.tlog")  # what reached the autopilot (its log, closed)
     assert done.returncode == 1, done.stdout + done.stderr
     naming = [line for line in done.stdout.splitlines() if "RC3_TRIM" in line]
     assert naming == ["mavbridge run: error: refusing to engage: the autopilot has no RC3_TRIM; the commands "
