@@ -16,12 +16,13 @@ ATTITUDE reaches the next tick (``flight.schedule``, as the companion's loop dec
 does from connection until the pilot engages), then the cold solve, then ``--duration`` paced seconds.
 
 A step's time is its control step plus the message handling since the previous one (state updates and the
-estimator's observes: the companion's whole work per period). Missed ticks are ticks the loop reached a
-period or more late (skipped, as the companion skips them). Conditions, each on a fresh set of parts: quiet;
-two spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two spinners
-with the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where the
-system has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten
-minutes. The load average (1 min) is printed before and after each.
+estimator's observes: the companion's whole work per period). Missed ticks are ticks the loop reached a period or
+more late (skipped, as the companion skips them), not counting the ticks the recording itself has no ATTITUDE for
+(a datagram lost while recording: "gaps", printed apart). Conditions, each on a fresh set of parts: quiet; two
+spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two spinners with
+the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where the system
+has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten minutes. The
+load average (1 min) is printed before and after each.
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ from mavbridge.preflight.rules import Context
 from sim_vehicle.harness import SimProcess
 
 HOME_LAT, HOME_LON = -35.363261, 149.165230  # the simulator's default home
-RECORD_SPEEDUP = 20.0
+RECORD_SPEEDUP = 10.0
 WAYPOINT_NE = (85.0, 75.0)  # Balanced's
 
 
@@ -147,7 +148,13 @@ class Timings:
     steps_ms: list[float] = field(default_factory=list)
     handling_ms: list[float] = field(default_factory=list)  # of each step: the messages since the previous one
     late_ms: list[float] = field(default_factory=list)  # the tick's ATTITUDE due to the start of its step
-    missed: int = 0
+    missed: int = 0  # ticks skipped, in all
+    gaps: int = 0  # of them, ticks the recording itself has no ATTITUDE for (a datagram lost while recording)
+
+    @property
+    def loop_missed(self) -> int:
+        """The ticks skipped because the loop was late."""
+        return self.missed - self.gaps
 
 
 def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: float) -> Timings:
@@ -159,7 +166,7 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         step.handle(rec.messages[i], paced=False)
         i += 1
     step.prepare()
-    out, handled_s, next_tick, attitude_due = Timings(), 0.0, None, 0.0
+    out, handled_s, next_tick, attitude_due, ideal_tick = Timings(), 0.0, None, 0.0, None
     wall0 = time.perf_counter()
     end_ms = t0_ms + duration_s * 1000
 
@@ -172,7 +179,10 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         start = time.perf_counter()
         while i < len(rec.messages) and due_at(i) <= time.perf_counter():  # all that is due: the run drains too
             step.handle(rec.messages[i])
-            attitude_due = due_at(i) if rec.messages[i].get_type() == "ATTITUDE" else attitude_due
+            if rec.messages[i].get_type() == "ATTITUDE":  # a loop always on time would step on this one
+                attitude_due = due_at(i)
+                ideal_due, ideal_tick, gap = schedule(rec.stamps_ms[i], ideal_tick, period_ms)
+                out.gaps += gap if ideal_due else 0
             i += 1
         handled_s += time.perf_counter() - start
         now_ms = step.state.attitude_ms
@@ -232,9 +242,9 @@ def figures(row: dict[str, Any]) -> str:
     t: Timings = row["timings"]
     steps, late, solve = (np.asarray(v, float) for v in (t.steps_ms, t.late_ms or [math.nan], row["solve_ms"]))
     return (f"{row['name']:<26} {len(steps):>6} {np.median(steps):>8.3f} {np.percentile(steps, 99):>8.3f} "
-            f"{steps.max():>8.3f} {t.missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
+            f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
             f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
-            f"{row['roll_term']:>6.0%} {row['load']:>12}")
+            f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5}")
 
 
 def main() -> None:
@@ -270,9 +280,9 @@ def main() -> None:
         rows.append(run_condition(f"{args.spinners} spinners + realtime", lambda: spinners(args.spinners), rec,
                                   args, scenario))
     print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'max':>8} {'missed':>7} {'solve':>8} "
-          f"{'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} {'load 1 min':>12}")
+          f"{'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} {'load 1 min':>12} {'gaps':>5}")
     print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'':>8} {'ticks':>7} {'median':>8} "
-          f"{'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12}")
+          f"{'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5}")
     for row in rows:
         print(figures(row))
 

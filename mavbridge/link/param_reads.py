@@ -24,10 +24,9 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mavbridge.link.retry import count_retry
+from mavbridge.link.retry import OPTIONAL_TRIES, count_retry  # (an optional name: asked this often at least)
 
 WINDOW = 8  # requests outstanding at once
-OPTIONAL_TRIES = 3  # an optional name is asked this often at least (more while required ones are pending)
 DOES_NOT_EXIST = 1  # MAV_PARAM_ERROR_DOES_NOT_EXIST
 ERROR_NAMES = {1: "does not exist", 2: "value out of range", 3: "permission denied", 4: "component not found",
                5: "read only", 6: "type unsupported", 7: "type mismatch", 8: "read failed"}
