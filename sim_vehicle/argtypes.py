@@ -36,3 +36,13 @@ def sea_state_number(text: str) -> int:
     if not 0 <= value <= 8:
         raise argparse.ArgumentTypeError(f"sea state must be an integer in [0, 8], got {value}")
     return value
+
+
+def parameter_names(text: str) -> frozenset[str]:
+    """``NAME,NAME,...``: parameter names (upper case, 1-16 of A-Z, 0-9, _); whether each exists is checked once
+    the parameter table is loaded."""
+    names = [part.strip().upper() for part in text.split(",")]
+    for name in names:
+        if not (1 <= len(name) <= 16 and all(c.isupper() or c.isdigit() or c == "_" for c in name)):
+            raise argparse.ArgumentTypeError(f"expected NAME,NAME,... of parameter names, got {text!r}")
+    return frozenset(names)

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from sim_vehicle import lockstep
-from sim_vehicle.argtypes import SEED_MAX, positive_seconds, sea_state_number, seed_number
+from sim_vehicle.argtypes import SEED_MAX, parameter_names, positive_seconds, sea_state_number, seed_number
 from sim_vehicle.cli_checks import check_outputs, check_params_store, check_serial, open_failure
 from sim_vehicle.logs import fresh_log_dir
 from sim_vehicle.mavlink.signing import store_signing_passphrase
@@ -168,6 +168,12 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"where parameter changes persist (default {DEFAULT_STORE}); missions go next to it",
     )
     p.add_argument("--wipe", action="store_true", help="forget stored parameters and missions first")
+    p.add_argument("--hide-params", type=parameter_names, metavar="NAME,...",
+                   help="serve these parameters as an autopilot whose firmware lacks them: not listed, a read or set "
+                        "answered as for an unknown name (the simulation still uses their values; for tests)")
+    p.add_argument("--no-param-error", action="store_true",
+                   help="answer a read or set of an unknown parameter with nothing, as firmware before PARAM_ERROR "
+                        "(default: PARAM_ERROR DOES_NOT_EXIST, as recent ArduPilot)")
     p.add_argument("--signing-passphrase", metavar="TEXT", help="MAVLink 2 signing on, key SHA-256(TEXT) as MAVProxy's "
                    "`signing setup` makes it, stored with the parameters (unsigned accepted only on the TCP port)")
     p.add_argument("--log-dir", type=Path, metavar="DIR", help="write sim_vehicle.tlog and state.csv here")
@@ -228,7 +234,11 @@ def _load_params(args: argparse.Namespace) -> ParamTable:
             )
     check_params_store(args.params_store)
     with naming("--params-store"):
-        return ParamTable(store=args.params_store, defaults=defaults, extra=extra)
+        table = ParamTable(store=args.params_store, defaults=defaults, extra=extra)
+    if (table["RCMAP_ROLL"], table["RCMAP_THROTTLE"]) != (1, 3):
+        print("sim-vehicle: warning: RCMAP_ROLL/RCMAP_THROTTLE are reported but not simulated: the sticks are "
+              "channels 1 and 3", file=sys.stderr)
+    return table
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -309,6 +319,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.serial is not None:
             check_serial(args.serial[0])
         params = _load_params(args)
+        hidden = args.hide_params or frozenset()
+        unknown = sorted(name for name in hidden if name not in params)
+        if unknown:
+            raise ConfigError(f"--hide-params: {', '.join(unknown)} is not a parameter of this simulator")
         if args.signing_passphrase is not None:
             store_signing_passphrase(params, args.signing_passphrase)
         if args.log_dir is not None:
@@ -332,6 +346,8 @@ def main(argv: list[str] | None = None) -> int:
             lockstep_period_s=args.lockstep,
             lockstep_timeout_s=args.lockstep_timeout,
             lockstep_start_s=args.lockstep_start,
+            hidden_params=hidden,
+            param_errors=not args.no_param_error,
         )
         announce_compiling(opts)
         sim = Simulator(opts)

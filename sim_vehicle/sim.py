@@ -59,6 +59,8 @@ class Options:
     lockstep_period_s: float | None = None  # lockstep with the controller at this control period (None: paced)
     lockstep_timeout_s: float = DEFAULT_TIMEOUT_S  # wall seconds a lockstep tick waits for its command
     lockstep_start_s: float | None = None  # lockstep holds from this simulated time even before a command
+    hidden_params: frozenset[str] = frozenset()  # served as absent over MAVLink (the simulation still uses them)
+    param_errors: bool = True  # PARAM_ERROR for an unknown name (recent ArduPilot); False: no answer (older)
 
 
 class Simulator:
@@ -93,7 +95,7 @@ class Simulator:
         self.telemetry = Telemetry(self.physics, self.vehicle, self.home, self.params, self.store,
                                    self.vehicle.runner, self.battery, self.boot_unix_us)
         self.gcs = Gcs(self.params, self.vehicle, self.telemetry, self.store, self.home, banner(self.params),
-                       self.logs.tlog.write if self.logs.tlog else None)
+                       self.logs.tlog.write if self.logs.tlog else None, opts.hidden_params, opts.param_errors)
         open_ports(self.gcs, self.params, (opts.tcp_host, opts.tcp_port), opts.outputs, opts.serial)
         self.n_cmd = (0.0, 0.0)
         self.hold = make_lockstep_hold(opts.lockstep_period_s, opts.lockstep_timeout_s, opts.lockstep_start_s,

@@ -131,4 +131,5 @@ def link_flags(args: argparse.Namespace) -> dict[str, tuple[str, Any]]:
             "system_id": ("--sysid", args.sysid), "component_id": ("--compid", args.compid),
             "command_timeout_s": ("--command-timeout", args.command_timeout),
             "command_retries": ("--command-retries", args.command_retries),
+            "param_budget_s": ("--param-budget", args.param_budget),
             "signing_passphrase_file": ("--signing-passphrase-file", args.signing_passphrase_file)}

@@ -84,6 +84,10 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--delay-compensation", action=argparse.BooleanOptionalAction, default=None,
                      help="predict the state over the link's measured delay before planning (default on; "
                           "--no-delay-compensation acts on the state as received, for comparison)")
+    run.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=None,
+                     help="SCHED_FIFO scheduling (the YAML's realtime_priority, default 10), locked memory and an "
+                          "isolated CPU where the system allows; one line says what it got and what it fell back "
+                          "to, never fatal (default off, or the YAML's realtime)")
     add_link_arguments(run)
 
 
@@ -133,7 +137,7 @@ def run_command(args: argparse.Namespace) -> int:
         "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
         "engage_after_s": ("--engage-after", args.engage_after),
         "delay_compensation": ("--delay-compensation", args.delay_compensation),
-        "attitude_form": ("--attitude-form", args.attitude_form)})
+        "attitude_form": ("--attitude-form", args.attitude_form), "realtime": ("--realtime", args.realtime)})
     refuse_form_without_guided(args.attitude_form, config.output)
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
@@ -145,6 +149,10 @@ def run_command(args: argparse.Namespace) -> int:
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
                              scenario.params())
     with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
+        if config.realtime:  # after the building (its compiler runs are not real-time), before the link
+            from mavbridge.cli.realtime import apply_realtime
+
+            print(apply_realtime(config.realtime_priority).line(), flush=True)
         return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                          args.dry_run).run()
 

@@ -1,5 +1,6 @@
 """The flight: the companion process of `mavbridge run` — its settings, its start (autopilot, streams,
-mission, cold solve), the supervisor that decides when it may command, the range gate, the mission
+mission, cold solve), the autopilot parameters its commands depend on (read, never assumed), the
+supervisor that decides when it may command, the range gate, the mission
 tracker, the two command paths and their outputs (RC override; GUIDED's attitude targets and the inverse
 of Rover's loops), the boat's state from telemetry, delay compensation and prediction, the wave gate
 between the wave source and the NMPC, what it says while flying and its summary.

@@ -64,6 +64,11 @@ class CompanionConfig(LinkSettings):
                                        "link's delay measured with TIMESYNC); false: act on the state as received")
     max_prediction_s: float = bounded(2.0, 0.0, 5.0, "s", "delay compensation predicts at most this far ahead "
                                       "(the state's age plus the uplink's one-way delay)")
+    realtime: bool = bounded(False, doc="real-time scheduling (SCHED_FIFO at realtime_priority), locked memory and an "
+                             "isolated CPU where the system allows; one line says what it got and what it fell back "
+                             "to; never fatal (see deploy/README.md for the service's limits)")
+    realtime_priority: int = bounded(10, 1, 98, "", "SCHED_FIFO priority with realtime (above normal processes, "
+                                     "below the kernel's interrupt threads at 50 by default)")
 
     def __post_init__(self) -> None:
         if self.wave_roll_sign not in (-1.0, 1.0):

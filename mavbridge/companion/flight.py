@@ -163,7 +163,8 @@ class Companion:
         self.arm, self.set_mode, self.log = arm, set_mode, log
         self.period_s = scenario.controller.period_s
         self.period_ms = round(self.period_s * 1000)
-        ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m)
+        ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m,
+                      config.attitude_form)
         self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log,
                                   config.attitude_form)
         self.commands = CommandChannel(self.output, log)

@@ -19,6 +19,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
+from mavbridge.companion.outputs import RcCalibration, fraction_from_pwm
 from mavbridge.link.connection import LinkError
 
 THROTTLE_LEFT, THROTTLE_RIGHT = 73, 74  # SERVOn_FUNCTION of a skid-steered boat's motors
@@ -32,21 +33,17 @@ UINT32_US = 1 << 32
 
 @dataclass(frozen=True)
 class MotorServo:
-    """One motor's output channel: SERVOn_MIN/TRIM/MAX (µs) and REVERSED."""
+    """One motor's output channel: SERVOn_MIN/TRIM/MAX (µs, no dead zone) and REVERSED."""
 
     number: int
-    minimum: float
-    trim: float
-    maximum: float
+    calibration: RcCalibration
     reversed_: bool
 
-    def output(self, pwm: int) -> float:
-        """The motor output in [-1, 1] Rover sent as ``pwm`` µs (0 µs: no pulse, stopped)."""
+    def output(self, pwm: int) -> float | None:
+        """The motor output in [-1, 1] Rover sent as ``pwm`` µs; None without a pulse (0 µs)."""
         if pwm <= 0:
-            return 0.0
-        span = (self.maximum - self.trim) if pwm >= self.trim else (self.trim - self.minimum)
-        out = (pwm - self.trim) / span if span > 0 else 0.0
-        out = min(1.0, max(-1.0, out))
+            return None
+        out = fraction_from_pwm(pwm, self.calibration)
         return -out if self.reversed_ else out
 
 
@@ -61,32 +58,40 @@ class Motors:
     def throttle_steering(self, pwms: dict[int, int]) -> tuple[float, float, bool] | None:
         """(throttle, steering, clipped) Rover's loops produced, from the servo PWMs by number (``clipped``: a motor
         was at its limit, so the loops asked for at least that much); None when a PWM is missing."""
-        if self.left.number not in pwms or self.right.number not in pwms:
+        outputs = [s.output(pwms.get(s.number, 0)) for s in (self.left, self.right)]
+        if outputs[0] is None or outputs[1] is None:
             return None
-        left, right = (self._unstretched(s.output(pwms[s.number])) for s in (self.left, self.right))
+        left, right = (self._unstretched(out) for out in outputs)
         return 0.5 * (left + right), 0.5 * (left - right), max(abs(left), abs(right)) >= SATURATED
 
     def _unstretched(self, out: float) -> float:
         return out / self.asym if out < 0 and self.asym > 1 else out
 
 
-def read_motors(link: Any) -> Motors:
-    """The motor channels from the autopilot's parameters; LinkError (one line) when SERVO1/3 are not the skid
-    steering's ThrottleLeft/ThrottleRight or a value cannot be read."""
-    functions = {n: link.read_parameter(f"SERVO{n}_FUNCTION") for n in MOTOR_SERVOS}
+MOTOR_PARAMETERS = tuple(f"SERVO{n}_{k}" for n in MOTOR_SERVOS for k in ("FUNCTION", "MIN", "TRIM", "MAX", "REVERSED"))
+ASYM = "MOT_THST_ASYM"
+
+
+def motors_from(values: dict[str, float]) -> Motors:
+    """The motor channels from the autopilot's parameter values (``MOTOR_PARAMETERS``, ``ASYM`` where answered);
+    LinkError (one line) when SERVO1/3 are not skid steering's ThrottleLeft/ThrottleRight or a value is missing."""
+    functions = {n: values.get(f"SERVO{n}_FUNCTION") for n in MOTOR_SERVOS}
     by_function = {int(f): n for n, f in functions.items() if f is not None}
     if set(by_function) != {THROTTLE_LEFT, THROTTLE_RIGHT}:
         raise LinkError(f"attitude_form tau: SERVO1_FUNCTION/SERVO3_FUNCTION are {functions[1]}/{functions[3]}; the "
                         "output feedback needs skid steering's ThrottleLeft (73) and ThrottleRight (74) there")
 
     def servo(n: int) -> MotorServo:
-        values = {k: link.read_parameter(f"SERVO{n}_{k}") for k in ("MIN", "TRIM", "MAX", "REVERSED")}
-        missing = [k for k, v in values.items() if v is None]
+        missing = [k for k in ("MIN", "TRIM", "MAX", "REVERSED") if f"SERVO{n}_{k}" not in values]
         if missing:
-            raise LinkError(f"attitude_form tau: SERVO{n}_{missing[0]} is not readable; the output feedback needs it")
-        return MotorServo(n, values["MIN"], values["TRIM"], values["MAX"], bool(values["REVERSED"]))
+            raise LinkError(f"attitude_form tau: SERVO{n}_{missing[0]} was not read; the output feedback needs it")
+        try:
+            calibration = RcCalibration(*(round(values[f"SERVO{n}_{k}"]) for k in ("MIN", "TRIM", "MAX")), 0)
+        except ValueError as exc:
+            raise LinkError(f"attitude_form tau: SERVO{n}: {exc}") from None
+        return MotorServo(n, calibration, bool(values[f"SERVO{n}_REVERSED"]))
 
-    asym = link.read_optional_parameter("MOT_THST_ASYM")
+    asym = values.get(ASYM)
     return Motors(servo(by_function[THROTTLE_LEFT]), servo(by_function[THROTTLE_RIGHT]),
                   float(asym) if asym is not None and asym >= 1 else 1.0)
 

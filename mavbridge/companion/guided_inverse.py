@@ -1,19 +1,19 @@
 """GUIDED targets that make Rover's own loops give the NMPC's steering and throttle: its loops inverted.
 
-In GUIDED, Rover turns a body-yaw-rate target ρ into steering = FF_r·ρ + P_r·(ρ − r) + I_r + D_r and a
-speed target s into throttle = (CRUISE_THROTTLE / 100 / CRUISE_SPEED + ATC_SPEED_FF)·s + P_s·(s − u) + I_s +
-D_s (``AR_AttitudeControl``; our simulator's ``sim_vehicle/rover/control.py`` likewise, without ATC_SPEED_FF and
-the D terms). The RC path sends the steering and throttle that give the plan's τ through the skid mixer;
-this form sends the ρ and s for which those expressions, with the measured r and u, equal that steering
-and throttle. The gains are read from the autopilot at start (ATC_SPEED_FF and the D gains where the
-firmware has them; absent they are 0, ATC_STR_RAT_MAX 0 is no limit, as in Rover). Not inverted: the speed
-target's ramp (ATC_ACCEL_MAX), the turn-rate target's (ATC_STR_ACC_MAX: real firmware only), and the
-difference between the body yaw rate r used here and the earth-frame yaw rate Rover's loop measures (small
-at this boat's roll). Rover's speed target is SET_ATTITUDE_TARGET's thrust × WP_SPEED, at most WP_SPEED: a
-target above it is sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds,
-so the companion says at start when WP_SPEED is below what full throttle needs (``wp_speed_problem``);
-``deploy/otter-guided-tau.parm`` sets 3.5 m/s. With Rover's 2 m/s the plan's full thrust became 77 % throttle
-and Balanced arrived 24 % late (116.8 s against 94.6 s with 3 and with 3.5 m/s, lockstep, seed 1).
+In GUIDED, Rover turns a body-yaw-rate target ρ into steering = FF_r·ρ + P_r·(ρ − r) + I_r + D_r and a speed
+target s into throttle = (CRUISE_THROTTLE / 100 / CRUISE_SPEED + ATC_SPEED_FF)·s + P_s·(s − u) + I_s + D_s
+(``AR_AttitudeControl``; our simulator's ``sim_vehicle/rover/control.py`` likewise, without ATC_SPEED_FF and the D
+terms). The RC path sends the steering and throttle that give the plan's τ through the skid mixer; this form sends
+the ρ and s for which those expressions, with the measured r and u, equal that steering and throttle. The gains
+are read from the autopilot at start (``mavbridge.companion.parameters``; ATC_SPEED_FF and the D gains where the
+firmware has them: absent they are 0, ATC_STR_RAT_MAX 0 is no limit, as in Rover). Not inverted: the speed
+target's ramp (ATC_ACCEL_MAX), the turn-rate target's (ATC_STR_ACC_MAX: real firmware only), and the difference
+between the body yaw rate r used here and the earth-frame yaw rate Rover's loop measures (small at this boat's
+roll). Rover's speed target is SET_ATTITUDE_TARGET's thrust × WP_SPEED, at most WP_SPEED: a target above it is
+sent as thrust 1 (the log's thrust_frac shows it), where the inversion no longer holds, so the companion says at
+start when WP_SPEED is below what full throttle needs (``wp_speed_problem``); ``deploy/otter-guided-tau.parm``
+sets 3.5 m/s. With Rover's 2 m/s the plan's full thrust became 77 % throttle and Balanced arrived 24 % late (116.8
+s against 94.6 s with 3 and with 3.5 m/s, lockstep, seed 1).
 
 The integrators and D terms must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0, and the D gains): these targets
 differ from r and u whenever the plan accelerates or turns, so Rover's integrators would wind up against
@@ -29,12 +29,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from mavbridge.companion.outputs import skid_fractions
-from mavbridge.link.connection import LinkError
 from vessel import OtterParameters
 
 LOOP_PARAMETERS = ("CRUISE_THROTTLE", "CRUISE_SPEED", "ATC_SPEED_P", "ATC_STR_RAT_FF", "ATC_STR_RAT_P",
@@ -91,21 +89,6 @@ class RoverLoops:
                    tuple(n for n in (*OPTIONAL_LOOP_PARAMETERS, BRAKE) if values.get(n) is None),
                    values.get(BRAKE) != 0)
 
-    @classmethod
-    def read(cls, link: Any, integrators_allowed: bool = False) -> RoverLoops:
-        """Read the gains over the link; LinkError when one is unreadable or unusable, or a D term (or, unless
-        ``integrators_allowed``: the output feedback will see them, an I term) is on."""
-        values = {name: link.read_parameter(name) for name in LOOP_PARAMETERS}
-        values.update({name: link.read_optional_parameter(name) for name in (*OPTIONAL_LOOP_PARAMETERS, BRAKE)})
-        try:
-            loops = cls.from_values(values)
-        except ValueError as exc:
-            raise LinkError(f"attitude_form tau: {exc}") from None
-        problem = loops.gain_problem(integrators_allowed)
-        if problem:
-            raise LinkError(f"attitude_form tau: {problem}")
-        return loops
-
     def gain_on(self, integrators_allowed: bool = False) -> tuple[str, float] | None:
         """The first I or D gain that is on (I gains only unless ``integrators_allowed``), (name, value), or None."""
         return next(((name, gain) for name, gain in self.must_be_zero
@@ -150,13 +133,13 @@ class RoverLoops:
     def warnings(self, wp_speed_mps: float) -> list[str]:
         """What flies but not as planned with these settings: WP_SPEED cutting full throttle, ATC_BRAKE 0 (Rover
         then zeroes a reverse throttle while the speed target is ahead: the plan's braking is lost), and the
-        optional parameters taken as 0 because the autopilot did not answer for them."""
+        parameters taken as Rover's defaults because the autopilot has none (or, ATC_BRAKE, did not answer)."""
         said = [problem] if (problem := self.wp_speed_problem(wp_speed_mps)) else []
         if not self.brake:
             said.append("ATC_BRAKE is 0: Rover zeroes a reverse throttle while the speed target is ahead, so the "
                         "plan's braking is lost; set ATC_BRAKE 1")
         if self.absent:
-            said.append(f"{', '.join(self.absent)} not answered by the autopilot: taken as Rover's defaults "
+            said.append(f"{', '.join(self.absent)} absent from the autopilot: taken as Rover's defaults "
                         "(0; ATC_BRAKE 1)")
         return said
 
@@ -171,14 +154,15 @@ class RoverLoops:
         return float(np.clip(rate, -self.rate_max_rad_s, self.rate_max_rad_s))
 
 
-def default_speed(read: Callable[[str], float | None]) -> float:
+def default_speed(read: Callable[[str], float | None]) -> float | None:
     """Rover's default speed (m/s), which scales SET_ATTITUDE_TARGET's thrust: WP_SPEED, or CRUISE_SPEED where it
-    is 0 (older firmware; read only then), else 2 m/s. ``read``: a parameter by name, None when unreadable."""
+    is 0 (older firmware); None when neither is readable and > 0 (the companion then refuses GUIDED: never an
+    assumed speed). ``read``: a parameter by name, None when unreadable."""
     for name in ("WP_SPEED", "CRUISE_SPEED"):
         speed = read(name)
         if speed is not None and speed > 0:
             return speed
-    return 2.0
+    return None
 
 
 def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n: float, speed_mps: float,

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mavbridge.link.connection import LinkError, mavlink
-from mavbridge.link.retry import RetryPolicy, ask, give_up_line
+from mavbridge.link.retry import RetryPolicy, ask, count_retry, give_up_line
 from vessel.geo import ned_from_latlon
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
@@ -29,7 +29,7 @@ def _ask(link: Any, request: tuple[Any, ...], answer: Callable[[Any], bool], pol
          awaited: str) -> Any:
     """Send ``request`` (message name, fields) until a message satisfying ``answer`` comes; LinkError if none."""
     reply, tries = ask(lambda _attempt: link.send(*request), link.wait_for, lambda m: answer(m) and _for_us(link, m),
-                       policy, lambda: link.counts.__setitem__("retries", link.counts.get("retries", 0) + 1))
+                       policy, lambda: count_retry(link.counts, "mission"))
     if reply is None:
         raise LinkError(give_up_line(f"mission download: {request[0].upper()}", awaited, tries, policy.timeout_s))
     return reply

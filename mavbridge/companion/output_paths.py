@@ -9,26 +9,27 @@ and sends nothing at all, so the loop never asks which path or mode it is in.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from mavbridge.companion.guided_feedback import OutputFeedback, read_motors
+from mavbridge.companion.guided_feedback import OutputFeedback, motors_from
 from mavbridge.companion.guided_inverse import RoverLoops, default_speed, loop_targets
 from mavbridge.companion.outputs import (
     ATTITUDE_FORMS,
     ATTITUDE_TYPE_MASK_HEADING,
     AttitudeCommand,
-    RcCalibration,
     RcSetup,
     attitude_command,
     neutral_pwm,
     rc_command,
     skid_fractions,
 )
+from mavbridge.companion.parameters import rc_setup, read_or_refuse
 from mavbridge.link.connection import LinkError, mavlink
-from mavbridge.preflight.rules import OPTIONAL_PARAMETERS, Context, override_violations
+from mavbridge.preflight.rules import Context
 from vessel import OtterParameters
 
 MODE_MANUAL, MODE_HOLD, MODE_GUIDED = mavlink.ROVER_MODE_MANUAL, mavlink.ROVER_MODE_HOLD, mavlink.ROVER_MODE_GUIDED
@@ -74,38 +75,9 @@ class Output(Protocol):
         """The waypoint the plan goes to (NED m from home), for paths that steer their last metres themselves."""
         ...
 
-
-def read_calibration(link: Any, channel: int, log: Log) -> RcCalibration:
-    """RCn_MIN/TRIM/MAX/DZ of an input channel (ArduPilot's defaults where unreadable, with a warning)."""
-    values = {}
-    for suffix, default in (("MIN", 1100), ("TRIM", 1500), ("MAX", 1900), ("DZ", 30)):
-        value = link.read_parameter(f"RC{channel}_{suffix}")
-        if value is None:
-            log(f"warning: RC{channel}_{suffix} not readable, assuming {default}")
-            value = default
-        values[suffix] = round(value)
-    return RcCalibration(values["MIN"], values["TRIM"], values["MAX"], values["DZ"])
-
-
-def read_rc_setup(link: Any, ctx: Context, log: Log) -> RcSetup:
-    """Everything that decides how the autopilot reads our overrides; refuses setups that ignore them."""
-    def read(name: str) -> float | None:
-        return link.read_optional_parameter(name) if name in OPTIONAL_PARAMETERS else link.read_parameter(name)
-
-    problems = override_violations(read, ctx)
-    if problems:
-        raise LinkError(f"the autopilot would ignore our RC overrides: {problems[0]}")
-    steer_ch = round(link.read_optional_parameter("RCMAP_ROLL") or 1)
-    throttle_ch = round(link.read_optional_parameter("RCMAP_THROTTLE") or 3)
-    try:
-        setup = RcSetup(read_calibration(link, steer_ch, log), read_calibration(link, throttle_ch, log),
-                        steer_ch, throttle_ch, round(link.read_optional_parameter("PILOT_STEER_TYPE") or 0),
-                        bool(link.read_optional_parameter(f"RC{steer_ch}_REVERSED") or 0),
-                        bool(link.read_optional_parameter(f"RC{throttle_ch}_REVERSED") or 0))
-    except ValueError as exc:
-        raise LinkError(str(exc)) from None
-    log(f"RC: steering ch{steer_ch}, throttle ch{throttle_ch}, PILOT_STEER_TYPE {setup.steer_type}")
-    return setup
+    def configure(self, values: dict[str, float]) -> None:
+        """What ``prepare`` sets up, from parameter values already read and judged (a log's, in a replay)."""
+        ...
 
 
 class _Sending:
@@ -133,8 +105,15 @@ class RcOverride(_Sending):
         self.setup: RcSetup | None = None
 
     def prepare(self, link: Any) -> None:
-        """Read RCMAP, calibration and PILOT_STEER_TYPE; refuse an autopilot that ignores overrides."""
-        self.setup = read_rc_setup(link, self.ctx, self.log)
+        """Read RCMAP, the mapped inputs' calibration, PILOT_STEER_TYPE and the mixer (``parameters``); refuse
+        (LinkError, one line) when one is unread or the autopilot would ignore or mix the overrides otherwise."""
+        self.configure(read_or_refuse(link, self.ctx, self.log).values)
+
+    def configure(self, values: dict[str, float]) -> None:
+        """The RC setup from parameter values already judged (``parameters.engage_problem``)."""
+        self.setup = setup = rc_setup(values)
+        self.log(f"RC: steering ch{setup.steering_channel}, throttle ch{setup.throttle_channel}, PILOT_STEER_TYPE "
+                 f"{setup.steer_type}")
 
     def _channels(self, steering_pwm: int, throttle_pwm: int) -> dict[int, int]:
         assert self.setup is not None, "prepare() first"
@@ -182,12 +161,13 @@ def _await_servo_outputs(link: Any) -> bool:
     return msg is not None and msg.get_type() == "SERVO_OUTPUT_RAW"
 
 
-def start_feedback(link: Any, loops: RoverLoops, log: Log) -> OutputFeedback | None:
+def start_feedback(link: Any, loops: RoverLoops, values: dict[str, float], log: Log) -> OutputFeedback | None:
     """The tau form's output feedback (``guided_feedback``): SERVO_OUTPUT_RAW asked for at OUTPUT_FEEDBACK_HZ and
-    followed. Needed when Rover's integrators are on (its stock gains): LinkError (one line) then if the motors'
-    channels cannot be read or no SERVO_OUTPUT_RAW arrives; with them off it is used where it streams."""
+    followed, the motors' channels from the parameter ``values`` read at start. Needed when Rover's integrators
+    are on (its stock gains): LinkError (one line) then if the motors' channels are unusable or no
+    SERVO_OUTPUT_RAW arrives; with them off it is used where it streams."""
     try:
-        motors = read_motors(link)
+        motors = motors_from(values)
     except LinkError:
         if loops.integrators_on:
             raise
@@ -231,14 +211,15 @@ class AttitudeTarget(_Sending):
 
     name, required_mode = "attitude_target", MODE_GUIDED
 
-    def __init__(self, lookahead_steps: int, log: Log, form: str = "tau",
-                 params: OtterParameters | None = None, approach_m: float = APPROACH_RADIUS_M) -> None:
+    def __init__(self, lookahead_steps: int, log: Log, form: str = "tau", params: OtterParameters | None = None,
+                 ctx: Context | None = None, approach_m: float = APPROACH_RADIUS_M) -> None:
         if form not in ATTITUDE_FORMS or (form == "tau" and params is None):
             raise ValueError(f"attitude_form: {form!r} is not one of {', '.join(ATTITUDE_FORMS)} (tau needs the "
                              "vessel's parameters)")
         self.lookahead_steps, self.log, self.form, self.params = lookahead_steps, log, form, params
         self.approach_m = approach_m
-        self.wp_speed_mps = 2.0
+        self.ctx = ctx if ctx is not None else Context(255, self.name, 0.1, 2.0, form)
+        self.wp_speed_mps: float | None = None  # read at prepare(): never assumed
         self.loops: RoverLoops | None = None
         self.feedback: OutputFeedback | None = None
         self.target_ne: tuple[float, float] | None = None
@@ -249,21 +230,30 @@ class AttitudeTarget(_Sending):
         self.target_ne = target_ne
 
     def prepare(self, link: Any) -> None:
-        """WP_SPEED scales thrust (older firmware: CRUISE_SPEED when WP_SPEED is 0; else 2 m/s); the tau form
-        also reads Rover's loop gains, refuses them with an I or D term on (LinkError) and warns of what flies
-        but not as planned (``RoverLoops.warnings``)."""
-        self.wp_speed_mps = default_speed(link.read_parameter)
+        """Read what the form depends on (``parameters``): WP_SPEED scales thrust (older firmware: CRUISE_SPEED
+        when WP_SPEED is 0), the tau form also Rover's loop gains and its mixer. Refuses (LinkError, one line)
+        when one is unread, an I or D term is on or the vehicle is no boat; warns of what flies but not as
+        planned (``RoverLoops.warnings``)."""
+        values = read_or_refuse(link, self.ctx, self.log).values
+        self.configure(values)
+        if self.loops is not None:
+            self.feedback = start_feedback(link, self.loops, values, self.log)
+            if self.feedback is not None:
+                self.log("GUIDED: the inversion is closed on SERVO_OUTPUT_RAW (Rover's integrators seen, not assumed)")
+
+    def configure(self, values: dict[str, float]) -> None:
+        """WP_SPEED and (tau) Rover's loop gains from parameter values already judged (``parameters``)."""
+        self.wp_speed_mps = default_speed(values.get)
         if self.form == "tau":
-            self.loops = loops = RoverLoops.read(link, integrators_allowed=True)
-            self.feedback = start_feedback(link, loops, self.log)
+            self.loops = loops = RoverLoops.from_values(values)
             self.log(f"GUIDED: Rover's loops inverted (speed FF {loops.speed_ff:.3f}/m/s, P {loops.speed_p:g}; "
-                     f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})"
-                     + ("; closed on SERVO_OUTPUT_RAW" if self.feedback else ""))
-            for warning in loops.warnings(self.wp_speed_mps):
+                     f"turn-rate FF {loops.rate_ff:g}, P {loops.rate_p:g})")
+            for warning in loops.warnings(self.wp_speed_mps or 0.0):
                 self.log(f"warning: GUIDED tau form: {warning}")
 
     def _attitude(self, result: Any, now_ms: int) -> AttitudeCommand:
         """The target for this answer in this path's form."""
+        assert self.wp_speed_mps is not None, "prepare() first"
         if self.form != "tau":
             return attitude_command(result.states, self.wp_speed_mps, self.lookahead_steps, self.form)
         assert self.loops is not None and self.params is not None, "prepare() first"
@@ -324,6 +314,10 @@ class DryRun:
         """As the wrapped path (reads only), so the logged commands are the ones it would send."""
         self.inner.prepare(link)
 
+    def configure(self, values: dict[str, float]) -> None:
+        """As the wrapped path."""
+        self.inner.configure(values)
+
     def compute(self, result: Any, now_ms: int) -> Command:
         """The wrapped path's command."""
         return self.inner.compute(result, now_ms)
@@ -348,7 +342,8 @@ def make_output(output: str, dry_run: bool, params: OtterParameters, ctx: Contex
     """The strategy for ``output`` (rc_override or attitude_target, in ``attitude_form``), in DryRun if asked."""
     paths: dict[str, Callable[[], Output]] = {
         "rc_override": lambda: RcOverride(params, ctx, log),
-        "attitude_target": lambda: AttitudeTarget(lookahead_steps, log, attitude_form, params)}
+        "attitude_target": lambda: AttitudeTarget(lookahead_steps, log, attitude_form, params,
+                                                  dataclasses.replace(ctx, attitude_form=attitude_form))}
     if output not in paths:
         raise ValueError(f"output: {output!r} is not one of {', '.join(paths)}")
     path = paths[output]()

@@ -1,9 +1,8 @@
 """What the boat did, from a log: its parameters as the companion reads them, and its sticks and motors.
 
-``LogParameters`` answers the companion's parameter reads (``read_parameter``, ``read_optional_parameter``)
-from the PARAM_VALUEs in the log (what a ground station downloaded, or DataFlash's PARM), so that an output
-path prepares itself exactly as it would on the link — RCMAP, RCn_MIN/TRIM/MAX/DZ, PILOT_STEER_TYPE, WP_SPEED —
-and refuses an autopilot it would refuse. ``BoatOutputs`` keeps the latest RC inputs (RC_CHANNELS, the
+The log's PARAM_VALUEs (what a ground station downloaded, or DataFlash's PARM) configure the companion's output
+path as the values it reads on the link would (``parameters.values_problem``, ``Output.configure``), refusing
+an autopilot it would refuse. ``BoatOutputs`` keeps the latest RC inputs (RC_CHANNELS, the
 pilot's sticks or the overrides the autopilot took) and servo outputs (SERVO_OUTPUT_RAW) and turns the
 outputs of the ThrottleLeft/Right servos (SERVOn_FUNCTION 73/74) into the motors' outputs in [-1, 1] and,
 through the inverse of ArduPilot's skid mixer (the companion's own), into throttle and steering fractions,
@@ -17,7 +16,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mavbridge.companion.outputs import RcCalibration, fraction_from_pwm, inverse_skid_mix
+from mavbridge.companion.guided_feedback import MotorServo
+from mavbridge.companion.outputs import RcCalibration, inverse_skid_mix
 
 THROTTLE_LEFT, THROTTLE_RIGHT = 73, 74  # SERVOn_FUNCTION (ArduPilot's k_throttleLeft / k_throttleRight)
 DEFAULT_MOTORS = {THROTTLE_LEFT: 1, THROTTLE_RIGHT: 3}  # the Otter's wiring (deploy/otter-rover.parm)
@@ -25,38 +25,7 @@ BOAT_COLUMNS = ("boat_steering_pwm_us", "boat_throttle_pwm_us", "boat_left_servo
                 "boat_left_motor", "boat_right_motor", "boat_throttle", "boat_steering")
 
 
-@dataclass
-class LogParameters:
-    """The autopilot's parameters as the log holds them (None for one it does not)."""
-
-    values: dict[str, float]
-
-    def read_parameter(self, name: str, policy: Any = None, quiet: bool = False) -> float | None:
-        """The value in the log, None when the log has none."""
-        return self.values.get(name)
-
-    def read_optional_parameter(self, name: str) -> float | None:
-        """The value in the log, None when the log has none."""
-        return self.values.get(name)
-
-
-@dataclass(frozen=True)
-class Servo:
-    """One servo output: its channel, calibration (µs) and reversal."""
-
-    channel: int
-    calibration: RcCalibration
-    reversed_: bool
-
-    def motor(self, pwm: int) -> float | None:
-        """The motor output in [-1, 1] the ESC makes of ``pwm``; None without a pulse (0 µs)."""
-        if pwm <= 0:
-            return None
-        out = fraction_from_pwm(pwm, self.calibration)
-        return -out if self.reversed_ else out
-
-
-def motor_servos(params: dict[str, float], say: Callable[[str], None]) -> dict[int, Servo]:
+def motor_servos(params: dict[str, float], say: Callable[[str], None]) -> dict[int, MotorServo]:
     """{73: left servo, 74: right servo} from SERVOn_FUNCTION/MIN/TRIM/MAX/REVERSED in the log; the Otter's
     wiring (SERVO1 left, SERVO3 right, 1100/1500/1900 µs) where the log does not say, said once."""
     found = {int(params[f"SERVO{n}_FUNCTION"]): n for n in range(1, 17)
@@ -73,7 +42,7 @@ def motor_servos(params: dict[str, float], say: Callable[[str], None]) -> dict[i
         except ValueError:
             say(f"note: SERVO{n}_MIN/TRIM/MAX {lo:g}/{trim:g}/{hi:g} is not a calibration: taking 1100/1500/1900")
             calibration = RcCalibration(1100, 1500, 1900, 0)
-        servos[function] = Servo(n, calibration, bool(params.get(f"SERVO{n}_REVERSED", 0.0)))
+        servos[function] = MotorServo(n, calibration, bool(params.get(f"SERVO{n}_REVERSED", 0.0)))
     return servos
 
 
@@ -83,7 +52,7 @@ class BoatOutputs:
 
     steering_channel: int
     throttle_channel: int
-    servos: dict[int, Servo]
+    servos: dict[int, MotorServo]
     columns: dict[str, float] = field(default_factory=dict)
 
     @classmethod
@@ -99,9 +68,9 @@ class BoatOutputs:
             self.columns["boat_throttle_pwm_us"] = float(getattr(msg, f"chan{self.throttle_channel}_raw", 0))
             return
         left, right = self.servos[THROTTLE_LEFT], self.servos[THROTTLE_RIGHT]
-        left_pwm = int(getattr(msg, f"servo{left.channel}_raw", 0))
-        right_pwm = int(getattr(msg, f"servo{right.channel}_raw", 0))
-        left_out, right_out = left.motor(left_pwm), right.motor(right_pwm)
+        left_pwm = int(getattr(msg, f"servo{left.number}_raw", 0))
+        right_pwm = int(getattr(msg, f"servo{right.number}_raw", 0))
+        left_out, right_out = left.output(left_pwm), right.output(right_pwm)
         self.columns.update(boat_left_servo_us=float(left_pwm), boat_right_servo_us=float(right_pwm))
         if left_out is None or right_out is None:
             for key in ("boat_left_motor", "boat_right_motor", "boat_throttle", "boat_steering"):

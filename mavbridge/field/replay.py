@@ -28,12 +28,12 @@ import numpy as np
 from mavbridge.companion.outputs import skid_fractions
 from mavbridge.companion.rover_modes import mode_name
 from mavbridge.companion.state import StateEstimate
-from mavbridge.field.boat import BOAT_COLUMNS, BoatOutputs, LogParameters
+from mavbridge.field.boat import BOAT_COLUMNS, BoatOutputs
 from mavbridge.field.logs import LogError, LogReader, check_out, open_log
 from mavbridge.field.progress import ProgressLine
 from mavbridge.field.trial import Trial, mode_of, on_timeline, record
 from mavbridge.lab.runlog import STATE_COLUMNS, WAVE_COLUMNS
-from mavbridge.link.connection import LinkError, mavlink
+from mavbridge.link.connection import mavlink
 
 COMMAND_COLUMNS = ("tau_x_n", "tau_n_nm", "cmd_throttle", "cmd_steering", "steering_pwm_us", "throttle_pwm_us",
                    "yaw_target_rad", "thrust_frac", "yaw_rate_target_rad_s")
@@ -186,6 +186,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     """The companion's parts for this log: state from the log's home, the output prepared from its parameters."""
     from mavbridge.companion.mission_tracker import MissionTracker
     from mavbridge.companion.output_paths import make_output
+    from mavbridge.companion.parameters import values_problem
     from mavbridge.companion.wave_gate import WaveGate
     from mavbridge.preflight.rules import Context
 
@@ -194,9 +195,12 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     ctx = Context(config.system_id, config.output, period_s, scenario.waypoint.acceptance_radius_m)
     output = make_output(config.output, True, scenario.params(), ctx, config.lookahead_steps, say,
                          config.attitude_form)
+    problem = values_problem(trial.params, ctx, config.attitude_form)
+    if problem is not None:
+        raise LogError(f"replay: the companion would not fly this autopilot: {problem}")
     try:
-        output.prepare(LogParameters(trial.params))
-    except LinkError as exc:
+        output.configure(trial.params)
+    except ValueError as exc:
         raise LogError(f"replay: the companion would not fly this autopilot: {exc}") from None
     tracker = MissionTracker(scenario.waypoint.acceptance_radius_m, None, say)
     tracker.waypoints = list(points)

@@ -22,7 +22,8 @@ from pymavlink import mavutil
 
 from mavbridge.link import requests as link_requests
 from mavbridge.link.filter import AutopilotAddress, SequenceFilter, is_autopilot_heartbeat
-from mavbridge.link.retry import RetryPolicy, RetrySettings
+from mavbridge.link.param_reads import ParamBudget
+from mavbridge.link.retry import RETRY_KINDS, RetryPolicy, RetrySettings
 from mavbridge.link.signing import LinkSettings, sign_link
 from mavbridge.link.tlog import AutopilotClockTlog
 
@@ -69,6 +70,8 @@ class Link:
         self._sequence = SequenceFilter()
         self.system_id = system_id
         self.retry = settings.retry_policy() if settings is not None else RetryPolicy()
+        # all parameter reads that decide the commands share it (``mavbridge.link.param_reads``)
+        self.param_budget = ParamBudget(settings.param_budget_s if settings is not None else 60.0)
         key = settings.signing_key() if isinstance(settings, LinkSettings) else None
         self.signed = key is not None  # we sign, and accept only signed packets from the autopilot
         if key is not None:
@@ -78,7 +81,8 @@ class Link:
         self.mav.set_send_callback(self._log_sent)
         self.handlers: list[Handler] = []
         self.idle_hooks: list[Callable[[], None]] = []  # run between messages (never inside a handler)
-        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "unsigned": 0, "stale": 0, "retries": 0}
+        self.counts = {"accepted": 0, "foreign": 0, "bad": 0, "unsigned": 0, "stale": 0, "retries": 0,
+                       **{f"retries_{kind}": 0 for kind in RETRY_KINDS}}
         self.rates: dict[str, int] = {}
         self._last_heartbeat_sent = 0.0
 

@@ -14,7 +14,7 @@ from typing import Any, Protocol
 os.environ.setdefault("MAVLINK20", "1")  # before pymavlink is imported (as in mavbridge.link.connection)
 from pymavlink import mavutil
 
-from mavbridge.link.retry import IN_PROGRESS_FACTOR, RetryPolicy, ask, give_up_line
+from mavbridge.link.retry import IN_PROGRESS_FACTOR, RetryPolicy, ask, count_retry, give_up_line
 
 mavlink = mavutil.mavlink
 
@@ -41,10 +41,10 @@ def command_name(command: int) -> str:
     return entry.name if entry is not None else str(command)
 
 
-def _count_retry(link: RequestLink) -> Callable[[], None]:
-    """A callback that counts one retry in the link's counts."""
+def _count_retry(link: RequestLink, kind: str) -> Callable[[], None]:
+    """A callback that counts one retry of ``kind`` (``retry.RETRY_KINDS``) in the link's counts."""
     def count() -> None:
-        link.counts["retries"] += 1
+        count_retry(link.counts, kind)
     return count
 
 
@@ -66,8 +66,9 @@ def command_long(link: RequestLink, command: int, params: tuple[float, ...],
         return (m.get_type() == "COMMAND_ACK" and m.command == command
                 and getattr(m, "target_system", 0) in (0, link.system_id))
 
+    kind = "stream" if command == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL else "command"
     ack, tries = ask(lambda attempt: link.send("command_long", target[0], target[1], command, min(attempt, 255),
-                                               *p), link.wait_for, is_ack, policy, _count_retry(link))
+                                               *p), link.wait_for, is_ack, policy, _count_retry(link, kind))
     if ack is not None and ack.result == mavlink.MAV_RESULT_IN_PROGRESS:
         wait_s = policy.timeout_s * IN_PROGRESS_FACTOR
         ack = link.wait_for(lambda m: is_ack(m) and m.result != mavlink.MAV_RESULT_IN_PROGRESS, wait_s)
@@ -91,7 +92,7 @@ def read_parameter(link: RequestLink, name: str, policy: RetryPolicy | None = No
     target = link.target
     reply, tries = ask(lambda _attempt: link.send("param_request_read", target[0], target[1], name.encode(), -1),
                        link.wait_for, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, policy,
-                       (lambda: None) if quiet else _count_retry(link))
+                       (lambda: None) if quiet else _count_retry(link, "param"))
     if reply is None:
         if not quiet:
             link.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))

@@ -2,12 +2,14 @@
 
 Command protocol: a COMMAND_LONG without a COMMAND_ACK is sent again with ``confirmation`` one higher;
 after MAV_RESULT_IN_PROGRESS the sender stops resending and waits much longer for the final ACK. Parameter
-protocol: PARAM_REQUEST_READ is repeated until a PARAM_VALUE of that name arrives. Mission protocol: each
+protocol: PARAM_REQUEST_READ is repeated until a PARAM_VALUE of that name arrives (the start's reads, many at
+once, within one budget of wall time: ``mavbridge.link.param_reads``). Mission protocol: each
 request (list, item) is repeated on its timeout, at most 5 times. An autopilot does not de-duplicate
 retries (ArduPilot ignores ``confirmation``), so only idempotent requests are retried: arming an armed
 vehicle, setting the mode it is in, asking for a parameter or a rate again.
 
-Every give-up is one line naming what failed after how many tries.
+Every give-up is one line naming what failed after how many tries. Every resend is counted, in all and by
+kind (``count_retry``: parameter reads, mission download, commands, stream requests).
 """
 
 from __future__ import annotations
@@ -61,7 +63,11 @@ class RetrySettings:
 
     command_timeout_s: float = bounded(1.0, 0.0, 60.0, "s", "wall wait per COMMAND_ACK / PARAM_VALUE before "
                                        "sending again", lo_open=True)
-    command_retries: int = bounded(5, 0, 1000, "", "a command or parameter read is sent again this many times")
+    command_retries: int = bounded(5, 0, 1000, "", "a command is sent again this many times (the mission "
+                                   "protocol's requests at least 5 times)")
+    param_budget_s: float = bounded(60.0, 1.0, 600.0, "s", "wall time all the parameter reads that decide the "
+                                    "commands may take together at start (each asked again every command_timeout_s); "
+                                    "one still unread then: the companion refuses to engage, naming it")
 
     def retry_policy(self) -> RetryPolicy:
         """These settings as the link's policy."""
@@ -82,6 +88,15 @@ def ask(send: Callable[[int], None], wait: Wait, answer: Callable[[Any], bool], 
         if reply is not None:
             return reply, attempt + 1
     return None, policy.tries
+
+
+RETRY_KINDS = ("param", "mission", "command", "stream")  # parameter reads, mission download, commands, stream requests
+
+
+def count_retry(counts: dict[str, int], kind: str) -> None:
+    """Count one resend in the link's counts: in all (``retries``) and by kind (``retries_<kind>``)."""
+    counts["retries"] = counts.get("retries", 0) + 1
+    counts[f"retries_{kind}"] = counts.get(f"retries_{kind}", 0) + 1
 
 
 def give_up_line(what: str, awaited: str, tries: int, timeout_s: float) -> str:
@@ -106,5 +121,9 @@ def add_retry_arguments(parser: Any) -> None:
                         help="wait this long (wall s) for each COMMAND_ACK / PARAM_VALUE before sending again "
                              "(default 1, or the YAML's command_timeout_s)")
     parser.add_argument("--command-retries", type=retry_count, metavar="N",
-                        help="send a command or parameter read again this many times before giving up "
+                        help="send a command again this many times before giving up "
                              "(default 5, or the YAML's command_retries)")
+    parser.add_argument("--param-budget", type=positive_seconds, metavar="S",
+                        help="wall seconds all parameter reads at start may take together, each asked again every "
+                             "--command-timeout; one still unread then is named and the companion refuses to engage "
+                             "(default 60, range [1, 600], or the YAML's param_budget_s)")

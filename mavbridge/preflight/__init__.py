@@ -1,7 +1,8 @@
 """`mavbridge check`: a preflight check of an ArduPilot Rover (real or simulated) for the companion.
 
 In parts: ``rules`` (the parameters the companion relies on, as a table that `mavbridge run` enforces
-too), ``probe`` (talks to the vehicle: heartbeat, parameters, stream rates, GPS and home, mission),
+too; which ones it must read at all is ``mavbridge.companion.parameters``, judged here the same way),
+``probe`` (talks to the vehicle: heartbeat, parameters, stream rates, GPS and home, mission),
 ``solve_time`` (the NMPC on this computer), ``report`` (the PASS/WARN/FAIL table) and ``cli``.
 Each finding is PASS, WARN or FAIL; any FAIL makes the exit code 1.
 

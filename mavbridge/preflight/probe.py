@@ -15,15 +15,18 @@ from collections.abc import Callable
 from typing import Any
 
 from mavbridge.companion.mission_tracker import download_mission
+from mavbridge.companion.parameters import engage_problem, rc_channels, read_command_parameters
 from mavbridge.link import streams
 from mavbridge.link.connection import Link, LinkError, mavlink
+from mavbridge.link.param_reads import ParamAnswers, ParamBudget, ParamRequest, read_parameters
 from mavbridge.preflight.report import FAIL, PASS, WARN, Report
-from mavbridge.preflight.rules import fmt_value, parameter_findings, tau_form_findings
+from mavbridge.preflight.rules import RULES, Context, fmt_value, parameter_findings, tau_form_findings
 from vessel.geo import DEFAULT_MAX_RANGE_M, ned_from_latlon
 
 POSITION_NEED_HZ = 5.0
 RATE_WINDOW_S = 3.0  # rates are counted over this much autopilot time (time_boot_ms)
 STREAM_OF = {"ATTITUDE": "EXTRA1", "GLOBAL_POSITION_INT": "POSITION", "LOCAL_POSITION_NED": "POSITION"}
+STREAM_GROUPS = ("EXTRA1", "POSITION", "RAW_SENS")
 
 
 def stream_params(read: Callable[[str], float | None], port: int, stream: str) -> tuple[str, float | None]:
@@ -84,6 +87,31 @@ def measure_window(link: Any, names: tuple[str, ...]) -> dict[str, float] | None
     return {name: n / RATE_WINDOW_S for name, n in counts.items()}
 
 
+def known_channels(params: dict[str, float | None]) -> tuple[int, int]:
+    """The RC inputs RCMAP names in ``params`` (Rover's 1 and 3 while unread)."""
+    return rc_channels({k: v for k, v in params.items() if v is not None}) or (1, 3)
+
+
+def read_ahead(link: Any, params: dict[str, float | None], port: int) -> None:
+    """The check's own parameters (its rules, the stream rates of ``port``, the RC inputs' calibration) into
+    ``params`` (None: no value), in batched reads within a budget of their own (``param_budget_s``); what
+    ``params`` holds a value for already is not asked again."""
+    budget, timeout = ParamBudget(link.param_budget.total_s), link.retry.timeout_s
+    first = [ParamRequest((r.parameter, *r.aliases), required=not r.skip_unreadable) for r in RULES]
+    first += [ParamRequest((f"SR{port}_{s}", f"MAV{port + 1}_{s}")) for s in STREAM_GROUPS]
+    first += [ParamRequest((name,)) for name in ("RCMAP_ROLL", "RCMAP_THROTTLE")]
+    first = [r for r in first if not any(params.get(n) is not None for n in r.names)]
+
+    def calibration(answers: ParamAnswers) -> list[ParamRequest]:
+        channels = known_channels({**params, **answers.values})
+        return [ParamRequest((f"RC{ch}_{s}",)) for ch in dict.fromkeys(channels) for s in ("MIN", "TRIM", "MAX")
+                if params.get(f"RC{ch}_{s}") is None]
+
+    answers = read_parameters(link, first, budget, timeout, follow=calibration)
+    for name in (n for r in first + calibration(answers) for n in r.names):
+        params[name] = answers.values.get(name)
+
+
 class Probe:
     """Every vehicle-side check over one Link, into one report."""
 
@@ -94,13 +122,13 @@ class Probe:
         self.port, self.waypoint_ne, self.max_range_m, self.log = port, waypoint_ne, max_range_m, log
         self.period_s = float(scenario.controller.period_s)
         self.seen: dict[str, Any] = {}
-        self.params: dict[str, float | None] = {}
+        self.params: dict[str, float | None] = {}  # every name asked (None: no value), from the batched reads
 
     def _remember(self, msg: Any) -> None:
         self.seen[msg.get_type()] = msg
 
     def _read(self, link: Any, name: str) -> float | None:
-        if name not in self.params:
+        if name not in self.params:  # (everything is read ahead in batches; this is the fallback)
             self.params[name] = link.read_parameter(name)
         return self.params[name]
 
@@ -132,13 +160,35 @@ class Probe:
             return
         self.heartbeat()
         self.signing(link)
-        parameter_findings(self.report, lambda name: self._read(link, name), cfg.system_id, cfg.output,
-                           self.period_s, float(self.scenario.waypoint.acceptance_radius_m))
+        self.command_parameters(link)
+        read_ahead(link, self.params, self.port)
+        read = lambda name: self._read(link, name)  # noqa: E731
+        parameter_findings(self.report, read, cfg.system_id, cfg.output, self.period_s,
+                           float(self.scenario.waypoint.acceptance_radius_m), self._channels())
         if cfg.output == "attitude_target" and cfg.attitude_form == "tau":
-            tau_form_findings(self.report, lambda name: self._read(link, name), link.read_optional_parameter)
+            tau_form_findings(self.report, read, read)
         self.streams(link)
         self.gps_and_home(link)
         self.mission(link)
+
+    def _channels(self) -> tuple[int, int]:
+        """The RC inputs RCMAP names (Rover's 1 and 3 while unread)."""
+        return known_channels(self.params)
+
+    def command_parameters(self, link: Any) -> None:
+        """What `mavbridge run` reads before it engages, read and judged as it does (one budget, one line)."""
+        cfg = self.config
+        ctx = Context(cfg.system_id, cfg.output, self.period_s, float(self.scenario.waypoint.acceptance_radius_m),
+                      cfg.attitude_form)
+        needed = read_command_parameters(link, cfg.output, cfg.attitude_form)
+        self.params.update({name: needed.values.get(name) for name in needed.names})
+        problem = engage_problem(needed, ctx)
+        item, expected = "parameters the commands need", f"read within {link.param_budget.total_s:g} s and usable"
+        if problem is None:
+            self.report.add(PASS, item, expected, needed.summary())
+        else:
+            self.report.add(FAIL, item, expected, problem.removeprefix("refusing to engage: "),
+                            "`mavbridge run` refuses to engage until this passes: fix the parameter or the link")
 
     def heartbeat(self) -> None:
         """ArduPilot, and a boat."""

@@ -3,9 +3,12 @@
 Each ``Rule`` names a parameter (and the names other firmware versions give it), what is expected,
 and an ordered list of ``Condition``s; the first condition that does not hold decides the finding
 (its severity, its fix), and a parameter whose conditions all hold passes. Conditions marked
-``enforced`` are the ones `mavbridge run` itself refuses to fly RC overrides against (an autopilot
-that would silently ignore every override): the preflight check and the companion read them from
-this one table (``evaluate`` and ``override_violations``).
+``enforced`` are the ones `mavbridge run` itself refuses to engage against: for RC overrides an autopilot
+that would silently ignore every override (``RC``), for every path whose commands pass through the skid
+mixer's inverse a mixer other than the one it inverts (``SKID``: RC overrides and GUIDED's tau form), and
+a vehicle that is no boat (``ALWAYS``). The preflight check and the companion read them from this one table
+(``evaluate`` and ``enforced_violations``); which parameters the companion must read at all, and which it may
+go without, is ``mavbridge.companion.parameters``.
 """
 
 from __future__ import annotations
@@ -31,11 +34,22 @@ class Context:
     output: str  # rc_override or attitude_target
     period_s: float
     acceptance_m: float
+    attitude_form: str = "rate"  # attitude_target's form (heading, rate or tau); unused for rc_override
 
     @property
     def rc_mode(self) -> bool:
         """True when the companion flies RC overrides (MANUAL)."""
         return self.output == "rc_override"
+
+    @property
+    def skid_inverse(self) -> bool:
+        """True when the commands are computed through the inverse of Rover's skid mixer (RC, or GUIDED's tau)."""
+        return self.rc_mode or self.attitude_form == "tau"
+
+
+NEVER, RC, SKID, ALWAYS = "", "rc", "skid", "always"  # when `mavbridge run` enforces a condition (see the docstring)
+_ENFORCED_WHEN = {NEVER: lambda c: False, RC: lambda c: c.rc_mode, SKID: lambda c: c.skid_inverse,
+                  ALWAYS: lambda c: True}
 
 
 Text = str | Callable[[float | None, Context], str]
@@ -55,11 +69,15 @@ class Condition:
     guided: str | None = None  # the severity when the output is attitude_target (default: ``severity``)
     expected: str | None = None  # this finding's expected text, if not the rule's
     note: str = ""  # appended to the actual value, e.g. " (never expires)"
-    enforced: bool = False  # `mavbridge run` refuses rc_override when this fails on a readable value
+    enforced: str = NEVER  # when `mavbridge run` refuses to engage if this fails on a readable value
 
     def status(self, ctx: Context) -> str:
         """The severity for this output."""
         return self.severity if ctx.rc_mode or self.guided is None else self.guided
+
+    def enforced_for(self, ctx: Context) -> bool:
+        """True when `mavbridge run` with this context refuses to engage on a readable value that fails it."""
+        return bool(_ENFORCED_WHEN[self.enforced](ctx))
 
 
 @dataclass(frozen=True)
@@ -72,7 +90,6 @@ class Rule:
     aliases: tuple[str, ...] = ()  # the same parameter under another firmware's name (read when unreadable)
     unit: str = ""  # appended to the actual value
     skip_unreadable: bool = False  # no finding at all when the autopilot does not have it
-    optional: bool = False  # newer/older firmware may lack it: the companion asks only briefly
     describe: Callable[[float], str] | None = None  # the actual value as shown when it passes
 
 
@@ -99,22 +116,23 @@ def _servo(servo: int, function: int, side: str) -> Rule:
     thruster = "left" if function == THROTTLE_LEFT else "right"
     return Rule(f"SERVO{servo}_FUNCTION", f"{function} ({side})", (
         Condition(_is(function), f"set SERVO{servo}_FUNCTION {function}: the companion's mixer assumes output "
-                                 f"{servo} drives the {thruster} thruster"),))
+                                 f"{servo} drives the {thruster} thruster", enforced=SKID),))
 
 
 _GCS = Condition(lambda v, c: v is not None and int(v) == c.system_id,
                  "set {name} {system_id}, or system_id: {value} in the companion config; the autopilot obeys RC "
-                 "overrides only from that system", FAIL, WARN, enforced=True)
+                 "overrides only from that system", FAIL, WARN, enforced=RC)
 _LAPSE = "set RC_OVERRIDE_TIME 0.5: "
 RULES: tuple[Rule, ...] = (
     Rule("SYSID_MYGCS", "{system_id} (companion system_id)", (_GCS,), aliases=("MAV_GCS_SYSID",)),  # 4.7 renamed it
     _servo(1, THROTTLE_LEFT, "ThrottleLeft"),
     _servo(3, THROTTLE_RIGHT, "ThrottleRight"),
-    Rule("FRAME_CLASS", "2 (boat)", (Condition(_is(2), "set FRAME_CLASS 2 and reboot the autopilot"),)),
+    Rule("FRAME_CLASS", "2 (boat)", (Condition(_is(2), "set FRAME_CLASS 2 and reboot the autopilot",
+                                               enforced=ALWAYS),)),
     Rule("RC_OVERRIDE_TIME", "> {period_s:g} s (control period), <= 2 s", (
         Condition(_readable, "check the link", FAIL, WARN),
         Condition(lambda v, _c: v != 0, _LAPSE + "at 0 the autopilot ignores RC overrides", FAIL, WARN,
-                  enforced=True),
+                  enforced=RC),
         Condition(lambda v, _c: v is not None and v >= 0, _LAPSE + "with -1 a stalled companion's last command "
                   "never times out", FAIL, WARN, note=" (never expires)"),
         Condition(lambda v, c: v is not None and v > c.period_s, _LAPSE + "at or below the {period_s:g} s control "
@@ -122,12 +140,12 @@ RULES: tuple[Rule, ...] = (
         Condition(lambda v, c: v is not None and 3 * c.period_s <= v <= 2.0, _LAPSE + "shorter lapses on one late "
                   "command, longer keeps a stalled companion's last command that long", WARN,
                   expected="{three_periods_s:g}..2 s"),
-    ), unit=" s", optional=True),
+    ), unit=" s"),
     Rule("RC_OPTIONS", "bit 1 (2, ignore MAVLink overrides) clear", (
         Condition(lambda v, _c: v is None or not int(v) & RC_OPTIONS_IGNORE_OVERRIDES,
                   lambda v, _c: f"set RC_OPTIONS {int(v or 0) & ~RC_OPTIONS_IGNORE_OVERRIDES}: the autopilot ignores "
-                                "MAVLink RC overrides", FAIL, WARN, enforced=True),
-    ), skip_unreadable=True, optional=True),
+                                "MAVLink RC overrides", FAIL, WARN, enforced=RC),
+    ), skip_unreadable=True),
     Rule("WP_SPEED", "> 0 m/s", (Condition(lambda v, _c: v is not None and v > 0, "set WP_SPEED 2: Rover refuses "
                                            "to arm at 0, and GUIDED thrust is a fraction of it"),)),
     Rule("WP_RADIUS", "{acceptance_m:g} m (scenario acceptance)", (
@@ -159,8 +177,6 @@ RULES: tuple[Rule, ...] = (
                   WARN),
     ), skip_unreadable=True),
 )
-# Parameters some firmware lacks: the companion asks for these only briefly.
-OPTIONAL_PARAMETERS = frozenset({a for r in RULES for a in r.aliases} | {r.parameter for r in RULES if r.optional})
 
 
 def _read_rule(rule: Rule, read: Reader) -> tuple[str, float | None]:
@@ -200,16 +216,16 @@ def evaluate(read: Reader, ctx: Context, report: Report, rules: tuple[Rule, ...]
         judge(rule, name, value, ctx, report)
 
 
-def override_violations(read: Reader, ctx: Context, rules: tuple[Rule, ...] = RULES) -> list[str]:
-    """The enforced conditions that readable values break: why the autopilot would ignore RC overrides."""
+def enforced_violations(read: Reader, ctx: Context, rules: tuple[Rule, ...] = RULES) -> list[str]:
+    """The conditions enforced for ``ctx`` that readable values break: why `mavbridge run` refuses to engage."""
     problems = []
     for rule in rules:
-        enforced = [c for c in rule.conditions if c.enforced]
+        enforced = [c for c in rule.conditions if c.enforced_for(ctx)]
         if not enforced:
             continue
         name, value = _read_rule(rule, read)
         if value is None:
-            continue  # not readable: the check reports it; the companion does not guess
+            continue  # not readable: the check reports it; what the companion must read is refused before
         for cond in enforced:
             if not cond.holds(value, ctx):
                 expected = rule.expected.format(**dataclasses.asdict(ctx))
@@ -240,10 +256,11 @@ def rc_findings(report: Report, channel: int, values: dict[str, float | None]) -
 
 
 def parameter_findings(report: Report, read: Reader, system_id: int, output: str, period_s: float,
-                       acceptance_m: float) -> None:
-    """Every parameter rule, then the RC calibration of the steering (1) and throttle (3) inputs."""
+                       acceptance_m: float, channels: tuple[int, int] = (1, 3)) -> None:
+    """Every parameter rule, then the RC calibration of the steering and throttle inputs (``channels``: the
+    ones RCMAP_ROLL/RCMAP_THROTTLE name; Rover's 1 and 3 by default)."""
     evaluate(read, Context(system_id, output, period_s, acceptance_m), report)
-    for channel in (1, 3):
+    for channel in dict.fromkeys(channels):
         rc_findings(report, channel, {s: read(f"RC{channel}_{s}") for s in ("MIN", "TRIM", "MAX")})
 
 
@@ -280,8 +297,9 @@ def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> No
                    + (f" ({', '.join(absent)} not on this autopilot: 0)" if absent else ""))
     wp_speed = default_speed(read)
     needed = loops.full_throttle_target_mps()
-    status = WARN if loops.wp_speed_problem(wp_speed) else PASS
-    report.add(status, "tau form: WP_SPEED", f">= {needed:.2f} m/s (full throttle's speed target)", f"{wp_speed:g} m/s",
+    status = FAIL if wp_speed is None else WARN if loops.wp_speed_problem(wp_speed) else PASS
+    report.add(status, "tau form: WP_SPEED", f">= {needed:.2f} m/s (full throttle's speed target)",
+               "not readable or 0" if wp_speed is None else f"{wp_speed:g} m/s",
                f"set WP_SPEED >= {needed:.2f} ({parm}): it caps Rover's speed target, cutting full thrust")
     brake = values[BRAKE]
     report.add(PASS if brake else WARN, "tau form: ATC_BRAKE", "1 (the speed loop may reverse)", fmt_value(brake),

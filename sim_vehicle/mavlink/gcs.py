@@ -41,6 +41,8 @@ class Gcs:
         home: Home,
         banner: list[str],
         tlog: TlogHook | None,
+        hidden_params: frozenset[str] = frozenset(),
+        param_errors: bool = True,
     ) -> None:
         self.params, self.vehicle, self.telemetry = params, vehicle, telemetry
         self.sysid = int(params["SYSID_THISMAV"])
@@ -52,7 +54,7 @@ class Gcs:
         self._next_heartbeat: dict[int, float] = {}
         self._text_id = 0
         self.missions = MissionServer(store, vehicle.runner, home, self.text, self.broadcast, vehicle.guided_goto)
-        self.param_server = ParamServer(params, self.text, self.broadcast, banner)
+        self.param_server = ParamServer(params, self.text, self.broadcast, banner, hidden_params, param_errors)
         self.commands = CommandHandler(vehicle, telemetry, self.missions, self.schedule, self.text)
         self.inputs = ControlInputs(params, vehicle, self.sysid, self.text)
         self.signing = Signing(params, lambda: vehicle.armed, self.text,

@@ -1,4 +1,10 @@
-"""The parameter protocol: list download paced per step, read by name or index, set with broadcast echo."""
+"""The parameter protocol: list download paced per step, read by name or index, set with broadcast echo.
+
+``hidden`` names are served as a real autopilot serves a parameter it does not have (its firmware lacks
+it): not listed, not counted, and a read or set of it answered as of any unknown name, with PARAM_ERROR
+DOES_NOT_EXIST (recent ArduPilot) or, with ``errors`` off, with nothing at all (older firmware). The
+simulation itself still uses its value (``sim-vehicle --hide-params``, ``--no-param-error``).
+"""
 
 from __future__ import annotations
 
@@ -30,16 +36,33 @@ class ParamServer:
         text: Callable[[int, str, Channel | None], None],
         broadcast: Callable[[mavlink.MAVLink_message], None],
         banner: list[str],
+        hidden: frozenset[str] = frozenset(),
+        errors: bool = True,
     ) -> None:
         self.params, self.text, self.broadcast, self.banner = params, text, broadcast, banner
+        self.errors = errors
         self._queues: dict[int, tuple[Channel, deque[int]]] = {}
+        # the table indices served, in list order (a hidden parameter has no index on the wire)
+        self._served = [i for i in range(len(params)) if params.at(i)[0].name not in hidden]
+        self._wire_index = {table: wire for wire, table in enumerate(self._served)}
 
     def value_message(self, index: int, reported_index: int) -> mavlink.MAVLink_message:
-        """PARAM_VALUE for parameter ``index`` reporting ``reported_index``."""
+        """PARAM_VALUE for parameter ``index`` (of the table) reporting ``reported_index``."""
         d, value = self.params.at(index)
         return mavlink.MAVLink_param_value_message(
-            d.name.encode(), value, d.ptype, len(self.params), reported_index
+            d.name.encode(), value, d.ptype, len(self._served), reported_index
         )
+
+    def _find(self, name: str, index: int) -> int:
+        """The table index of a served parameter by name (``index`` -1) or wire index; KeyError if none."""
+        if index == -1:
+            found = self.params.index(name)
+            if found not in self._wire_index:
+                raise KeyError(name)
+            return found
+        if not 0 <= index < len(self._served):
+            raise KeyError(index)
+        return self._served[index]
 
     def handle(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """Dispatch one PARAM_* message addressed to us."""
@@ -47,7 +70,7 @@ class ParamServer:
         if kind == "PARAM_REQUEST_LIST":
             for line in self.banner:
                 self.text(6, line, channel)
-            self._queues[id(channel)] = (channel, deque(range(len(self.params))))
+            self._queues[id(channel)] = (channel, deque(self._served))
         elif kind == "PARAM_REQUEST_READ":
             self._read(channel, msg)
         elif kind == "PARAM_SET":
@@ -56,7 +79,9 @@ class ParamServer:
     def _error(
         self, channel: Channel, msg: mavlink.MAVLink_message, name: str, index: int, code: int
     ) -> None:
-        """PARAM_ERROR back to the sender."""
+        """PARAM_ERROR back to the sender (firmware before PARAM_ERROR, ``errors`` off: nothing)."""
+        if not self.errors:
+            return
         channel.send(
             mavlink.MAVLink_param_error_message(
                 msg.get_srcSystem(), msg.get_srcComponent(), name.encode()[:16], index, code
@@ -68,9 +93,8 @@ class ParamServer:
         index = int(msg.param_index)
         name = _name(msg.param_id)
         try:
-            found = self.params.index(name) if index == -1 else index
-            self.params.at(found)
-        except (KeyError, IndexError):
+            found = self._find(name, index)
+        except KeyError:
             self._error(channel, msg, name, index, mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST)
             return
         channel.send(self.value_message(found, BY_NAME if index == -1 else index))
@@ -78,7 +102,7 @@ class ParamServer:
     def _set(self, channel: Channel, msg: mavlink.MAVLink_message) -> None:
         """PARAM_SET: store, persist and echo to every channel; refuse unknown names and NaN."""
         name = _name(msg.param_id)
-        if name not in self.params:
+        if name not in self.params or self.params.index(name) not in self._wire_index:
             self._error(channel, msg, name, -1, mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST)
             return
         if not self.params.set(name, float(msg.param_value)):
@@ -91,6 +115,6 @@ class ParamServer:
         for key, (channel, queue) in list(self._queues.items()):
             for _ in range(min(PARAMS_PER_STEP, len(queue))):
                 index = queue.popleft()
-                channel.send(self.value_message(index, index))
+                channel.send(self.value_message(index, self._wire_index[index]))
             if not queue or channel.closed:
                 del self._queues[key]

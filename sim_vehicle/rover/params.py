@@ -60,6 +60,10 @@ def _defs() -> list[ParamDef]:
         ("INITIAL_MODE", i8, 0),
         ("MODE_CH", i8, 8),
         ("PILOT_STEER_TYPE", i8, 0),
+        # Which RC inputs steer and throttle (Rover's defaults). The simulator's sticks are channels 1 and 3:
+        # other values are reported (a companion reads them) but not simulated; sim-vehicle warns at start.
+        ("RCMAP_ROLL", i8, 1),
+        ("RCMAP_THROTTLE", i8, 3),
         ("ARMING_CHECK", i32, 1),
         ("ARMING_REQUIRE", i8, 1),
         # The speed feed-forward matched to the Otter (deploy/otter-json-sitl.parm: 80 % shaft speed gives

@@ -92,6 +92,7 @@ def test_dry_run_is_the_null_output_of_the_path_it_wraps() -> None:
     assert rc.compute(result, 1000).columns["steering_pwm_us"] > 1500  # more left thrust: steer to starboard
     guided = make_output("attitude_target", True, otter_parameters(), CTX, 3, print, "rate")
     assert isinstance(guided, DryRun) and isinstance(guided.inner, AttitudeTarget)
+    guided.inner.wp_speed_mps = 2.0  # what prepare() reads (WP_SPEED); never assumed before
     assert guided.required_mode == MODE_GUIDED
     columns = guided.command(None, result, 1000)
     assert columns == {"yaw_target_rad": pytest.approx(0.4), "thrust_frac": pytest.approx(0.75),

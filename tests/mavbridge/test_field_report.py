@@ -180,8 +180,10 @@ def test_a_file_that_is_not_a_log_stops_the_report_before_anything_is_written(
 def test_replay_commands_from_the_log_beside_what_the_boat_did_and_sends_nothing(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
     log = tmp_path / "trial.bin"
-    params = {"SYSID_MYGCS": 255.0, "RC1_MIN": 1100.0, "RC1_TRIM": 1500.0, "RC1_MAX": 1900.0, "RC3_MIN": 1100.0,
-              "RC3_TRIM": 1500.0, "RC3_MAX": 1900.0, "SERVO1_FUNCTION": 73.0, "SERVO3_FUNCTION": 74.0}
+    params = {"SYSID_MYGCS": 255.0, "RCMAP_ROLL": 1.0, "RCMAP_THROTTLE": 3.0, "PILOT_STEER_TYPE": 0.0,
+              "FRAME_CLASS": 2.0, "SERVO1_FUNCTION": 73.0, "SERVO3_FUNCTION": 74.0,
+              **{f"RC{ch}_{k}": v for ch in (1, 3) for k, v in (("MIN", 1100.0), ("TRIM", 1500.0), ("MAX", 1900.0),
+                                                                ("DZ", 30.0), ("REVERSED", 0.0))}}
     write_dataflash(log, sine_motion(40.0, speed_m_s=1.5), modes=[(0.0, 0), (30.0, 4)], armed_at=2.0,
                     waypoints_ne=[(200.0, 0.0)], params=params)
 
@@ -206,3 +208,17 @@ def test_replay_commands_from_the_log_beside_what_the_boat_did_and_sends_nothing
     assert all(1100 <= int(r["throttle_pwm_us"]) <= 1900 and math.isfinite(float(r["cmd_throttle"])) for r in rows)
     assert float(rows[-1]["cmd_throttle"]) > 0.3  # the waypoint is 200 m ahead: the plan drives on
     assert (tmp_path / "replay" / "replay.png").stat().st_size > 10_000
+
+
+def test_a_log_without_a_parameter_the_commands_need_is_refused_naming_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The replay configures the companion's output from the log's parameters as the link's reads would: one the
+    commands depend on and the log lacks (here RCMAP_ROLL) is a refusal, in one line, never an assumed value."""
+    log = tmp_path / "trial.bin"
+    params = {"SYSID_MYGCS": 255.0, "RCMAP_THROTTLE": 3.0, "PILOT_STEER_TYPE": 0.0, "FRAME_CLASS": 2.0,
+              "SERVO1_FUNCTION": 73.0, "SERVO3_FUNCTION": 74.0}
+    write_dataflash(log, sine_motion(20.0, speed_m_s=1.5), modes=[(0.0, 0)], armed_at=2.0,
+                    waypoints_ne=[(200.0, 0.0)], params=params)
+    code = main(["replay", str(log), "--out", str(tmp_path / "replay")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "RCMAP_ROLL" in err and len(err.splitlines()) == 1, err

@@ -15,27 +15,31 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavbridge.companion.guided_feedback import Motors, MotorServo, OutputFeedback, unwrap_us
 from mavbridge.companion.guided_inverse import LOOP_PARAMETERS, RoverLoops, loop_targets
-from mavbridge.companion.outputs import skid_fractions
+from mavbridge.companion.outputs import RcCalibration, skid_fractions
 from sim_vehicle.rover.control import NavState, SpeedControl, SteeringControl
 from sim_vehicle.rover.mixer import output_to_pwm, skid_mix
 from sim_vehicle.rover.params import ParamTable
 from vessel import otter_parameters
 
 PARAMS = otter_parameters()
-MOTORS = Motors(MotorServo(1, 1000, 1500, 2000, False), MotorServo(3, 1100, 1500, 1900, True), asym=1.0)
+MOTORS = Motors(MotorServo(1, RcCalibration(1000, 1500, 2000, 0), False),
+                MotorServo(3, RcCalibration(1100, 1500, 1900, 0), True), asym=1.0)
+
+
+def _pwm(servo: MotorServo, out: float) -> int:
+    cal = servo.calibration
+    return output_to_pwm(out, cal.minimum, cal.trim, cal.maximum, servo.reversed_)
 
 
 @pytest.mark.parametrize("out", [-0.9, -0.3, 0.0, 0.25, 0.8])
 @pytest.mark.parametrize("servo", [MOTORS.left, MOTORS.right])
 def test_a_motor_output_comes_back_from_its_pwm(servo: MotorServo, out: float) -> None:
-    pwm = output_to_pwm(out, servo.minimum, servo.trim, servo.maximum, servo.reversed_)
-    assert servo.output(pwm) == pytest.approx(out, abs=0.003)  # the µs rounding
+    assert servo.output(_pwm(servo, out)) == pytest.approx(out, abs=0.003)  # the µs rounding
 
 
 def test_the_mixers_throttle_and_steering_come_back_and_a_clipped_output_is_flagged() -> None:
     left, right = skid_mix(0.2, 0.5)  # steering, throttle
-    pwms = {s.number: output_to_pwm(o, s.minimum, s.trim, s.maximum, s.reversed_)
-            for s, o in ((MOTORS.left, left), (MOTORS.right, right))}
+    pwms = {s.number: _pwm(s, o) for s, o in ((MOTORS.left, left), (MOTORS.right, right))}
     throttle, steering, clipped = MOTORS.throttle_steering(pwms)
     assert throttle == pytest.approx(0.5, abs=0.005) and steering == pytest.approx(0.2, abs=0.005) and not clipped
     full = {1: 2000, 3: 1100}  # both motors at +1 (the right one reversed)
@@ -73,8 +77,7 @@ def _fly(feedback: bool, seconds: float = 30.0) -> list[tuple[float, float, floa
             produced_t = speed_loop.throttle_for_speed(speed, nav, 0.02)
             produced_s = steer_loop.steering_for_rate(rate, nav, 0.02)
             left, right = skid_mix(produced_s, produced_t)
-            pwms = {s.number: output_to_pwm(o, s.minimum, s.trim, s.maximum, s.reversed_)
-                    for s, o in ((MOTORS.left, left), (MOTORS.right, right))}
+            pwms = {s.number: _pwm(s, o) for s, o in ((MOTORS.left, left), (MOTORS.right, right))}
             if feedback_loop is not None and tick == 4:
                 out = mavlink.MAVLink_servo_output_raw_message((now_ms + 80) * 1000, 0, pwms[1], 0, pwms[3], 0, 0, 0,
                                                                0, 0)

@@ -129,7 +129,7 @@ def test_what_flies_but_not_as_planned_is_said() -> None:
     values: dict[str, float | None] = {name: table[name] for name in LOOP_PARAMETERS}
     said = RoverLoops.from_values(values).warnings(2.0)
     assert len(said) == 2 and "WP_SPEED 2 m/s caps" in said[0]
-    assert said[1].startswith("ATC_SPEED_FF, ATC_SPEED_D, ATC_STR_RAT_D, ATC_BRAKE not answered"), said
+    assert said[1].startswith("ATC_SPEED_FF, ATC_SPEED_D, ATC_STR_RAT_D, ATC_BRAKE absent"), said
     values.update(ATC_SPEED_FF=0.0, ATC_SPEED_D=0.0, ATC_STR_RAT_D=0.0, ATC_BRAKE=0.0)
     said = RoverLoops.from_values(values).warnings(3.5)
     assert len(said) == 1 and said[0].startswith("ATC_BRAKE is 0"), said
@@ -140,7 +140,7 @@ def test_what_flies_but_not_as_planned_is_said() -> None:
 def test_rovers_default_speed_scales_thrust() -> None:
     assert default_speed({"WP_SPEED": 3.5, "CRUISE_SPEED": 2.08}.get) == 3.5
     assert default_speed({"WP_SPEED": 0.0, "CRUISE_SPEED": 2.08}.get) == 2.08
-    assert default_speed({}.get) == 2.0
+    assert default_speed({}.get) is None  # never an assumed speed: the companion refuses GUIDED then
 
 
 def test_the_boats_parm_files_give_the_tau_form_what_it_needs() -> None:

@@ -60,6 +60,9 @@ def _link_cases(base: str) -> dict[str, list[tuple[str, ...]]]:
                                                    (f"{base} --command-timeout {NAN}", FINITE)],
         f"mavbridge {command} --command-retries": [(f"{base} --command-retries -1",),
                                                    (f"{base} --command-retries x",)],
+        f"mavbridge {command} --param-budget": [(f"{base} --param-budget 0.5", "[1, 600]"),
+                                                (f"{base} --param-budget 601", "[1, 600]"),
+                                                (f"{base} --param-budget {NAN}", FINITE)],
         f"mavbridge {command} --signing-passphrase-file": [
             (f"{base} --signing-passphrase-file no/such.txt", "no/such.txt"),
             (f"{base} --signing-passphrase-file adir", "adir"),
@@ -197,6 +200,8 @@ CASES.update({
 NO_BAD_VALUE: dict[str, str] = {
     "mavbridge run --lockstep": "a switch: no value to get wrong (simulation only, documented)",
     "mavbridge run --delay-compensation": "a switch (--no-delay-compensation): no value to get wrong",
+    "mavbridge run --realtime": "a switch (--no-realtime): no value to get wrong; never fatal (tests/system/"
+                                "test_realtime.py)",
     "mavbridge demo --lockstep": "a switch: no value to get wrong",
     "mavbridge demo --direct": "a switch: no value to get wrong",
     "mavbridge sweep --yes": "a switch: no value to get wrong",

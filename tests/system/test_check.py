@@ -16,7 +16,7 @@ from mavbridge.cli import main
 from mavbridge.preflight.report import FAIL, PASS, WARN, Report
 from mavbridge.preflight.rules import (
     Context,
-    override_violations,
+    enforced_violations,
     parameter_findings,
     rc_findings,
     tau_form_findings,
@@ -153,14 +153,14 @@ GOOD = {"SYSID_MYGCS": 255, "SERVO1_FUNCTION": 73, "SERVO3_FUNCTION": 74, "FRAME
 def test_the_rules_the_companion_enforces_are_the_checks_rules(name: str, bad: float) -> None:
     """One table: a value that makes the check FAIL for rc_override is the one `mavbridge run` refuses."""
     ctx = Context(255, "rc_override", 0.1, 2.0)
-    assert override_violations(GOOD.get, ctx) == []
+    assert enforced_violations(GOOD.get, ctx) == []
     values = {**GOOD, name: bad}
     report = Report()
     parameter_findings(report, values.get, 255, "rc_override", 0.1, 2.0)
     finding = {f.item: f for f in report.findings}[name]
     assert [f.item for f in report.findings if f.status != PASS] == [name]
     assert finding.status == FAIL
-    (problem,) = override_violations(values.get, ctx)
+    (problem,) = enforced_violations(values.get, ctx)
     assert problem.startswith(f"{name} is ") and finding.fix in problem
     guided = Report()
     parameter_findings(guided, values.get, 255, "attitude_target", 0.1, 2.0)
@@ -170,7 +170,7 @@ def test_the_rules_the_companion_enforces_are_the_checks_rules(name: str, bad: f
 def test_unreadable_parameters_are_reported_not_refused() -> None:
     """The companion refuses only what it read; the check reports what it could not read."""
     values = {k: v for k, v in GOOD.items() if k not in ("SYSID_MYGCS", "RC_OVERRIDE_TIME")}
-    assert override_violations(values.get, Context(255, "rc_override", 0.1, 2.0)) == []
+    assert enforced_violations(values.get, Context(255, "rc_override", 0.1, 2.0)) == []
     report = Report()
     parameter_findings(report, values.get, 255, "rc_override", 0.1, 2.0)
     by_item = {f.item: f for f in report.findings}

@@ -38,6 +38,8 @@ ELSEWHERE = {  # program (or section for our own programs) -> why it is not run 
     "journalctl": "reads the journal of a running service",
     "echo": "writes the signing passphrase into /etc/mavbridge (with tee)",
     "tee": "writes the signing passphrase into /etc/mavbridge",
+    "sed": "edits the companion computer's kernel command line (isolcpus=, section 2b)",
+    "cat": "reads the companion computer's isolated CPUs and governor after its reboot (section 2b)",
     "Tools/autotest/sim_vehicle.py": "the ArduPilot firmware, not here (tests/sim_vehicle/test_json_backend*)",
     "section 2a": "signing setup against the autopilot's USB port: tests/system/test_signing.py runs it",
     "section 5a": "needs the ArduPilot firmware (SERIAL2 on TCP 5763): tests/sim_vehicle/test_json_backend*.py",

@@ -75,6 +75,7 @@ def mavbridge(*args: str, config: Path | None = None) -> subprocess.CompletedPro
     ("run", "--command-timeout", "nan",
      "argument --command-timeout: 'nan' is outside the allowed range: finite and > 0 s"),
     ("check", "--command-retries", "-1", "argument --command-retries: -1 is outside the allowed range >= 0"),
+    ("check", "--param-budget", "nan", "argument --param-budget: 'nan' is outside the allowed range: finite and > 0 s"),
 ])
 def test_bad_retry_flags_are_one_line_and_exit_2(sub: str, flag: str, value: str, expected: str) -> None:
     result = mavbridge(sub, flag, value)
@@ -82,9 +83,17 @@ def test_bad_retry_flags_are_one_line_and_exit_2(sub: str, flag: str, value: str
     assert result.stderr.strip().splitlines() == [f"mavbridge {sub}: error: {expected}"]
 
 
+def test_a_parameter_budget_out_of_range_is_one_line_and_exit_2() -> None:
+    result = mavbridge("run", "--param-budget", "0.5")
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr.strip().splitlines() == ["mavbridge: error: --param-budget: 0.5 is outside the allowed range "
+                                                  "[1, 600] s"]
+
+
 @pytest.mark.parametrize(("field", "value", "expected"), [
     ("command_retries", -1, "command_retries: -1 is outside the allowed range [0, 1000]"),
     ("command_timeout_s", 0, "command_timeout_s: 0 is outside the allowed range (0, 60] s"),
+    ("param_budget_s", 1000, "param_budget_s: 1000 is outside the allowed range [1, 600] s"),
 ])
 def test_bad_retry_settings_in_the_yaml_are_one_line_and_exit_2(tmp_path: Path, field: str, value: float,
                                                                   expected: str) -> None:

@@ -232,9 +232,9 @@ def test_tau_form_warns_of_what_flies_but_not_as_planned(tmp_path: Path, runs: l
         run = Run(sim.udp_ports[0], tmp_path / "tau", "--output", "attitude_target", "--attitude-form", "tau",
                   "--dry-run", "--waypoint", "85,75")
         runs.append(run)
-        run.await_line("not answered by the autopilot", 120)
+        run.await_line("absent from the autopilot", 120)
         run.stop()
     warnings = [line for line in run.lines if "warning: GUIDED tau form:" in line]
     assert len(warnings) == 2 and "WP_SPEED 2 m/s caps Rover's speed target" in warnings[0], run.text()
-    assert "ATC_SPEED_FF, ATC_BRAKE not answered by the autopilot" in warnings[1], run.text()
+    assert "ATC_SPEED_FF, ATC_BRAKE absent from the autopilot" in warnings[1], run.text()
     assert not any("attitude_form tau:" in line for line in run.lines), run.text()  # not refused

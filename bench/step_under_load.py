@@ -1,0 +1,291 @@
+"""Benchmark: the companion's whole control step on a quiet computer and beside two CPU spinners, side by side.
+
+Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realtime] [--conditions NAME,...]
+     [--watch 60] [--seed 1] [--spinners 2]
+
+The step is `mavbridge run`'s, made of its own parts as it builds them: the state from the autopilot's
+messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate``
+(``make_wave_source``: only the companion's interface to it, none of its internals), and at each 0.1 s tick
+the wave handed to the NMPC, the state predicted over the link's delay, the NMPC solve (default solver nrti)
+and the RC command computed. Its telemetry is real: `sim-vehicle` in the paper's waves (realistic sensors,
+hidden phase, ``--seed``) streams what the companion asks for (``mavbridge.link.streams``) into a ``Link`` for
+``--watch`` + ``--duration`` simulated seconds (at speedup 20). That recording is then replayed paced at
+speedup 1 on the wall clock: messages handed to the parts when their time comes, a step due when the newest
+ATTITUDE reaches the next tick (``flight.schedule``, as the companion's loop decides it). The first
+``--watch`` seconds are replayed unpaced with no steps (the estimator watches the boat, as the companion
+does from connection until the pilot engages), then the cold solve, then ``--duration`` paced seconds.
+
+A step's time is its control step plus the message handling since the previous one (state updates and the
+estimator's observes: the companion's whole work per period). Missed ticks are ticks the loop reached a period or
+more late (skipped, as the companion skips them), not counting the ticks the recording itself has no ATTITUDE for
+(a datagram lost while recording: "gaps", printed apart). Conditions, each on a fresh set of parts: quiet; two
+spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two spinners with
+the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where the system
+has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten minutes. The
+load average (1 min) is printed before and after each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mavbridge.cli.args import single_scenario
+from mavbridge.companion.config import CompanionConfig
+from mavbridge.companion.delay import make_compensator
+from mavbridge.companion.flight import build_nmpc, schedule
+from mavbridge.companion.output_paths import RcOverride
+from mavbridge.companion.outputs import RcSetup
+from mavbridge.companion.state import StateEstimate
+from mavbridge.companion.wave_gate import WaveGate, make_wave_source
+from mavbridge.link.connection import Link
+from mavbridge.link.streams import request_streams
+from mavbridge.preflight.rules import Context
+from sim_vehicle.harness import SimProcess
+
+HOME_LAT, HOME_LON = -35.363261, 149.165230  # the simulator's default home
+RECORD_SPEEDUP = 10.0
+WAYPOINT_NE = (85.0, 75.0)  # Balanced's
+
+
+@dataclass
+class Recording:
+    """The autopilot's messages in arrival order, each with its replay time (newest time_boot_ms so far, ms)."""
+
+    messages: list[Any] = field(default_factory=list)
+    stamps_ms: list[int] = field(default_factory=list)
+
+    def add(self, msg: Any) -> None:
+        stamp = getattr(msg, "time_boot_ms", None)
+        newest = self.stamps_ms[-1] if self.stamps_ms else 0
+        self.messages.append(msg)
+        self.stamps_ms.append(max(newest, int(stamp)) if stamp is not None else newest)
+
+
+def record(seconds: float, seed: int, work: Path) -> Recording:
+    """``seconds`` of simulated telemetry, as the companion requests it, from `sim-vehicle` in the paper's waves."""
+    rec = Recording()
+    with SimProcess(work / "sim", speedup=RECORD_SPEEDUP, waves="paper", udp_outs=1, sensors="realistic",
+                    sea_phase="hidden", extra=["--seed", str(seed), "--wipe"]) as sim:
+        link = Link(f"udpin:127.0.0.1:{sim.udp_ports[0]}", log=lambda _line: None)
+        try:
+            link.wait_autopilot(30)
+            request_streams(link, 0.1, lambda _line: None)
+            link.handlers.append(rec.add)
+            start_ms = rec.stamps_ms[-1] if rec.stamps_ms else 0
+            deadline = time.monotonic() + seconds / RECORD_SPEEDUP * 4 + 60
+            while (rec.stamps_ms[-1] if rec.stamps_ms else 0) - start_ms < seconds * 1000:
+                if time.monotonic() > deadline:
+                    raise TimeoutError(f"the simulator gave less than {seconds:g} s of telemetry in time")
+                link.recv(0.1)
+        finally:
+            link.close()
+    return rec
+
+
+class CompanionStep:
+    """The companion's parts for one condition, as `mavbridge run` builds them, and its per-period work."""
+
+    def __init__(self, nmpc: Any, waves: Any, scenario: Any) -> None:
+        config = CompanionConfig()
+        self.nmpc, self.period_s = nmpc, scenario.controller.period_s
+        self.state = StateEstimate(max_distance_m=config.max_distance_m)
+        self.state.set_home(HOME_LAT, HOME_LON)  # (the mission's item 0 in a run)
+        self.state.use_imu("SCALED_IMU")  # the fastest IMU stream, as the run measures it
+        self.gate = WaveGate(waves, lambda _line: None, hold_s=scenario.estimation.hold_s)
+        self.delay = make_compensator(config, nmpc)
+        ctx = Context(config.system_id, "rc_override", self.period_s, scenario.waypoint.acceptance_radius_m)
+        self.output = RcOverride(scenario.params(), ctx, lambda _line: None)
+        self.output.setup = RcSetup()  # what prepare() reads from this simulator (Rover's RC defaults)
+        self.solve_ms: list[float] = []
+        self.roll_term = 0
+
+    def handle(self, msg: Any, paced: bool = True) -> None:
+        """One message, as the run's link handlers take it (state, delay clock, the estimator's sample); the
+        link's clock model only sees paced arrivals (an unpaced watch would look like a huge delay)."""
+        self.state.on_message(msg)
+        if paced:
+            self.delay.on_message(msg)
+        if msg.get_type() == "ATTITUDE" and self.state.ready():
+            self.gate.observe(self.state.motion_sample())
+
+    def prepare(self) -> None:
+        """The cold full solve before the loop (start_flight's), from the state now."""
+        t_s = (self.state.attitude_ms or 0) / 1000.0
+        self.gate.step(self.nmpc, t_s)
+        self.nmpc.prepare(self.state.vector(), t_s, WAYPOINT_NE)
+
+    def control(self, now_ms: int) -> None:
+        """The control step of `mavbridge run` (its _control_step without the link): wave, prediction, solve,
+        command."""
+        x = self.state.vector()
+        _age_s, plan_s = self.delay.compensate(now_ms / 1000.0)
+        self.gate.step(self.nmpc, plan_s)
+        result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s,
+                                 WAYPOINT_NE, deadline_s=self.period_s)
+        self.delay.sent(plan_s, result.tau)
+        self.output.compute(result, now_ms)
+        self.solve_ms.append(result.wall_time_s * 1e3)
+        self.roll_term += bool(getattr(result, "roll_term_active", False))
+
+
+@dataclass
+class Timings:
+    """What one condition measured (ms, wall clock)."""
+
+    steps_ms: list[float] = field(default_factory=list)
+    handling_ms: list[float] = field(default_factory=list)  # of each step: the messages since the previous one
+    late_ms: list[float] = field(default_factory=list)  # the tick's ATTITUDE due to the start of its step
+    missed: int = 0  # ticks skipped, in all
+    gaps: int = 0  # of them, ticks the recording itself has no ATTITUDE for (a datagram lost while recording)
+
+    @property
+    def loop_missed(self) -> int:
+        """The ticks skipped because the loop was late."""
+        return self.missed - self.gaps
+
+
+def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: float) -> Timings:
+    """The watch unpaced, the cold solve, then ``duration_s`` paced at speedup 1 (see the module docstring)."""
+    period_ms = round(step.period_s * 1000)
+    t0_ms = rec.stamps_ms[0] + round(watch_s * 1000)
+    i = 0
+    while rec.stamps_ms[i] < t0_ms:
+        step.handle(rec.messages[i], paced=False)
+        i += 1
+    step.prepare()
+    out, handled_s, next_tick, attitude_due, ideal_tick = Timings(), 0.0, None, 0.0, None
+    wall0 = time.perf_counter()
+    end_ms = t0_ms + duration_s * 1000
+
+    def due_at(index: int) -> float:
+        return wall0 + (rec.stamps_ms[index] - t0_ms) / 1000.0
+
+    while i < len(rec.messages) and rec.stamps_ms[i] <= end_ms:
+        if (wait := due_at(i) - time.perf_counter()) > 0:
+            time.sleep(wait)
+        start = time.perf_counter()
+        while i < len(rec.messages) and due_at(i) <= time.perf_counter():  # all that is due: the run drains too
+            step.handle(rec.messages[i])
+            if rec.messages[i].get_type() == "ATTITUDE":  # a loop always on time would step on this one
+                attitude_due = due_at(i)
+                ideal_due, ideal_tick, gap = schedule(rec.stamps_ms[i], ideal_tick, period_ms)
+                out.gaps += gap if ideal_due else 0
+            i += 1
+        handled_s += time.perf_counter() - start
+        now_ms = step.state.attitude_ms
+        due, next_tick, missed = schedule(now_ms, next_tick, period_ms) if now_ms is not None else (False, None, 0)
+        if not due:
+            continue
+        begin = time.perf_counter()
+        step.control(now_ms)
+        out.steps_ms.append((time.perf_counter() - begin + handled_s) * 1e3)
+        out.handling_ms.append(handled_s * 1e3)
+        out.late_ms.append((begin - attitude_due) * 1e3)  # from the ATTITUDE's arrival to the step's start
+        handled_s = 0.0
+        out.missed += missed
+    return out
+
+
+def _normal_priority() -> None:
+    """preexec_fn: the spinner runs SCHED_OTHER whatever the bench process has become."""
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+
+
+@contextmanager
+def spinners(count: int) -> Iterator[None]:
+    """``count`` processes that burn a CPU each at normal priority, stopped by their handles."""
+    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"], preexec_fn=_normal_priority)
+             for _ in range(count)]
+    try:
+        time.sleep(1.0)  # let them take the CPUs
+        yield
+    finally:
+        for proc in procs:
+            proc.kill()
+        for proc in procs:
+            proc.wait()
+
+
+def load() -> str:
+    """The 1-minute load average."""
+    return f"{os.getloadavg()[0]:.1f}"
+
+
+def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: argparse.Namespace,
+                  scenario: Any) -> dict[str, Any]:
+    """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not)."""
+    waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params())
+    with build_nmpc(scenario, waves) as nmpc, around():
+        before = load()
+        step = CompanionStep(nmpc, waves, scenario)
+        timings = replay(rec, step, args.watch, args.duration)
+        after = load()
+    return {"name": name, "timings": timings, "solve_ms": step.solve_ms, "load": f"{before} -> {after}",
+            "roll_term": step.roll_term / max(1, len(step.solve_ms))}
+
+
+def figures(row: dict[str, Any]) -> str:
+    """One line of the table."""
+    t: Timings = row["timings"]
+    steps, late, solve = (np.asarray(v, float) for v in (t.steps_ms, t.late_ms or [math.nan], row["solve_ms"]))
+    return (f"{row['name']:<26} {len(steps):>6} {np.median(steps):>8.3f} {np.percentile(steps, 99):>8.3f} "
+            f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
+            f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
+            f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5}")
+
+
+def main() -> None:
+    """Record once, run each condition, print the table."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--duration", type=float, default=60.0, help="paced seconds per condition (default 60)")
+    p.add_argument("--watch", type=float, default=60.0, help="seconds the estimator watches first (default 60)")
+    p.add_argument("--seed", type=int, default=1, help="the simulator's seed (sea phase, sensor noise)")
+    p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
+    p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
+    p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
+    p.add_argument("--conditions", default=None, metavar="NAME,...",
+                   help="which of quiet,spinners,realtime to run (default quiet,spinners, and realtime with "
+                        "--realtime); e.g. --conditions realtime --duration 600 for the 10 minutes alone")
+    args = p.parse_args()
+    chosen = (args.conditions or "quiet,spinners" + (",realtime" if args.realtime else "")).split(",")
+    if not set(chosen) <= {"quiet", "spinners", "realtime"}:
+        p.error(f"--conditions: {args.conditions!r}: names are quiet, spinners, realtime")
+    scenario = single_scenario(None, args.solver)
+    print(f"recording {args.watch + args.duration:g} s of telemetry (sim-vehicle, paper waves, seed {args.seed}, "
+          f"speedup {RECORD_SPEEDUP:g}) ...", flush=True)
+    with tempfile.TemporaryDirectory(prefix="step_under_load_") as work:
+        rec = record(args.watch + args.duration + 1, args.seed, Path(work))
+    print(f"{len(rec.messages)} messages; {os.cpu_count()} CPUs; load {load()}; solver {args.solver}; "
+          f"replayed at speedup 1, {args.duration:g} s per condition", flush=True)
+    conditions = {"quiet": ("quiet", nullcontext),
+                  "spinners": (f"{args.spinners} spinners", lambda: spinners(args.spinners))}
+    rows = [run_condition(*conditions[name], rec, args, scenario) for name in chosen if name in conditions]
+    if "realtime" in chosen:  # last: the process stays real-time
+        from mavbridge.cli.realtime import apply_realtime
+
+        print(apply_realtime().line(), flush=True)
+        rows.append(run_condition(f"{args.spinners} spinners + realtime", lambda: spinners(args.spinners), rec,
+                                  args, scenario))
+    print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'max':>8} {'missed':>7} {'solve':>8} "
+          f"{'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} {'load 1 min':>12} {'gaps':>5}")
+    print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'':>8} {'ticks':>7} {'median':>8} "
+          f"{'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5}")
+    for row in rows:
+        print(figures(row))
+
+
+if __name__ == "__main__":
+    main()
