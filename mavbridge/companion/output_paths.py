@@ -15,8 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from mavbridge.companion.guided_feedback import OutputFeedback, motors_from
-from mavbridge.companion.guided_inverse import RoverLoops, default_speed, loop_targets
+from mavbridge.companion.guided.feedback import OutputFeedback, motors_from
+from mavbridge.companion.guided.inverse import RoverLoops, default_speed, loop_targets
 from mavbridge.companion.outputs import (
     ATTITUDE_FORMS,
     ATTITUDE_TYPE_MASK_HEADING,
@@ -162,7 +162,7 @@ def _await_servo_outputs(link: Any) -> bool:
 
 
 def start_feedback(link: Any, loops: RoverLoops, values: dict[str, float], log: Log) -> OutputFeedback | None:
-    """The tau form's output feedback (``guided_feedback``): SERVO_OUTPUT_RAW asked for at OUTPUT_FEEDBACK_HZ and
+    """The tau form's output feedback (``guided.feedback``): SERVO_OUTPUT_RAW asked for at OUTPUT_FEEDBACK_HZ and
     followed, the motors' channels from the parameter ``values`` read at start. Needed when Rover's integrators
     are on (its stock gains): LinkError (one line) then if the motors' channels are unusable or no
     SERVO_OUTPUT_RAW arrives; with them off it is used where it streams."""
@@ -207,7 +207,7 @@ def approach_command(x0: Any, target_ne: tuple[float, float], wp_speed_mps: floa
 class AttitudeTarget(_Sending):
     """GUIDED: SET_ATTITUDE_TARGET in one of three forms: the plan's body yaw rate and speed ``lookahead_steps``
     ahead (rate), its heading and speed there (heading), or the rate and speed targets for which Rover's loops
-    give the plan's first thrusts (tau, ``mavbridge.companion.guided_inverse``)."""
+    give the plan's first thrusts (tau, ``mavbridge.companion.guided.inverse``)."""
 
     name, required_mode = "attitude_target", MODE_GUIDED
 

@@ -18,7 +18,7 @@ from vessel import OtterParameters, tau_to_shaft_speeds
 # SET_ATTITUDE_TARGET type_mask bits: ignore body roll rate (1), pitch rate (2), yaw rate (4), attitude (128).
 ATTITUDE_TYPE_MASK_HEADING = 0b0000_0111  # all three rates ignored: heading from q, and thrust
 ATTITUDE_TYPE_MASK_RATE = 0b1000_0011  # roll/pitch rates and q ignored: body yaw rate, and thrust
-ATTITUDE_FORMS = ("heading", "rate", "tau")  # tau: mavbridge.companion.guided_inverse
+ATTITUDE_FORMS = ("heading", "rate", "tau")  # tau: mavbridge.companion.guided.inverse
 
 
 @dataclass(frozen=True)
@@ -166,7 +166,7 @@ def attitude_command(states: np.ndarray, wp_speed_mps: float, lookahead_steps: i
     if not wp_speed_mps > 0:
         raise ValueError(f"WP_SPEED: {wp_speed_mps!r} m/s must be > 0 to scale thrust")
     if form not in ("heading", "rate"):
-        raise ValueError(f"attitude_form: {form!r} is not heading or rate (tau: mavbridge.companion.guided_inverse)")
+        raise ValueError(f"attitude_form: {form!r} is not heading or rate (tau: mavbridge.companion.guided.inverse)")
     k = min(max(lookahead_steps, 1), len(states) - 1)
     if not (math.isfinite(states[k, 5]) and math.isfinite(states[k, 6]) and math.isfinite(states[k, 11])):
         raise ValueError(f"plan: non-finite heading, speed or yaw rate at step {k}")

@@ -4,7 +4,7 @@ all before it engages within one budget, and the one line that refuses to engage
 Never assumed: what turns the NMPC's forces into RC PWM (RCMAP_ROLL/THROTTLE, the mapped channels'
 RCn_MIN/TRIM/MAX/DZ/REVERSED, PILOT_STEER_TYPE), the skid mixer those commands pass through (SERVO1/3_FUNCTION,
 FRAME_CLASS), whose overrides the autopilot obeys (SYSID_MYGCS, or 4.7's MAV_GCS_SYSID), what scales GUIDED's
-thrust (WP_SPEED, CRUISE_SPEED) and the gains the tau form inverts (``guided_inverse.LOOP_PARAMETERS``). Each is
+thrust (WP_SPEED, CRUISE_SPEED) and the gains the tau form inverts (``guided.inverse.LOOP_PARAMETERS``). Each is
 asked for again every ``command_timeout_s`` until it answers, all of them together within ``param_budget_s``
 (``mavbridge.link.param_reads``); one still unread then is named in one line and nothing else is sent. A
 parameter the autopilot says it has no such thing of (PARAM_ERROR) is a refusal too, unless ``OPTIONAL`` says
@@ -19,8 +19,8 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from mavbridge.companion.guided_feedback import ASYM, MOTOR_PARAMETERS
-from mavbridge.companion.guided_inverse import (
+from mavbridge.companion.guided.feedback import ASYM, MOTOR_PARAMETERS
+from mavbridge.companion.guided.inverse import (
     BRAKE,
     LOOP_PARAMETERS,
     OPTIONAL_LOOP_PARAMETERS,
@@ -191,7 +191,7 @@ def rc_setup(values: dict[str, float]) -> RcSetup:
 def engage_problem(params: CommandParameters, ctx: Context) -> str | None:
     """Why the companion must not engage with these parameters (one line), or None: one unread, a value the
     rules table enforces (``preflight.rules``), an unusable RC setup, no speed to scale GUIDED's thrust, the tau
-    form's gains unusable or a D term on (integrators are the output feedback's: ``guided_feedback``)."""
+    form's gains unusable or a D term on (integrators are the output feedback's: ``guided.feedback``)."""
     if params.refusal is not None:
         return params.refusal
     violations = enforced_violations(params.values.get, ctx)

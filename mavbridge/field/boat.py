@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mavbridge.companion.guided_feedback import MotorServo
+from mavbridge.companion.guided.feedback import MotorServo
 from mavbridge.companion.outputs import RcCalibration, inverse_skid_mix
 
 THROTTLE_LEFT, THROTTLE_RIGHT = 73, 74  # SERVOn_FUNCTION (ArduPilot's k_throttleLeft / k_throttleRight)

@@ -265,11 +265,11 @@ def parameter_findings(report: Report, read: Reader, system_id: int, output: str
 
 
 def tau_form_findings(report: Report, read: Reader, read_optional: Reader) -> None:
-    """What GUIDED's tau form needs (``mavbridge.companion.guided_inverse``), judged as `mavbridge run` judges
+    """What GUIDED's tau form needs (``mavbridge.companion.guided.inverse``), judged as `mavbridge run` judges
     it: Rover's loop gains readable, its D gains 0 (FAIL: the companion refuses the form; integrators on are said:
     the companion then closes the inversion on SERVO_OUTPUT_RAW), WP_SPEED at least the speed target full
     throttle needs and ATC_BRAKE 1 (WARN: the plan's full thrust, or its braking, would be cut)."""
-    from mavbridge.companion.guided_inverse import (
+    from mavbridge.companion.guided.inverse import (
         BRAKE,
         LOOP_PARAMETERS,
         OPTIONAL_LOOP_PARAMETERS,

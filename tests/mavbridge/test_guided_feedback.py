@@ -13,8 +13,8 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from mavbridge.companion.guided_feedback import Motors, MotorServo, OutputFeedback, unwrap_us
-from mavbridge.companion.guided_inverse import LOOP_PARAMETERS, RoverLoops, loop_targets
+from mavbridge.companion.guided.feedback import Motors, MotorServo, OutputFeedback, unwrap_us
+from mavbridge.companion.guided.inverse import LOOP_PARAMETERS, RoverLoops, loop_targets
 from mavbridge.companion.outputs import RcCalibration, skid_fractions
 from sim_vehicle.rover.control import NavState, SpeedControl, SteeringControl
 from sim_vehicle.rover.mixer import output_to_pwm, skid_mix

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from mavbridge.companion.guided_inverse import (
+from mavbridge.companion.guided.inverse import (
     LOOP_PARAMETERS,
     OPTIONAL_LOOP_PARAMETERS,
     SURGE_MARGIN_MPS,

@@ -169,7 +169,7 @@ def loop_targets(params: OtterParameters, loops: RoverLoops, tau_x: float, tau_n
                  yaw_rate: float, offsets: tuple[float, float] = (0.0, 0.0)) -> tuple[float, float]:
     """(turn-rate target rad/s, speed target m/s) for the plan's first τ (N, N·m) at the plan's initial u (m/s)
     and r (rad/s): the state as measured, or as predicted to when the command acts with delay compensation;
-    ``offsets`` (throttle, steering) added before the inversion (``guided_feedback``)."""
+    ``offsets`` (throttle, steering) added before the inversion (``guided.feedback``)."""
     _, _, throttle, steering = skid_fractions(params, tau_x, tau_n)
     return (loops.rate_for_steering(steering + offsets[1], yaw_rate),
             loops.speed_for_throttle(throttle + offsets[0], speed_mps))

@@ -1,9 +1,9 @@
 """Rover's own outputs, seen: the GUIDED tau form closed on SERVO_OUTPUT_RAW, so Rover's integrators may stay on.
 
-The tau form (``guided_inverse``) picks the turn-rate and speed targets for which Rover's feed-forward and P
+The tau form (``guided.inverse``) picks the turn-rate and speed targets for which Rover's feed-forward and P
 terms give the plan's steering and throttle. With Rover's stock gains its integrators add to that (and so does
 what the inversion leaves out: the speed target's ramp, filters); the companion cannot follow them from
-outside (a copy at 10 Hz drifted from the autopilot's own: see ``guided_inverse``). It can see what they did:
+outside (a copy at 10 Hz drifted from the autopilot's own: see ``guided.inverse``). It can see what they did:
 SERVO_OUTPUT_RAW reports the PWM Rover sends to each motor, which through SERVOn_MIN/TRIM/MAX/REVERSED,
 MOT_THST_ASYM and the skid mixer (left = throttle + steering, right = throttle − steering) gives back the
 throttle and steering its loops produced. ``OutputFeedback`` integrates the difference between what the plan
