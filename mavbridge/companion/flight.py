@@ -201,6 +201,8 @@ class Companion:
             self.events.connected_at_ms = self.state.attitude_ms
         if self.state.ready():
             self.gate.observe(self.state.motion_sample())
+            if self.events.engaged_at_ms is None:  # what the boat has seen of the sea, said once it is known
+                self.gate.watch((self.state.attitude_ms or 0) / 1000.0)
 
     def _control_step(self, link: Link, now_ms: int) -> None:
         if not self.supervisor.may_command():
@@ -328,8 +330,6 @@ class Companion:
             if self.supervisor.phase == Phase.WAITING and not self.supervisor.self_commanded:
                 self.notices.waiting(self.supervisor.reason)
             now_ms = self.state.attitude_ms
-            if now_ms is not None and self.events.engaged_at_ms is None:
-                self.gate.watch(now_ms / 1000.0)  # what the boat has seen of the sea, said once it is known
             if now_ms is None or now_ms < self._start_ms:
                 continue
             due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)

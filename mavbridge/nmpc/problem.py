@@ -131,14 +131,30 @@ def min_speed(x: ca.SX, waypoint: ca.SX, cfg: NmpcConfig) -> ca.SX | float:
     return cfg.min_speed_mps * ca.fmin(1, distance(x, waypoint) / cfg.min_speed_fade_m)
 
 
+def roll_fade(x: ca.SX, waypoint: ca.SX, cfg: NmpcConfig) -> ca.SX | float:
+    """√ of the share of the roll terms at predicted state ``x``: d²/√(d⁴ + d₀⁴), d the distance to the waypoint and
+    d₀ = ``roll_fade_m`` (1 when 0): about 1 beyond 2 d₀, ½ at d₀ (its square, the share, is ½), 0 at the waypoint.
+
+    Why: the last metres are seconds of roll in a run of minutes, and a plan that still dodges the beam sea there
+    swings past the waypoint and hooks back (paced runs over MAVLink: a hook of 10-15 m at the end of most
+    Balanced runs in the paper's sea); a skipper goes straight in. Smooth, so the Gauss-Newton residuals take it.
+    """
+    if cfg.roll_fade_m <= 0:
+        return 1.0
+    d2 = (waypoint[0] - x[0]) ** 2 + (waypoint[1] - x[1]) ** 2
+    return d2 / ca.sqrt(d2 * d2 + cfg.roll_fade_m**4)
+
+
 def state_cost(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig, roll_spread: ca.SX) -> ca.SX:
-    """Q·e_ψ² + R·φ² + S·d + soft minimum-speed penalty + expected roll for one predicted state."""
+    """Q·e_ψ² + R·φ² + S·d + soft minimum-speed penalty + expected roll for one predicted state (the roll terms
+    faded near the waypoint, ``roll_fade``)."""
     w = members("weights", weights)
     q, r, s = w["q"], w["r"], w["s"]
     e = heading_error(x, waypoint)
     shortfall = ca.fmax(0, min_speed(x, waypoint, cfg) - x[6])
-    return (q * e**2 + r * x[3] ** 2 + s * distance(x, waypoint) + cfg.min_speed_weight * shortfall**2
-            + ca.sumsqr(expected_roll_residuals(x, roll_spread)))
+    fade = roll_fade(x, waypoint, cfg)
+    return (q * e**2 + r * (fade * x[3]) ** 2 + s * distance(x, waypoint) + cfg.min_speed_weight * shortfall**2
+            + ca.sumsqr(fade * expected_roll_residuals(x, roll_spread)))
 
 
 def input_change_cost(u: ca.SX, u_before: ca.SX, weights: ca.SX, matrix: np.ndarray | None = None) -> ca.SX:

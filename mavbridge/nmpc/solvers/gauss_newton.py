@@ -17,7 +17,7 @@ import numpy as np
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau
 from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES, members
-from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error, min_speed
+from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error, min_speed, roll_fade
 
 NZ = NX + NU
 SMOOTH_EPS = 1e-4
@@ -33,10 +33,11 @@ def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig,
     """√Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u), Lᵀy: their squares sum to the state cost."""
     w = members("weights", weights)
     q, r, s = w["q"], w["r"], w["s"]
-    return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * x[3],
+    fade = roll_fade(x, waypoint, cfg)
+    return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * fade * x[3],
                       ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
                       np.sqrt(cfg.min_speed_weight) * _smooth_max0(min_speed(x, waypoint, cfg) - x[6]),
-                      expected_roll_residuals(x, roll_spread))
+                      fade * expected_roll_residuals(x, roll_spread))
 
 
 def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX,
