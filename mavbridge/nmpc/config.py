@@ -52,9 +52,10 @@ class NmpcConfig:
     min_speed_mps: float = structural(bounded(0.5, 0.0, 5.0, "m/s", "soft minimum surge speed"))
     min_speed_fade_m: float = structural(bounded(10.0, 0.0, 1000.0, "m", "the minimum speed fades linearly to 0 "
                                                  "within this distance of the waypoint, so the boat may slow to "
-                                                 "turn in rather than circle it (0: never fades)"))
-    roll_fade_m: float = structural(bounded(0.0, 0.0, 1000.0, "m", "the roll terms fade to 0 near the waypoint, half "
-                                           "their weight at this distance (0: never; see problem.roll_fade)"))
+                                                 "turn in rather than circle it (0: never fades, the paper's cost)"))
+    roll_fade_m: float = structural(bounded(8.0, 0.0, 1000.0, "m", "the roll terms fade to 0 near the waypoint, half "
+                                           "their weight at this distance (0: never, the paper's cost; see "
+                                           "problem.roll_fade)"))
     min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))
     solver: str = choice("ipopt", SOLVERS, "ipopt (reference), rti (Gauss–Newton SQP with HPIPM) or asrti "
                          "(rti corrected from a converged SQP solve for the predicted state, run in the background) "
