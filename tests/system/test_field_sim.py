@@ -37,8 +37,14 @@ def _attitudes(tlog: Path) -> list[tuple[int, float]]:
 
 
 def _drive(sim: SimProcess) -> tuple[float, float]:
-    """Upload the waypoint, drive 40 s in MANUAL on overrides, then HOLD; (armed in MANUAL at, HOLD at) s."""
+    """Download every parameter (as a ground station does at connection: they are in the logs then), upload the
+    waypoint, drive 40 s in MANUAL on overrides, then HOLD; (armed in MANUAL at, HOLD at) s."""
     conn = sim.connect()
+    conn.mav.param_request_list_send(1, 1)
+    first = wait_for(conn, "PARAM_VALUE", 10)
+    seen = {first.param_index}
+    while len(seen) < first.param_count:
+        seen.add(wait_for(conn, "PARAM_VALUE", 10).param_index)
     for message_id, hz in ((30, 20), (36, 5), (65, 5)):  # ATTITUDE, SERVO_OUTPUT_RAW, RC_CHANNELS
         assert command(conn, SET_MESSAGE_INTERVAL, message_id, 1e6 / hz) == 0
     upload_waypoint(conn, *WAYPOINT)
