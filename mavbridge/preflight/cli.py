@@ -42,7 +42,7 @@ def add_check_parser(sub: Any) -> None:
     check.add_argument("--compid", type=int, help="our component id (default 191)")
     check.add_argument("--output", choices=OUTPUTS, help="the output to check for")
     check.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help="attitude_target: the form to check for "
-                       "(tau: Rover's I and D gains 0, WP_SPEED letting full throttle through; default from config)")
+                       "(tau: Rover's D gains 0, WP_SPEED letting full throttle through; default from config)")
     check.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
     check.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     check.add_argument("--solves", type=count, default=DEFAULT_SOLVES,

@@ -15,13 +15,13 @@ start when WP_SPEED is below what full throttle needs (``wp_speed_problem``); ``
 sets 3.5 m/s. With Rover's 2 m/s the plan's full thrust became 77 % throttle and Balanced arrived 24 % late (116.8
 s against 94.6 s with 3 and with 3.5 m/s, lockstep, seed 1).
 
-The integrators and D terms must be off (ATC_STR_RAT_I = ATC_SPEED_I = 0, and the D gains): these targets
-differ from r and u whenever the plan accelerates or turns, so Rover's integrators would wind up against
-them, and they jump every 0.1 s, where a D term kicks. Following them in the
-companion (the same errors integrated over its 0.1 s period, with Rover's anti-windup) was tried against
-our simulator: Balanced took 175.6 s and Direct 130.6 s, against 116.8 s and 63.2 s with the integrators
-off, since a copy at 10 Hz drifts from the autopilot's own (100 Hz in the simulator). The companion's
-feedback (a new plan every 0.1 s) takes the integrators' place.
+The D terms must be off: the targets jump every 0.1 s, where a D term kicks. Rover's integrators may stay on
+(its stock gains): these targets differ from r and u whenever the plan accelerates or turns, so the integrators
+wind against them, and following them in the companion (the same errors integrated over its 0.1 s period, with
+Rover's anti-windup) drifted from the autopilot's own (100 Hz in the simulator: Balanced 175.6 s, Direct
+130.6 s, against 116.8 s and 63.2 s with them off). What they add is seen instead, in the motors' outputs
+(``feedback``: SERVO_OUTPUT_RAW), and offset; ``deploy/otter-guided-tau.parm`` turning them off remains an
+option, with WP_SPEED 3.5 and ATC_BRAKE 1.
 """
 
 from __future__ import annotations
