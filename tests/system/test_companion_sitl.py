@@ -216,8 +216,9 @@ def test_balanced_rc_override_is_like_the_experiment_and_repeats(tmp_path: Path,
 
 
 def test_balanced_attitude_target_arrives_and_repeats(tmp_path: Path, companion_factory) -> None:
-    """Two lockstep runs of Balanced in GUIDED (the default tau form, Rover's stock gains): each arrives with every tick planned, and
-    they repeat within 1 %: the companion switches to GUIDED at the first, held tick, not while time still runs."""
+    """Two lockstep runs of Balanced in GUIDED (the default tau form, Rover's stock gains): each arrives with every
+    tick planned, and they repeat within 1 %: the companion switches to GUIDED at the first, held tick, not while
+    time still runs."""
     figures = _two_lockstep_flights(tmp_path, companion_factory, "--output", "attitude_target")
     _assert_repeats(figures)
     print(f"\nSITL attitude_target (lockstep), two runs: {figures}")
