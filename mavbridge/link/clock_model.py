@@ -32,6 +32,7 @@ MIN_SPAN_S = 0.5  # wall seconds of arrivals before a rate is fitted (before: ra
 ROUND_TRIPS_KEPT = 8  # the smallest of the last this many round trips is the link's
 BACKWARDS_S = 5.0  # autopilot time this far behind the newest sample: a new boot, the fit starts again
 AHEAD_S = 30.0  # a stamp this far ahead of the model's "now" is not believed (a forged or corrupt one)
+REFIT_S = 0.25  # wall seconds between full fits over the window; between them a faster sample moves the offset
 
 
 @dataclass
@@ -45,6 +46,7 @@ class ClockModel:
     offset_s: float | None = None
     rejected: int = 0  # stamps not believed (far ahead of the model's now)
     _dirty: bool = True
+    _fitted_wall_s: float = -np.inf  # the newest arrival at the last full fit
 
     def observe(self, wall_s: float, autopilot_s: float) -> None:
         """A message stamped ``autopilot_s`` arrived at ``wall_s``."""
@@ -54,12 +56,15 @@ class ClockModel:
                 self.samples.clear()
                 self.round_trips.clear()
                 self.offset_s = None
+                self._fitted_wall_s = -np.inf
             elif self.offset_s is not None and autopilot_s > self.rate * wall_s + self.offset_s + AHEAD_S:
                 self.rejected += 1
                 return
         self.samples.append((wall_s, autopilot_s))
         while self.samples and self.samples[0][0] < wall_s - self.window_s:
             self.samples.popleft()
+        if self.offset_s is not None:  # a faster sample than any before moves the offset at once
+            self.offset_s = max(self.offset_s, autopilot_s - self.rate * wall_s)
         self._dirty = True
 
     def observe_round_trip(self, sent_wall_s: float, answered_wall_s: float) -> None:
@@ -68,9 +73,15 @@ class ClockModel:
             self.round_trips.append(answered_wall_s - sent_wall_s)
 
     def _fit(self) -> None:
-        """Rate (least squares over the window, once it spans MIN_SPAN_S) and the minimum offset."""
+        """Rate (least squares over the window, once it spans MIN_SPAN_S) and the minimum offset; at most every
+        REFIT_S of arrivals (a window holds thousands of samples at speedup 10: refitting at every control step
+        took a tenth of the companion's time)."""
         if not self._dirty or not self.samples:
             return
+        newest = self.samples[-1][0]
+        if self.offset_s is not None and newest - self._fitted_wall_s < REFIT_S:
+            return
+        self._fitted_wall_s = newest
         wall = np.fromiter((w for w, _ in self.samples), float)
         auto = np.fromiter((a for _, a in self.samples), float)
         if wall[-1] - wall[0] >= MIN_SPAN_S and len(wall) >= 3:
