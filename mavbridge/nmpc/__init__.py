@@ -1,5 +1,8 @@
 """The roll-aware NMPC (the paper's controller), no I/O.
 
+``compile_function``: a CasADi Function compiled to C once and cached on disk (``solvers.codegen``), for other
+rooms' per-step model calls.
+
 ``NmpcConfig`` (weights, horizon, discretisation, τ bounds, solver) -> ``RollAwareNmpc(config, params,
 waves, current).solve(x0, t, waypoint_ne, deadline_s=None) -> NmpcResult``, with ``prepare(x0, t,
 waypoint_ne)`` for the cold, full solve before the loop, ``set_wave(RegularWaves | CalmWater | None)`` for
@@ -25,7 +28,9 @@ from mavbridge.nmpc.config import INTEGRATORS, SOLVERS, NmpcConfig
 from mavbridge.nmpc.controller import NmpcResult, RollAwareNmpc
 from mavbridge.nmpc.layout import PARAMS, Layout, ParameterLayout
 from mavbridge.nmpc.problem import discrete_model, heading_error, wrap_angle
+from mavbridge.nmpc.solvers.codegen import compiled as compile_function
 from mavbridge.nmpc.wave_model import wave_parameters
 
 __all__ = ["INTEGRATORS", "PARAMS", "SOLVERS", "Layout", "NmpcConfig", "NmpcResult", "ParameterLayout",
-           "RollAwareNmpc", "discrete_model", "heading_error", "wave_parameters", "wrap_angle"]
+           "RollAwareNmpc", "compile_function", "discrete_model", "heading_error", "wave_parameters",
+           "wrap_angle"]
