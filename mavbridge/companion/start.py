@@ -19,6 +19,7 @@ from typing import Any
 
 from mavbridge.companion.engage_gate import check_waypoints
 from mavbridge.companion.rover_modes import mode_name
+from mavbridge.companion.state import IMU_MESSAGES
 from mavbridge.companion.supervisor import Supervisor
 from mavbridge.link.connection import Link, mavlink
 from mavbridge.link.streams import imu_rate, measure_rates, request_streams
@@ -59,7 +60,9 @@ def start_flight(c: Any, link: Link) -> None:
     c.log(f"autopilot {sysid}/{compid} on {c.config.connect}; we are {c.config.system_id}/"
           f"{c.config.component_id}; output {c.config.output}" + ("" if c.output.sends else " (dry run)"))
     c.output.prepare(link)
-    request_streams(link, c.period_s, c.log)
+    asked = request_streams(link, c.period_s, c.log)
+    if asked in IMU_MESSAGES:  # the fast IMU asked for, not whichever slow one arrives first (Rover's 1 Hz RAW_IMU):
+        c.state.use_imu(asked)  # the estimator's first window then has its heave at 20 Hz (measured below, kept)
     c.mission.load(link, c.state.set_home)
     rates = c.events.rates_hz = measure_rates(link, lambda: c.state.attitude_ms, warn=c.log)
     c.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))

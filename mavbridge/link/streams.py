@@ -33,8 +33,9 @@ def requested_hz(message: str) -> float | None:
     return STREAMS_HZ.get(getattr(mavlink, f"MAVLINK_MSG_ID_{message}", -1))
 
 
-def request_streams(link: Any, period_s: float, log: Callable[[str], None]) -> None:
-    """Ask for the companion's streams (falling back to REQUEST_DATA_STREAM) and fast heartbeats."""
+def request_streams(link: Any, period_s: float, log: Callable[[str], None]) -> str:
+    """Ask for the companion's streams (falling back to REQUEST_DATA_STREAM) and fast heartbeats; returns the IMU
+    message asked for (``request_imu``)."""
     refused = [msg_id for msg_id, rate in STREAMS_HZ.items() if not link.request_message_interval(msg_id, rate)]
     if refused:
         log("SET_MESSAGE_INTERVAL not accepted: falling back to REQUEST_DATA_STREAM")
@@ -42,7 +43,7 @@ def request_streams(link: Any, period_s: float, log: Callable[[str], None]) -> N
             link.request_data_stream(stream, rate)
     if not link.request_message_interval(mavlink.MAVLINK_MSG_ID_HEARTBEAT, 2.0 / period_s):
         log("warning: HEARTBEAT rate not raised; a mode change is noticed within 1 s only")
-    request_imu(link)
+    return request_imu(link)
 
 
 def request_imu(link: Any) -> str:
