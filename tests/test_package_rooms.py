@@ -4,6 +4,8 @@ what may import it, and the packages import each other only as the table below (
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -76,3 +78,14 @@ def test_rooms_import_only_what_the_table_allows() -> None:
                 if other != room and not other.startswith(room + ".") and other not in ROOMS[room]:
                     wrong.setdefault(module, set()).add(target)
     assert not wrong, f"imports the room table does not allow: {wrong}"
+
+
+def test_every_room_that_imports_the_command_line_imports_first() -> None:
+    """A room's command line imported before ``mavbridge.cli`` (a bench, a test collected alone) does not meet
+    itself half-built: ``mavbridge.cli.main`` imports the rooms' parsers only when it builds its own."""
+    rooms = ("mavbridge.preflight.cli", "mavbridge.field.cli", "mavbridge.sweep.cli", "mavbridge.field.replay")
+    program = "; ".join(f"import importlib, sys; importlib.import_module({room!r}); "
+                        f"[sys.modules.pop(m) for m in list(sys.modules) if m.startswith('mavbridge')]"
+                        for room in rooms)
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-2000:]

@@ -13,10 +13,7 @@ from pathlib import Path
 from mavbridge.cli.args import positive
 from mavbridge.cli.run import add_demo_parser, add_run_parser, demo_command, run_command
 from mavbridge.cli.signing import add_signing_parser, signing_command
-from mavbridge.field.cli import add_replay_parser, add_report_parser, replay_command, report_command
 from mavbridge.nmpc.config import SOLVERS
-from mavbridge.preflight.cli import add_check_parser, check_command
-from mavbridge.sweep.cli import add_sweep_parser, add_tune_parser, sweep_command, tune_command
 from vessel import ConfigError
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.lab.scenario.PLANTS (kept import-light)
@@ -50,6 +47,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="override every run's estimation.waves: truth (the true wave to the NMPC) or estimated "
                           "(the wave estimator on simulated sensors at 20 Hz); the plant's realism (heave, hidden "
                           "phase) stays as the scenario's estimation section says")
+    from mavbridge.field.cli import add_replay_parser, add_report_parser  # (the rooms' parsers import
+    from mavbridge.preflight.cli import add_check_parser  # mavbridge.cli.args: imported here, a room imported
+    from mavbridge.sweep.cli import add_sweep_parser, add_tune_parser  # first does not import itself back)
+
     add_run_parser(sub)
     add_demo_parser(sub)
     add_check_parser(sub)
@@ -104,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad input prints one line to stderr and exits with code 2."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     args = build_parser().parse_args(argv)
+    from mavbridge.field.cli import replay_command, report_command
+    from mavbridge.preflight.cli import check_command
+    from mavbridge.sweep.cli import sweep_command, tune_command
+
     commands = {"experiment": _experiment, "run": run_command, "demo": demo_command, "check": check_command,
                 "sweep": sweep_command, "tune": tune_command, "signing": signing_command, "report": report_command,
                 "replay": replay_command}
