@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from mavbridge.companion.rover_modes import mode_name
 
 INTERVAL_S = 10.0  # wall seconds between two lines of one kind
+KEEP_UP_WARN_SHARE = 0.01  # skipped ticks from this share on make the summary's warning
 
 
 @dataclass
@@ -67,9 +68,13 @@ class LoopNotices:
 
 
 def keep_up_summary(skipped: int, steps: int) -> str | None:
-    """The summary's line on skipped ticks (None when none were skipped)."""
+    """The summary's line on skipped ticks (None when none were skipped); a warning from KEEP_UP_WARN_SHARE of
+    the ticks on (a few late ticks while a machine is busy elsewhere do not make another controller)."""
     if not skipped:
         return None
     share = skipped / max(skipped + steps, 1)
-    return (f"warning: the controller could not keep up: {skipped} control tick(s) skipped, {share:.0%} of the "
-            f"ticks; the figures above are not the scenario's controller at its period")
+    counted = f"{skipped} control tick(s) skipped, {100 * share:.1f} % of the ticks"
+    if share < KEEP_UP_WARN_SHARE:
+        return f"note: {counted}"
+    return (f"warning: the controller could not keep up: {counted}; the figures above are not the scenario's "
+            f"controller at its period")

@@ -36,13 +36,23 @@ def figures_line(metrics: Mapping[str, Any]) -> str:
     return ", ".join([*said, arrival_text(metrics)])
 
 
+def confident_text(waves: Mapping[str, Any]) -> str:
+    """When the estimate first became confident: from the first motion sample (autopilot time) when both are
+    known, and whether that was before engaging (``time_to_confident_s`` 0: the first step had it)."""
+    first, confident = waves.get("first_sample_at_s"), waves.get("first_confident_at_s")
+    if first is None or confident is None:
+        return f"first confident {waves['time_to_confident_s']:g} s after engaging"
+    when = " (before engaging)" if waves["time_to_confident_s"] == 0 else ""
+    return f"first confident {confident - first:.1f} s after its first motion sample{when}"
+
+
 def waves_line(waves: Mapping[str, Any]) -> str:
     """What the wave source did: roll-term share, first confidence, estimator cost (None parts left out)."""
     parts = []
     if waves.get("roll_term_fraction") is not None:
-        parts.append(f"roll term on {waves['roll_term_fraction']:g} of the steps")
+        parts.append(f"roll term on {100 * waves['roll_term_fraction']:.0f} % of the steps")
     if waves.get("time_to_confident_s") is not None:
-        parts.append(f"first confident after {waves['time_to_confident_s']:g} s")
+        parts.append(confident_text(waves))
     elif waves.get("roll_term_fraction") is not None:
         parts.append("never confident")
     if waves.get("estimator_ms_median") is not None:

@@ -65,7 +65,9 @@ def test_notices_are_rate_limited_and_count_what_they_skipped() -> None:
 def test_keep_up_summary() -> None:
     assert keep_up_summary(0, 900) is None
     summary = keep_up_summary(100, 900)
-    assert summary is not None and "100 control tick(s) skipped, 10% of the ticks" in summary
+    assert summary is not None and summary.startswith("warning: the controller could not keep up: 100 control "
+                                                      "tick(s) skipped, 10.0 % of the ticks")
+    assert keep_up_summary(5, 1500) == "note: 5 control tick(s) skipped, 0.3 % of the ticks"
 
 
 def test_progress_every_10_s_of_autopilot_time_with_the_largest_roll_so_far() -> None:

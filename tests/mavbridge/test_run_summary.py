@@ -7,7 +7,7 @@ from pymavlink import mavutil
 
 from mavbridge.companion.notices import LoopNotices
 from mavbridge.companion.rover_modes import mode_name
-from mavbridge.companion.summary import summary_lines
+from mavbridge.companion.summary import summary_lines, waves_line
 from mavbridge.companion.supervisor import Phase, Supervisor
 
 mavlink = mavutil.mavlink
@@ -57,7 +57,18 @@ def test_arrival_names_both_clocks() -> None:
     assert first.startswith("average roll 1.92 deg, max roll 4.5 deg, solve median 3.2 ms, ")
     assert f"time to waypoint {to_go:g} s (since engaging at t = {engaged:.1f} s, reached at " \
            f"t = {engaged + to_go:.1f} s, autopilot time)" in first
-    assert waves == "waves (estimated): roll term on 0.9 of the steps, never confident"
+    assert waves == "waves (estimated): roll term on 90 % of the steps, never confident"
+
+
+def test_the_waves_line_times_confidence_from_the_first_motion_sample() -> None:
+    waves = {"source": "estimated", "roll_term_fraction": 1.0, "time_to_confident_s": 0.0,
+             "first_sample_at_s": 16.36, "first_confident_at_s": 30.21}
+    assert waves_line(waves) == ("waves (estimated): roll term on 100 % of the steps, first confident 13.9 s after "
+                                 "its first motion sample (before engaging)")
+    late = {**waves, "time_to_confident_s": 4.5, "first_confident_at_s": 50.5}
+    assert waves_line(late).endswith("first confident 34.1 s after its first motion sample")
+    assert waves_line({"source": "estimated", "time_to_confident_s": 4.5}) == \
+        "waves (estimated): first confident 4.5 s after engaging"
 
 
 def test_an_engaged_run_that_did_not_arrive_says_so() -> None:
