@@ -4,8 +4,8 @@ Run: OMP_NUM_THREADS=1 python bench/defaults_over_mavlink.py [--paths rc_overrid
      [--seas paper,other] [--seeds 1,2,3] [--keep DIR]
 
 Per output path × sea × seed, one pair of `mavbridge demo` runs with every flag at its default — paced (no
-lockstep), speedup 10, the nrti solver, waves estimated from the boat's own motion, the GUIDED path in its
-default form with the simulator's stock Rover gains, the companion engaging 30 s (autopilot time) after it
+lockstep), the demo's speedup (5), the nrti solver, waves estimated from the boat's own motion, the GUIDED path
+in its default form with the simulator's stock Rover gains, the companion engaging 30 s (autopilot time) after it
 connects as a pilot would — once with the scenario's Balanced weights and once with `--direct` (R = 0). Only
 `--scenario`, `--output`, `--seed` (the simulator's hidden wave phase and sensor noise) and `--out` are given.
 Seas: ``paper`` (scenarios/balanced.yaml, 1.75 m / 35 m / 6 s towards West) and ``other``
@@ -16,7 +16,7 @@ Prints per pair: Direct's and Balanced's average roll and arrival time (from eng
 sample to its first confident wave estimate (autopilot time), and, from the simulator's true path after engaging,
 how far Balanced went past the waypoint along the line from where it engaged and how many turns it made around it
 within 25 m (``mavbridge.lab.path_metrics``); then per path × sea the mean and smallest cut. Paced runs on a
-shared machine are not exactly repeatable: the seed fixes the sea, not the scheduler. About 1 minute a pair.
+shared machine are not exactly repeatable: the seed fixes the sea, not the scheduler. About 1.5 minutes a pair.
 """
 
 from __future__ import annotations

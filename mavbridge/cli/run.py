@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,10 @@ from vessel.argtypes import seed_number
 from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
+# The demo's simulation speed with a real-time solver: at 10 the simulator, the companion's loop and its background
+# preparation saturate a 2-core machine (2–10 % of the ticks skipped, a fifth of the steps on the late fallback);
+# at 5 none were skipped (2026-12-05, `mavbridge demo`, both paths)
+DEMO_SPEEDUP = 5.0
 DEMO_ENGAGE_AFTER_S = 30.0  # the demo's pilot engages this long after the companion connects (issue 29)
 ATTITUDE_FORM_HELP = ("attitude_target: tau (default: the rate and speed targets that give the plan's steering and "
                       "throttle through Rover's loops, their gains read at start, closed on SERVO_OUTPUT_RAW), the "
@@ -96,8 +101,8 @@ def add_demo_parser(sub: Any) -> None:
     demo = sub.add_parser("demo", help="the whole system: sim-vehicle + mission upload + mavbridge run",
                           description="Start the simulator in the paper's waves and the companion side by side "
                                       "over UDP, upload the waypoint with MAVSDK, fly there, print the figures.")
-    demo.add_argument("--speedup", type=_speedup, default=None, help="simulation speed (default: 10, or 1 with "
-                                                                         "the ipopt solver)")
+    demo.add_argument("--speedup", type=_speedup, default=None,
+                      help=f"simulation speed (default: {DEMO_SPEEDUP:g}, or 1 with the ipopt solver)")
     demo.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
     demo.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
@@ -124,7 +129,7 @@ def run_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge run`."""
     import time
 
-    from mavbridge.companion.flight import Companion, build_nmpc
+    from mavbridge.companion.flight import GIL_SWITCH_S, Companion, build_nmpc
     from mavbridge.companion.wave_gate import make_wave_source
     from mavbridge.lab.runlog import fresh_run_folder
     from mavbridge.link.port_guard import refuse_if_taken
@@ -153,6 +158,7 @@ def run_command(args: argparse.Namespace) -> int:
             from mavbridge.cli.realtime import apply_realtime
 
             print(apply_realtime(config.realtime_priority).line(), flush=True)
+        sys.setswitchinterval(GIL_SWITCH_S)  # the loop, not the background preparation, first to the interpreter
         return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                          args.dry_run).run()
 
@@ -172,7 +178,7 @@ def demo_command(args: argparse.Namespace) -> int:
 
     refuse_form_without_guided(args.attitude_form, args.output)
     scenario = demo_scenario(args.scenario, args.solver, args.direct)
-    speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else 10.0)
+    speedup = args.speedup or (1.0 if scenario.controller.solver == "ipopt" else DEMO_SPEEDUP)
     out = Path(args.out) if args.out else timestamped_folder()
     if args.sim_params and not Path(args.sim_params).is_file():
         raise ConfigError(f"--sim-params: {args.sim_params} is not a readable file")

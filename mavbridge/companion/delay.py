@@ -31,6 +31,7 @@ from mavbridge.link.clock_model import ClockModel
 TIMESYNC_PERIOD_S = 1.0  # wall seconds between our TIMESYNC requests
 PENDING_KEPT = 16  # unanswered requests remembered (a lost one is forgotten)
 CLOCK_MESSAGES = ("ATTITUDE", "GLOBAL_POSITION_INT")
+MAX_CLOCK_RATE = 1000.0  # the simulator's fastest --speedup
 
 
 class DelayCompensator:
@@ -72,6 +73,11 @@ class DelayCompensator:
         stamp = time.monotonic_ns()
         self._pending.append(stamp)
         link.send("timesync", 0, stamp)
+
+    def wall_seconds(self, autopilot_s: float) -> float:
+        """``autopilot_s`` seconds of autopilot time in wall seconds: over the clock's fitted rate (1 until fitted;
+        a simulator's speedup), taken in [1, MAX_CLOCK_RATE] so a bad fit never grants more than real time."""
+        return autopilot_s / min(max(self.clock.rate, 1.0), MAX_CLOCK_RATE)
 
     def compensate(self, state_s: float) -> tuple[float, float]:
         """(the state's age, the time to plan at) for a state stamped ``state_s`` (autopilot s)."""

@@ -51,23 +51,31 @@ from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource
 from vessel import CalmWater
 from vessel.config import to_mapping
 
-__all__ = ["Companion", "CompanionConfig", "build_nmpc", "load_companion_config", "schedule", "wave_step"]
+# The NMPC's next plan is prepared in a background thread while the loop waits for the autopilot (nrti, asrti):
+# at Python's 5 ms switch interval a message that woke the loop could wait up to 5 ms for the interpreter, half
+# a period at --speedup 10 (``mavbridge run`` sets this for its process)
+GIL_SWITCH_S = 0.0005
+
+__all__ = ["GIL_SWITCH_S", "Companion", "CompanionConfig", "build_nmpc", "load_companion_config", "schedule",
+           "wave_step"]
 
 
 def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) -> RollAwareNmpc:
     """The scenario's NMPC for flying in real time, planning with the wave source's first answer (calm water
-    when it has none). A step waits for asrti's background solve for a quarter period at most, never the
-    whole period (in ``lockstep``, simulation only, the scenario's full ``as_wait_s``: wall time does not
-    pass for the boat, and a result that depends on the machine's load would not be reproducible). A real
-    hull rides the sea (heave_feedback, model_state): only simulation truth keeps the paper's setting."""
+    when it has none). Paced at its period (``RollAwareNmpc.pace``; the loop re-paces it at the autopilot
+    clock's rate): a step waits for the background plan a quarter period at most (in ``lockstep``, simulation
+    only, the scenario's full ``as_wait_s`` and no budget: wall time does not pass for the boat, and a result
+    that depends on the machine's load would not be reproducible). A real hull rides the sea (heave_feedback,
+    model_state): only simulation truth keeps the paper's setting."""
     heaves = waves.name != SCENARIO_TRUTH
     controller = scenario.controller.replace(heave_feedback=resolve_heave_feedback(scenario.controller.heave_feedback,
                                                                                    heaves))
-    if not lockstep:
-        controller = controller.replace(as_wait_s=min(controller.as_wait_s, 0.25 * controller.period_s))
     estimate = waves.estimate(0.0)
     field = estimate.field() if estimate is not None else CalmWater()
-    return RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
+    nmpc = RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
+    if not lockstep:
+        nmpc.pace(controller.period_s)
+    return nmpc
 
 
 @dataclass
@@ -229,7 +237,10 @@ class Companion:
             return
         age_s, plan_s = self.delay.compensate(now_ms / 1000.0)  # plan_s: when the command will act
         phase, wave = self.supervisor.phase.name, {**self.gate.step(self.nmpc, plan_s), "state_age_s": age_s}
-        deadline_s = None if self.config.lockstep else self.period_s  # lockstep: late is not a fault
+        deadline_s = None  # lockstep: late is not a fault
+        if not self.config.lockstep:  # a period of autopilot time, in wall seconds (a tenth at --speedup 10)
+            deadline_s = self.delay.wall_seconds(self.period_s)
+            self.nmpc.pace(deadline_s)
         result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
                                  deadline_s=deadline_s)
         self.delay.sent(plan_s, result.tau)

@@ -209,6 +209,16 @@ class RollAwareNmpc:
         """True when solves weight roll: R > 0 and a wave (or calm water) or the sea's spread is known."""
         return self._sea.roll_term_active
 
+    def pace(self, wall_period_s: float) -> None:
+        """Fly in real time with control periods of ``wall_period_s`` wall seconds (the period over the autopilot
+        clock's rate: a simulator at --speedup 10 gives a tenth). A step then waits at most a quarter of it for
+        the plan prepared in the background, and the preparation stops iterating after half of it, handing over
+        the QP of its last iteration (a real-time iteration: the next period continues from that plan). Solvers
+        without background work ignore it; without a call (lockstep, experiments) nothing is timed."""
+        advanced = getattr(self._backend, "advanced", None)
+        if advanced is not None:
+            advanced.pace(float(wall_period_s))
+
     def _parameters(self, x0: np.ndarray, t: float, waypoint: np.ndarray) -> np.ndarray:
         return self._sea.pack(x0, t, waypoint, self._u_applied)
 

@@ -51,6 +51,18 @@ def test_clock_fits_the_rate_and_the_fastest_arrival() -> None:
     assert clock.age_s(true_now + 1.0, wall) == 0.0  # never negative
 
 
+def test_a_period_in_wall_seconds_follows_the_fitted_rate_never_above_real_time() -> None:
+    """The companion's step deadline: a 0.1 s period of autopilot time is 20 ms of wall time at --speedup 5, and
+    never more than 0.1 s (an unfitted clock, or one that seems slower than the wall)."""
+    comp = DelayCompensator(True, False, 1.0, None)
+    assert comp.wall_seconds(0.1) == pytest.approx(0.1)  # not fitted yet: rate 1
+    feed(comp.clock, 0.01, 0.002)
+    comp.clock.now_s(5.0)  # the fit runs when asked
+    assert comp.wall_seconds(0.1) == pytest.approx(0.1 / RATE, rel=0.01)
+    comp.clock.rate = 0.5
+    assert comp.wall_seconds(0.1) == pytest.approx(0.1)
+
+
 def test_clock_starts_again_after_a_reboot_and_ignores_a_stamp_far_ahead() -> None:
     clock = ClockModel()
     feed(clock, 0.0, 0.0, boot_s=500.0)

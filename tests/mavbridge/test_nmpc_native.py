@@ -143,6 +143,31 @@ def test_feedback_equals_the_sparse_qp_for_a_measured_state() -> None:
         assert np.max(np.abs(outcome.w - backend.solve_plan(qp))) > 1e-3  # the measurement moved the plan
 
 
+@needs_compiler
+def test_a_paced_preparation_stops_at_its_budget_and_hands_over_its_last_qp() -> None:
+    """Paced at a wall period (a companion in real time), a step waits a quarter of it for the background and
+    the preparation iterates for three quarters, then hands over the QP of its last iteration; unpaced (lockstep,
+    experiments) nothing is timed and the preparation converges."""
+    cfg = NmpcConfig(horizon=8, solver="nrti", rti_codegen="off")
+    x0, waypoint = np.zeros(12), np.array([40.0, 10.0])
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        nmpc.prepare(x0, 0.0, waypoint)
+        advanced = nmpc._backend.advanced
+        preparation = advanced.preparation
+        assert advanced.wait_s == cfg.as_wait_s and preparation.budget_s == math.inf
+        nmpc.pace(0.1)
+        assert advanced.wait_s == pytest.approx(0.025) and preparation.budget_s == pytest.approx(0.075)
+        p = nmpc._parameters(x0, 0.0, waypoint)
+        u_far = np.array([cfg.tau_x_min_n, cfg.tau_n_max_nm])  # full astern, hard over: the plan must change
+        preparation.budget_s = math.inf
+        _, _, _, converged_iterations = preparation(nmpc._w, p, u_far)
+        nmpc.pace(0.0)  # no time at all: one iteration, and its QP
+        qp, p_next, _, iterations = preparation(nmpc._w, p, u_far)
+        assert converged_iterations > 1, "the test's input did not make the preparation iterate"
+        assert iterations == 1 and qp is not None and qp.guess_status > 0
+        np.testing.assert_array_equal(qp.p, p_next)
+
+
 def _run_metrics(scenario: Scenario, out: str | None) -> dict:
     return run_scenario(scenario, out, plots=False).metrics
 

@@ -33,6 +33,9 @@ from mavbridge.nmpc.solvers.gauss_newton import GaussNewtonSqp
 from mavbridge.nmpc.solvers.rti import RtiBackend
 from vessel import OceanCurrent, OtterParameters, WaveField
 
+# Paced (``RollAwareNmpc.pace``): a step waits for the background job at most this share of a wall period
+WAIT_SHARE = 0.25
+
 BackgroundResult = tuple[np.ndarray | None, np.ndarray, float, int]  # (w or None, p_next, seconds, iterations)
 
 
@@ -71,6 +74,7 @@ class AdvancedStep:
 
     def __init__(self, functions: ProblemFunctions, cfg: NmpcConfig) -> None:
         self.cfg = cfg
+        self.wait_s = cfg.as_wait_s  # wall seconds a step waits for the job (``pace``)
         self.functions = functions
         self._solve = BackgroundSolve(functions, cfg) if cfg.as_worker == "thread" else None
         self._executor: ThreadPoolExecutor | ProcessPoolExecutor | None = None
@@ -101,13 +105,17 @@ class AdvancedStep:
         target = _worker_solve if self._solve is None else self._solve
         self._pending = self._worker().submit(target, *args)
 
+    def pace(self, wall_period_s: float) -> None:
+        """Wait at most WAIT_SHARE of a wall period (never more than ``as_wait_s``) for the job."""
+        self.wait_s = min(self.cfg.as_wait_s, WAIT_SHARE * max(wall_period_s, 0.0))
+
     def take(self, p: np.ndarray) -> tuple[np.ndarray | None, dict]:
-        """The background plan if it was made for this step's p (waiting up to ``as_wait_s``), and figures."""
+        """The background plan if it was made for this step's p (waiting up to ``wait_s``), and figures."""
         if self._pending is None:
             return None, {}
         future, self._pending = self._pending, None
         try:
-            w, p_next, seconds, iterations = future.result(timeout=self.cfg.as_wait_s)
+            w, p_next, seconds, iterations = future.result(timeout=self.wait_s)
         except FuturesTimeout:
             return None, {"background": "late"}
         info: dict = {"background_solve_s": seconds, "background_iterations": iterations}
@@ -123,11 +131,11 @@ class AdvancedStep:
         return w, info
 
     def cancel(self) -> None:
-        """Let a running job end (up to ``as_wait_s``) and forget it."""
+        """Let a running job end (up to ``wait_s``) and forget it."""
         future, self._pending = self._pending, None
         if future is not None:
             with contextlib.suppress(FuturesTimeout):
-                future.result(timeout=self.cfg.as_wait_s)
+                future.result(timeout=self.wait_s)
 
     def close(self) -> None:
         """Stop the worker (after its job in flight ends); idempotent."""

@@ -3,7 +3,9 @@
 Preparation (background thread, before the measurement): asrti's converged Gauss–Newton SQP for the
 predicted next state, each iteration's QP linearised (compiled CasADi code of the project's own model),
 condensed to the N·nu input steps (``condensed``) and solved from the previous one's active set; the last
-iteration's QP, with its solved active set, is the one prepared for the feedback.
+iteration's QP, with its solved active set, is the one prepared for the feedback. Paced in real time
+(``RollAwareNmpc.pace``) it stops iterating after PREPARE_SHARE of the wall period and hands over its last QP:
+the iterations then spread over the periods that follow, as in plain RTI.
 Feedback (the only work between measurement and input): the measured state's offset from the predicted
 one enters the condensed gradient linearly; one dense box QP from the prepared active set and the
 states by the linear dynamics — one ctypes call into ``native_source``'s kernels on preallocated
@@ -18,6 +20,7 @@ kernels cannot be built, the backend says so once and runs as ``asrti`` (slower)
 from __future__ import annotations
 
 import logging
+import math
 import time
 from concurrent.futures import Future
 
@@ -34,6 +37,10 @@ from mavbridge.nmpc.solvers.gauss_newton import NZ
 from mavbridge.nmpc.solvers.native_lib import native_library
 
 LOG = logging.getLogger(__name__)
+# Paced (``RollAwareNmpc.pace``): the preparation stops iterating after this share of a wall period. It starts
+# when a step ends and is taken at the next step, up to asrti's WAIT_SHARE later: a budget within that span
+# (less the step's own time) hands over a QP in time, and the next preparation continues from its plan
+PREPARE_SHARE = 0.75
 _SAID: set[str] = set()  # what this process has been told already (the no-compiler notice, once)
 
 
@@ -52,6 +59,7 @@ class Preparation:
         self.solve = solve  # asrti's: its model step, layout and augmented-layout conversions
         self.condenser = condenser
         self.buffers = FeedbackBuffers.allocate(condenser.cfg.horizon)  # this thread's own
+        self.budget_s = math.inf  # wall seconds of iterations (``PreparedStep.pace``); read by the worker thread
 
     def __call__(self, w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> BackgroundResult:
         """(CondensedQp or None, p_next, seconds, SQP iterations) for the period after ``p``'s."""
@@ -67,13 +75,13 @@ class Preparation:
         w[layout.x_index(0)] = x_next
         qp, iterations = None, 0
         if np.all(np.isfinite(x_next)):
-            qp, iterations = self.converge(w, p_next)
+            qp, iterations = self.converge(w, p_next, start + self.budget_s)
         return qp, p_next, time.perf_counter() - start, iterations
 
-    def converge(self, w: np.ndarray, p: np.ndarray) -> tuple[CondensedQp | None, int]:
+    def converge(self, w: np.ndarray, p: np.ndarray, stop_at: float = math.inf) -> tuple[CondensedQp | None, int]:
         """Full-step SQP from ``w`` (controller layout, x0 in place) until every input step is at most
-        ``as_step_tol`` (at most ``as_max_iterations``): (the QP of its last iteration, for the backend's
-        feedback, or None when a QP failed; iterations).
+        ``as_step_tol`` (at most ``as_max_iterations``, none begun after ``stop_at``, perf_counter seconds):
+        (the QP of its last iteration, for the backend's feedback, or None when a QP failed; iterations).
 
         The prepared QP is the last iteration's, linearised at the plan before that iteration's step (at
         most ``as_step_tol`` away from the converged plan), not a further condensation at the converged
@@ -94,7 +102,7 @@ class Preparation:
             active = b.iwork[2 * n:3 * n]  # the active set the QP ended with (nrti_feedback's own copy)
             qp.state0[:] = active  # the backend's feedback starts from it
             w = b.w_out.copy()
-            if np.max(np.abs(b.du)) <= cfg.as_step_tol:
+            if np.max(np.abs(b.du)) <= cfg.as_step_tol or time.perf_counter() > stop_at:
                 break
         if qp is None or qp.guess_status <= 0:  # iteration cap in the QP: no prepared QP (asrti's step instead)
             return None, it + 1
@@ -117,6 +125,11 @@ class PreparedStep(AdvancedStep):
         super().__init__(functions, cfg)
         self.preparation = Preparation(self._solve, condenser)
         self._solve = self.preparation
+
+    def pace(self, wall_period_s: float) -> None:
+        """asrti's wait, and a preparation budget of PREPARE_SHARE of the wall period."""
+        super().pace(wall_period_s)
+        self.preparation.budget_s = PREPARE_SHARE * max(wall_period_s, 0.0)
 
     def prepare_now(self, w: np.ndarray, p: np.ndarray) -> CondensedQp | None:
         """Prepare the QP at ``w`` for ``p`` itself, here and now (before the loop: no job is in flight),
