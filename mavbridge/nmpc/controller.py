@@ -91,6 +91,14 @@ def checked_inputs(x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float
     return x, time_s, _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
 
 
+def model_inputs(config: NmpcConfig, x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
+    """Checked inputs; the heave taken out of x0 when ``heave_feedback`` is ``none`` (see model_state)."""
+    x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
+    if config.heave_feedback == "none":
+        x0 = on_mean_surface(x0)
+    return x0, t, waypoint
+
+
 def rollout(step: Any, layout: Layout, x0: np.ndarray, t: float, u: np.ndarray, period_s: float,
             wave: np.ndarray) -> np.ndarray:
     """A dynamically consistent cold-start guess: input u held over the horizon from x0 at t."""
@@ -210,11 +218,9 @@ class RollAwareNmpc:
         return self._sea.roll_term_active
 
     def pace(self, wall_period_s: float) -> None:
-        """Fly in real time with control periods of ``wall_period_s`` wall seconds (the period over the autopilot
-        clock's rate: a simulator at --speedup 10 gives a tenth). A step then waits at most a quarter of it for
-        the plan prepared in the background, and the preparation stops iterating after half of it, handing over
-        the QP of its last iteration (a real-time iteration: the next period continues from that plan). Solvers
-        without background work ignore it; without a call (lockstep, experiments) nothing is timed."""
+        """Fly in real time, periods of ``wall_period_s`` wall seconds: a step waits a quarter of one at most for
+        the background plan; nrti's preparation iterates for three quarters, then hands over its last QP (RTI).
+        Without a call (lockstep, experiments) nothing is timed; solvers with no background ignore it."""
         advanced = getattr(self._backend, "advanced", None)
         if advanced is not None:
             advanced.pace(float(wall_period_s))
@@ -232,13 +238,6 @@ class RollAwareNmpc:
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
         return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._sea.wave)
 
-    def _model_inputs(self, x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
-        """Checked inputs; the heave taken out of x0 when ``heave_feedback`` is ``none`` (see model_state)."""
-        x0, t, waypoint = checked_inputs(x0, t, waypoint_ne)
-        if self.config.heave_feedback == "none":
-            x0 = on_mean_surface(x0)
-        return x0, t, waypoint
-
     def prepare(self, x0: Any, t: float, waypoint_ne: Any) -> NmpcResult:
         """The cold, full solve for (x0, t, waypoint), done before the control loop starts.
 
@@ -246,7 +245,7 @@ class RollAwareNmpc:
         ``solve`` at the same time ``t`` starts warm from it rather than with a full solve.
         """
         self._check_open()
-        x0, t, waypoint = self._model_inputs(x0, t, waypoint_ne)
+        x0, t, waypoint = model_inputs(self.config, x0, t, waypoint_ne)
         self.reset()
         start = time.perf_counter()
         guess = self._rollout(x0, t)
@@ -287,7 +286,7 @@ class RollAwareNmpc:
         step's time (in real time that solve runs during the rest of the period); it is in ``stats``.
         """
         self._check_open()
-        x0, t, waypoint = self._model_inputs(x0, t, waypoint_ne)
+        x0, t, waypoint = model_inputs(self.config, x0, t, waypoint_ne)
         start = time.perf_counter()
         have_plan = self._w is not None and self._plan_age < self.layout.horizon
         guess, lam_w, lam_g = self._warm_guess(x0, t)

@@ -216,7 +216,8 @@ def test_tau_form_with_rovers_stock_integrators_closes_on_the_servo_outputs(tmp_
                   "85,75")
         runs.append(run)
         run.await_line("closed on SERVO_OUTPUT_RAW", 120)
-        run.stop()
+        run.proc.terminate()  # as systemd stops it: the tlog is closed (a kill may leave its last writes unflushed)
+        assert run.proc.wait(60) == 0, run.text()
     assert not any("attitude_form tau:" in line for line in run.lines), run.text()  # not refused
     assert _sent(tmp_path / "tau" / "companion.tlog", "COMMAND_LONG") > 0  # the interval request among them
 
