@@ -289,10 +289,15 @@ class AttitudeTarget(_Sending):
             self.log(f"GUIDED: final approach within {self.approach_m:g} m: heading for the waypoint at up to "
                      f"{APPROACH_SPEED_MPS:g} m/s with Rover's heading loop")
         self._approaching = near
+        if near and self.feedback is not None:
+            self.feedback.forget()  # no plan targets while approaching: no request to pair an output with
         return approach_command(x0, self.target_ne, self.wp_speed_mps) if near and self.target_ne else None
 
     def neutral(self, link: Any, state: Any) -> None:
-        """Hold the present heading with zero thrust: no pivot towards north."""
+        """Hold the present heading with zero thrust: no pivot towards north (the output feedback starts
+        again from nothing when the plan's targets resume)."""
+        if self.feedback is not None:
+            self.feedback.forget(offsets=True)
         if state.attitude_ms is not None:
             yaw = float(state.attitude[2])
             link.attitude_target(state.attitude_ms, (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)), 0.0,

@@ -95,3 +95,28 @@ def test_with_the_stock_integrators_the_feedback_makes_rover_output_what_the_pla
     closed_throttle, closed_steering = worst(_fly(True))
     assert open_throttle > 0.15 or open_steering > 0.15  # the integrators wound: the open inversion is off
     assert closed_throttle < 0.05 and closed_steering < 0.05, (closed_throttle, closed_steering)
+
+
+def _output_at(feedback: OutputFeedback, at_ms: int, left: float, right: float) -> None:
+    pwms = {s.number: _pwm(s, o) for s, o in ((MOTORS.left, left), (MOTORS.right, right))}
+    feedback.on_message(mavlink.MAVLink_servo_output_raw_message(at_ms * 1000, 0, pwms[1], 0, pwms[3], 0, 0, 0, 0, 0))
+
+
+def test_an_output_is_paired_only_with_a_request_rover_was_still_flying() -> None:
+    """After the plan's targets stop (the final approach, a stand-down, a pilot's turn), a fresh output is not
+    compared with the last request of seconds before; a stand-down forgets the offsets too."""
+    feedback = OutputFeedback(MOTORS)
+    feedback.asked(10_000, 0.5, 0.0)
+    _output_at(feedback, 13_000, 0.2, 0.2)  # three seconds later: Rover flies something else by now
+    feedback.update(13_000)
+    assert feedback.outputs_used == 0 and feedback.throttle_offset == 0.0
+    feedback.asked(13_100, 0.5, 0.0)
+    _output_at(feedback, 13_180, 0.2, 0.2)  # the loops give 0.2 where 0.5 was asked
+    feedback.update(13_200)
+    assert feedback.outputs_used == 1 and feedback.throttle_offset == pytest.approx(0.5 * 0.3, abs=0.01)
+    feedback.forget()
+    _output_at(feedback, 13_280, 0.2, 0.2)
+    feedback.update(13_300)
+    assert feedback.outputs_used == 1 and feedback.throttle_offset > 0.1  # no request: nothing new, kept
+    feedback.forget(offsets=True)
+    assert feedback.throttle_offset == feedback.steering_offset == 0.0

@@ -27,6 +27,7 @@ MOTOR_SERVOS = (1, 3)  # where Rover's boat frames put them (SERVO1, SERVO3); th
 FEEDBACK_GAIN = 0.5  # share of the plan-minus-Rover difference taken into the offsets at each fresh output
 OFFSET_LIMIT = 1.0  # the offsets' bound (throttle and steering fractions)
 SATURATED = 0.98  # a motor output this close to ±1 was clipped by the mixer: no evidence about the loops
+REQUEST_HOLD_MS = 250  # a request older than this before an output is not the one Rover was flying (2.5 periods)
 LOOP_LAG_MS = 20  # Rover applies a new target at its next loop: an output this soon after a send is the old one's
 UINT32_US = 1 << 32
 
@@ -125,6 +126,13 @@ class OutputFeedback:
         """What the plan asked for at autopilot time ``now_ms`` (before the offsets)."""
         self._asked.append((now_ms, throttle, steering))
 
+    def forget(self, offsets: bool = False) -> None:
+        """Drop the requests (the plan's targets stopped: the final approach, a stand-down); with ``offsets``
+        the offsets too (Rover's loops restart after a mode change: what they needed before is no evidence)."""
+        self._asked.clear()
+        if offsets:
+            self.throttle_offset = self.steering_offset = 0.0
+
     def update(self, now_ms: int) -> None:
         """Take a fresh output into the offsets: the plan's request then against what Rover produced."""
         if self._output is None or self._output[0] == self._used_us:
@@ -134,8 +142,8 @@ class OutputFeedback:
         produced = self.motors.throttle_steering(pwms)
         at_ms = unwrap_us(time_usec, now_ms) - LOOP_LAG_MS
         request = next((r for r in reversed(self._asked) if r[0] <= at_ms), None)
-        if produced is None or request is None:
-            return
+        if produced is None or request is None or at_ms - request[0] > REQUEST_HOLD_MS:
+            return  # (an old request: the plan's targets stopped since, e.g. the final approach or a stand-down)
         throttle, steering, clipped = produced
         if clipped and abs(request[1]) + abs(request[2]) >= SATURATED:
             return  # the plan itself asked for the limit: a clipped output is what it asked
