@@ -68,11 +68,9 @@ def start_flight(c: Any, link: Link) -> None:
     c.log("rates per autopilot second: " + ", ".join(f"{k} {v:g} Hz" for k, v in rates.items()))
     boat = (float(c.state.vector()[0]), float(c.state.vector()[1])) if c.state.ready() else None
     check_waypoints(c.mission.waypoints, c.config.max_range_m, boat)  # before arming or any mode change
-    imu, imu_hz = imu_rate(rates)
-    c.state.use_imu(imu)  # the fastest IMU stream, not the first to arrive
+    said = choose_imu(c.state, asked, rates)
     if c.waves.name != SCENARIO_TRUTH:
-        c.log(f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
-              "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
+        c.log(said)
     if c.state.ready() and c.mission.waypoints:  # the cold, full solve, so every step in the loop is warm
         t_s = (c.state.attitude_ms or 0) / 1000.0
         wave_step(c.waves, c.nmpc, t_s)
@@ -80,6 +78,24 @@ def start_flight(c: Any, link: Link) -> None:
         c.log(f"solver {c.scenario.controller.solver} prepared in {prepared.wall_time_s * 1e3:.0f} ms "
               f"({prepared.status})")
     switch_and_arm_if_asked(c, link, consent)
+
+
+def choose_imu(state: Any, asked: str, rates: dict[str, float]) -> str:
+    """The IMU kind the wave estimator takes, from the measured ``rates``: the fastest stream, unless the kind
+    asked for streams at least as fast, or is silent yet (then it stays the preferred kind, the state falls back
+    to a slower one while it is silent and takes it back when it streams: a late start never leaves the estimator
+    on Rover's 1 Hz RAW_IMU). Returns the line that says so."""
+    imu, imu_hz = imu_rate(rates)
+    asked_hz = rates.get(asked, 0.0) if asked in IMU_MESSAGES else None
+    if asked_hz == 0.0:
+        return f"IMU: {asked} asked for, not streaming yet; " + (
+            f"{imu} at {imu_hz:g} Hz meanwhile" if imu else "the GPS height meanwhile")
+    if asked_hz is None or imu_hz > asked_hz:
+        state.use_imu(imu)
+    else:
+        imu, imu_hz = asked, asked_hz
+    return (f"IMU: {imu} at {imu_hz:g} Hz to the wave estimator" if imu else
+            "IMU: no SCALED_IMU/RAW_IMU stream; the wave estimator uses the GPS height")
 
 
 def switch_and_arm_if_asked(c: Any, link: Link, consent: bool) -> None:

@@ -17,6 +17,7 @@ from mavbridge.companion.flight import Companion, CompanionConfig, build_nmpc, s
 from mavbridge.companion.mission_tracker import MissionTracker
 from mavbridge.companion.output_paths import MODE_GUIDED, MODE_MANUAL, AttitudeTarget, DryRun, RcOverride, make_output
 from mavbridge.companion.outputs import RcSetup
+from mavbridge.companion.start import choose_imu
 from mavbridge.companion.state import StateEstimate
 from mavbridge.companion.wave_gate import WaveGate, make_wave_source
 from mavbridge.lab.experiment import run_scenario
@@ -231,6 +232,25 @@ def test_a_silent_imu_stream_gives_way_to_another_kind() -> None:
     rebooted.on_message(mavlink.MAVLink_attitude_message(1600, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     rebooted.on_message(mavlink.MAVLink_raw_imu_message(1_600_000, 0, 0, -1000, 0, 0, 0, 0, 0, 0))
     assert rebooted.imu_kind == "RAW_IMU" and rebooted.imu_ms == 1600
+
+
+def test_the_imu_asked_for_stays_preferred_unless_another_streams_faster() -> None:
+    """At start the companion asks for SCALED_IMU at 20 Hz: measured silent in the first two seconds, it stays the
+    preferred kind (the 1 Hz RAW_IMU only meanwhile, taken back when SCALED_IMU streams); measured slower than
+    another kind, the faster one is taken; nothing asked for (the RAW_SENS group): the fastest measured."""
+    state = StateEstimate()
+    state.on_message(mavlink.MAVLink_attitude_message(1000, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    state.use_imu("SCALED_IMU")
+    said = choose_imu(state, "SCALED_IMU", {"ATTITUDE": 20.0, "RAW_IMU": 1.0})
+    assert state.imu_preferred == "SCALED_IMU" and "SCALED_IMU asked for, not streaming yet" in said
+    assert "RAW_IMU at 1 Hz meanwhile" in said
+    said = choose_imu(state, "SCALED_IMU", {"SCALED_IMU": 20.0, "RAW_IMU": 1.0})
+    assert state.imu_preferred == "SCALED_IMU" and said == "IMU: SCALED_IMU at 20 Hz to the wave estimator"
+    said = choose_imu(state, "SCALED_IMU", {"SCALED_IMU": 5.0, "SCALED_IMU2": 20.0})
+    assert state.imu_preferred == "SCALED_IMU2" and said == "IMU: SCALED_IMU2 at 20 Hz to the wave estimator"
+    said = choose_imu(state, "RAW_SENS", {"RAW_IMU": 10.0})
+    assert state.imu_preferred == "RAW_IMU" and said == "IMU: RAW_IMU at 10 Hz to the wave estimator"
+    assert "GPS height" in choose_imu(StateEstimate(), "RAW_SENS", {})
 
 
 HOME_LL = (-35.0, 149.0)
