@@ -67,13 +67,16 @@ class LoopNotices:
                  f"{math.degrees(self._max_roll_rad):.1f} deg, step {step_ms:.1f} ms")
 
 
-def keep_up_summary(skipped: int, steps: int) -> str | None:
-    """The summary's line on skipped ticks (None when none were skipped); a warning from KEEP_UP_WARN_SHARE of
-    the ticks on (a few late ticks while a machine is busy elsewhere do not make another controller)."""
-    if not skipped:
+def keep_up_summary(skipped: int, steps: int, late: int = 0) -> str | None:
+    """The summary's line on skipped ticks and steps past their deadline (flown on the previous plan's input);
+    None when there were neither; a warning from KEEP_UP_WARN_SHARE of the ticks on (a few late ticks while a
+    machine is busy elsewhere do not make another controller)."""
+    if not skipped and not late:
         return None
-    share = skipped / max(skipped + steps, 1)
-    counted = f"{skipped} control tick(s) skipped, {100 * share:.1f} % of the ticks"
+    share = (skipped + late) / max(skipped + steps, 1)
+    said = [f"{skipped} control tick(s) skipped"] if skipped else []
+    said += [f"{late} step(s) past their deadline"] if late else []
+    counted = f"{' and '.join(said)}, {100 * share:.1f} % of the ticks"
     if share < KEEP_UP_WARN_SHARE:
         return f"note: {counted}"
     return (f"warning: the controller could not keep up: {counted}; the figures above are not the scenario's "

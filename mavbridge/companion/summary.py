@@ -36,23 +36,27 @@ def figures_line(metrics: Mapping[str, Any]) -> str:
     return ", ".join([*said, arrival_text(metrics)])
 
 
-def confident_text(waves: Mapping[str, Any]) -> str:
+def confident_text(waves: Mapping[str, Any]) -> str | None:
     """When the estimate first became confident: from the first motion sample (autopilot time) when both are
-    known, and whether that was before engaging (``time_to_confident_s`` 0: the first step had it)."""
+    known, and whether that was before engaging (``time_to_confident_s`` 0: the first step had it); None when
+    it never was."""
     first, confident = waves.get("first_sample_at_s"), waves.get("first_confident_at_s")
-    if first is None or confident is None:
+    if first is not None and confident is not None:
+        when = " (before engaging)" if waves.get("time_to_confident_s") == 0 else ""
+        return f"first confident {confident - first:.1f} s after its first motion sample{when}"
+    if waves.get("time_to_confident_s") is not None:
         return f"first confident {waves['time_to_confident_s']:g} s after engaging"
-    when = " (before engaging)" if waves["time_to_confident_s"] == 0 else ""
-    return f"first confident {confident - first:.1f} s after its first motion sample{when}"
+    return None
 
 
 def waves_line(waves: Mapping[str, Any]) -> str:
     """What the wave source did: roll-term share, first confidence, estimator cost (None parts left out)."""
     parts = []
     if waves.get("roll_term_fraction") is not None:
-        parts.append(f"roll term on {100 * waves['roll_term_fraction']:.0f} % of the steps")
-    if waves.get("time_to_confident_s") is not None:
-        parts.append(confident_text(waves))
+        parts.append(f"roll term on {round(100 * waves['roll_term_fraction'], 1):g} % of the steps")
+    confident = confident_text(waves)
+    if confident is not None:
+        parts.append(confident)
     elif waves.get("roll_term_fraction") is not None:
         parts.append("never confident")
     if waves.get("estimator_ms_median") is not None:
@@ -63,7 +67,7 @@ def waves_line(waves: Mapping[str, Any]) -> str:
 def summary_lines(metrics: Mapping[str, Any]) -> list[str]:
     """The summary: figures and arrival, the keep-up warning if ticks were skipped, the waves line."""
     lines = [figures_line(metrics)]
-    behind = keep_up_summary(metrics.get("skipped_ticks", 0), metrics.get("steps", 0))
+    behind = keep_up_summary(metrics.get("skipped_ticks", 0), metrics.get("steps", 0), metrics.get("late") or 0)
     if behind is not None:
         lines.append(behind)
     if "waves" in metrics:

@@ -68,6 +68,10 @@ def test_keep_up_summary() -> None:
     assert summary is not None and summary.startswith("warning: the controller could not keep up: 100 control "
                                                       "tick(s) skipped, 10.0 % of the ticks")
     assert keep_up_summary(5, 1500) == "note: 5 control tick(s) skipped, 0.3 % of the ticks"
+    assert keep_up_summary(0, 1000, late=2) == "note: 2 step(s) past their deadline, 0.2 % of the ticks"
+    both = keep_up_summary(10, 990, late=40)
+    assert both is not None and both.startswith("warning: the controller could not keep up: 10 control tick(s) "
+                                                "skipped and 40 step(s) past their deadline, 5.0 % of the ticks")
 
 
 def test_progress_every_10_s_of_autopilot_time_with_the_largest_roll_so_far() -> None:

@@ -69,6 +69,9 @@ def test_the_waves_line_times_confidence_from_the_first_motion_sample() -> None:
     assert waves_line(late).endswith("first confident 34.1 s after its first motion sample")
     assert waves_line({"source": "estimated", "time_to_confident_s": 4.5}) == \
         "waves (estimated): first confident 4.5 s after engaging"
+    watched_only = {**waves, "roll_term_fraction": 0.996, "time_to_confident_s": None}  # lost before engaging
+    assert waves_line(watched_only) == ("waves (estimated): roll term on 99.6 % of the steps, first confident "
+                                        "13.9 s after its first motion sample")
 
 
 def test_an_engaged_run_that_did_not_arrive_says_so() -> None:
