@@ -75,7 +75,7 @@ class ClockModel:
     def _fit(self) -> None:
         """Rate (least squares over the window, once it spans MIN_SPAN_S) and the minimum offset; at most every
         REFIT_S of arrivals (a window holds thousands of samples at speedup 10: refitting at every control step
-        took a tenth of the companion's time)."""
+        took ~7 % of the companion's time)."""
         if not self._dirty or not self.samples:
             return
         newest = self.samples[-1][0]

@@ -133,7 +133,8 @@ def min_speed(x: ca.SX, waypoint: ca.SX, cfg: NmpcConfig) -> ca.SX | float:
 
 def roll_fade(x: ca.SX, waypoint: ca.SX, cfg: NmpcConfig) -> ca.SX | float:
     """√ of the share of the roll terms at predicted state ``x``: d²/√(d⁴ + d₀⁴), d the distance to the waypoint and
-    d₀ = ``roll_fade_m`` (1 when 0): about 1 beyond 2 d₀, ½ at d₀ (its square, the share, is ½), 0 at the waypoint.
+    d₀ = ``roll_fade_m`` (1 when 0): about 1 beyond 2 d₀, 1/√2 at d₀ (its square, the share, is ½), 0 at the
+    waypoint.
 
     Why: the last metres are seconds of roll in a run of minutes, and a plan that still dodges the beam sea there
     swings past the waypoint and hooks back (paced runs over MAVLink: a hook of 10-15 m at the end of most

@@ -14,7 +14,7 @@ relation (the paper's wave is not a deep-water one).
 Confidence (0..1) is the product of: the share of the slope the wave explains, the fit's standard errors of
 period, wavelength, direction and height (widened for correlated samples: full up to 1 %, 3.3 %, 3.3° and 5 %,
 nothing at twice those, a third and two thirds of what issue 29 allows the estimate to be off by), the
-window covering at least 1.5 encounter periods, the slope being a sea (above ``min_slope_rad``) and the
+window covering enough encounter periods (nothing at 1.25, full from 2.25), the slope being a sea (above ``min_slope_rad``) and the
 last two fits agreeing. ``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for
 logs); ``spread`` gives the NED covariance of the slope the wave does not explain (once confident: the fit's
 residual; before: the sea's slope statistics, ``spread``), the expected-roll term's input.

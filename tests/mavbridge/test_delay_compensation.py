@@ -51,6 +51,27 @@ def test_clock_fits_the_rate_and_the_fastest_arrival() -> None:
     assert clock.age_s(true_now + 1.0, wall) == 0.0  # never negative
 
 
+def test_between_full_fits_only_a_faster_sample_moves_the_clock() -> None:
+    """The full fit runs at most every REFIT_S of arrivals; in between, a sample that came faster than any before
+    moves the offset at once (a slower one does nothing), and after a reboot the fit starts again at once."""
+    clock = ClockModel()
+    last = feed(clock, 0.05, 0.0)
+    before = clock.now_s(last)
+    rate = clock.rate
+    clock.observe(last + 0.06, 100.0 + RATE * (last + 0.01))  # 10 ms more late than the rest: no change
+    assert clock.now_s(last) == pytest.approx(before) and clock.rate == rate
+    clock.observe(last + 0.07, 100.0 + RATE * (last + 0.04))  # 20 ms faster than the rest: at once
+    assert clock.now_s(last) == pytest.approx(before + RATE * 0.02)
+    assert clock.rate == rate  # no full fit within REFIT_S
+    for i in range(1, 40):  # REFIT_S later at a new rate: a full fit
+        wall = last + 0.07 + 0.01 * i
+        clock.observe(wall, 100.0 + RATE * (last + 0.04) + 2 * RATE * 0.01 * i)
+    clock.now_s(wall)
+    assert clock.rate != rate
+    clock.observe(wall + 0.01, 1.0)  # a reboot: autopilot time starts again
+    assert clock.now_s(wall + 0.01) == pytest.approx(1.0, abs=0.05)
+
+
 def test_a_period_in_wall_seconds_follows_the_fitted_rate_never_above_real_time() -> None:
     """The companion's step deadline: a 0.1 s period of autopilot time is 20 ms of wall time at --speedup 5, and
     never more than 0.1 s (an unfitted clock, or one that seems slower than the wall)."""
