@@ -13,11 +13,12 @@ relation (the paper's wave is not a deep-water one).
 
 Confidence (0..1) is the product of: the share of the slope the wave explains, the fit's standard errors of
 period, wavelength, direction and height (widened for correlated samples: full up to 1 %, 3.3 %, 3.3° and 5 %,
-nothing at twice those, a third and two thirds of what issue 29 allows the estimate to be off by), the
-window covering enough encounter periods (nothing at 1.25, full from 2.25), the slope being a sea (above ``min_slope_rad``) and the
-last two fits agreeing. ``estimate`` answers None below ``min_confidence``; ``latest`` always answers (for
-logs); ``spread`` gives the NED covariance of the slope the wave does not explain (once confident: the fit's
-residual; before: the sea's slope statistics, ``spread``), the expected-roll term's input.
+nothing at twice those, a third and two thirds of what issue 29 allows the estimate to be off by), the window
+covering enough encounter periods (nothing at 1.25, full from 2.25), the slope being a sea (above
+``min_slope_rad``) and the last two fits agreeing. ``estimate`` answers None below ``min_confidence``;
+``latest`` always answers (for logs); ``spread`` gives the NED covariance of the slope the wave does not
+explain (once confident: the fit's residual; before: the sea's slope statistics, ``spread``), the
+expected-roll term's input.
 
 Blind to what one regular component cannot show (an irregular sea fits partly, with lower confidence); a
 boat at rest with neither IMU nor GPS height cannot size k. Bad input (NaN, a frozen attitude, a clock going
