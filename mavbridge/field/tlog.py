@@ -41,7 +41,6 @@ OUTPUTS = {mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, mavlink.MAVLINK_MSG_ID_RC_CH
 FLAT = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_ATTITUDE, mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
         mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, *IMU_KINDS, mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
         mavlink.MAVLINK_MSG_ID_RC_CHANNELS)
-IMU_SCAN_S = 10.0  # the IMU stream used is the fastest in this much of the log (the companion measures rates first)
 TO_AUTOPILOT = {mavlink.MAVLINK_MSG_ID_MISSION_ITEM_INT, mavlink.MAVLINK_MSG_ID_MISSION_ITEM,
                 mavlink.MAVLINK_MSG_ID_MISSION_COUNT}  # an upload: another station's, addressed to the autopilot
 REBOOT_MS = 5000  # the autopilot's clock this far behind the newest heard: it rebooted
@@ -179,13 +178,14 @@ class TlogReader:
     def __init__(self, path: Path, sysid: int | None = None, outputs: bool = False) -> None:
         self.path, self.sysid = path, sysid
         self.info = LogInfo(path, "tlog", size_bytes=path.stat().st_size)
-        self.autopilot, self.imu = self._find_autopilot()
-        others = set(IMU_KINDS) - {self.imu} if self.imu is not None else set()
-        self.wanted = (WANTED | (OUTPUTS if outputs else set())) - others
+        self.autopilot = self._find_autopilot()
+        # Every IMU kind is read: the fastest stream often starts only when a companion asks for it, minutes
+        # into a ground station's log (the trial follows the fastest kind window by window).
+        self.wanted = WANTED | (OUTPUTS if outputs else set())
 
-    def _find_autopilot(self) -> tuple[tuple[int, int], int | None]:
-        """((sysid, compid) of the autopilot, its fastest IMU message id in its first IMU_SCAN_S): the sender of the
-        first autopilot HEARTBEAT (of ``sysid``), else of the first ATTITUDE; LogError when there is neither."""
+    def _find_autopilot(self) -> tuple[int, int]:
+        """(sysid, compid) of the autopilot: the sender of the first autopilot HEARTBEAT (of ``sysid``), else of
+        the first ATTITUDE; LogError when there is neither."""
         parser = mavlink.MAVLink(None)
         attitude_sender: tuple[int, int] | None = None
         with self.path.open("rb") as handle:
@@ -196,13 +196,13 @@ class TlogReader:
                 msg = _decode(parser, frame) if frame.msgid == mavlink.MAVLINK_MSG_ID_HEARTBEAT else None
                 if msg is not None and _is_autopilot(msg):
                     self.info.source = f"autopilot {frame.sysid}/{frame.compid} ({describe_autopilot(msg)})"
-                    return (frame.sysid, frame.compid), _fastest_imu(frames, frame)
+                    return frame.sysid, frame.compid
         which = f" of system {self.sysid}" if self.sysid is not None else ""
         if attitude_sender is None:
             raise LogError(f"LOG: {self.path}: no autopilot HEARTBEAT and no ATTITUDE{which} in this tlog: "
                            "nothing to report")
         self.info.source = f"system {attitude_sender[0]}/{attitude_sender[1]} (sent ATTITUDE; no autopilot HEARTBEAT)"
-        return attitude_sender, None
+        return attitude_sender
 
     def messages(self, progress: Progress | None = None) -> Iterator[TimedMessage]:
         """The autopilot's messages (and mission items sent to it) on the autopilot's clock."""
@@ -267,17 +267,6 @@ class TlogReader:
         if others:
             senders = ", ".join(f"{s}/{c} ({n} frames)" for (s, c), n in others.most_common(4))
             self.info.note(f"not the autopilot's, left out: {senders}")
-
-
-def _fastest_imu(frames: Iterator[Frame], first: Frame) -> int | None:
-    """The IMU message id the autopilot of ``first`` sends most often in IMU_SCAN_S after it (None: no IMU)."""
-    counts = Counter[int]()
-    for frame in frames:
-        if frame.stamp_us - first.stamp_us > IMU_SCAN_S * 1e6:
-            break
-        if (frame.sysid, frame.compid) == (first.sysid, first.compid) and frame.msgid in IMU_KINDS:
-            counts[frame.msgid] += 1
-    return counts.most_common(1)[0][0] if counts else None
 
 
 class Decoder:

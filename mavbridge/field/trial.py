@@ -6,7 +6,8 @@ position by flat earth from an origin, velocity from LOCAL_POSITION_NED else GLO
 exactly as in `mavbridge run`; each ATTITUDE it takes is one attitude sample, and — once a position is
 known — one ``MotionSample`` for the wave estimator, stamped on the log's timeline. The origin of the track
 is the autopilot's home when the log says it before the first fix (HOME_POSITION), else the first fix; the
-IMU stream used is the fastest one in the log's first seconds, as the companion pins its fastest stream.
+IMU stream used is the fastest one in each window of IMU_CHOICE_S, as the companion takes the fastest stream it
+measures and returns to it when it starts late (a ground station's log begins before a companion asks for it).
 Only compact arrays are kept (an hour of 20 Hz attitude is a few megabytes), never the messages.
 """
 
@@ -27,7 +28,8 @@ from mavbridge.link.connection import mavlink, mavutil
 from mavbridge.waves.source import MotionSample
 from vessel.geo import ned_from_latlon
 
-IMU_CHOICE_S = 5.0  # the IMU stream is chosen after this much of the log (the companion measures rates first)
+IMU_SWITCH_RATIO = 1.5  # a stream replaces the one in use when this many times as frequent in a window
+IMU_CHOICE_S = 5.0  # the IMU stream is (re)chosen over windows of this much log time, as the companion measures rates
 NAV_COMMANDS = range(16, 96)  # MAV_CMD_NAV_*: mission items with a position
 
 
@@ -104,7 +106,7 @@ class TrialRecorder:
     _params: dict[str, float] = field(default_factory=dict)
     _home: tuple[float, float] | None = None
     _imu_counts: Counter[str] = field(default_factory=Counter)
-    _imu_pinned: bool = False
+    _imu_window_end: float | None = None
     _last_t: float = 0.0
     _handlers: dict[str, Callable[[float, Any], None]] = field(default_factory=dict)
 
@@ -127,6 +129,20 @@ class TrialRecorder:
         self._imu_counts[msg.get_type()] += 1
         self.state.on_message(msg)
 
+    def _choose_imu(self, t: float) -> None:
+        """At the end of each IMU_CHOICE_S window, use the IMU kind heard most often in it when clearly faster
+        than the one in use (IMU_SWITCH_RATIO: two streams at one rate do not take turns)."""
+        if self._imu_window_end is None:
+            self._imu_window_end = t + IMU_CHOICE_S
+        if t < self._imu_window_end:
+            return
+        self._imu_window_end = t + IMU_CHOICE_S
+        if self._imu_counts:
+            kind, count = self._imu_counts.most_common(1)[0]
+            if count > IMU_SWITCH_RATIO * self._imu_counts.get(self.state.imu_preferred or "", 0):
+                self.state.use_imu(kind)
+            self._imu_counts.clear()
+
     def _accepted(self, msg: Any) -> bool:
         """The state took ``msg`` (its refusal count did not move)."""
         before = self.state.rejected
@@ -138,10 +154,7 @@ class TrialRecorder:
             return
         self._att.append(t)
         self._att.extend(self.state.attitude[0:3].tolist())
-        if not self._imu_pinned and self._att[0] + IMU_CHOICE_S <= t:
-            self._imu_pinned = True
-            if self._imu_counts:
-                self.state.use_imu(self._imu_counts.most_common(1)[0][0])
+        self._choose_imu(t)
         if self.on_motion is not None and self.state.ready():
             self.on_motion(on_timeline(self.state.motion_sample(), t))
 

@@ -7,6 +7,7 @@ import math
 import os
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -19,8 +20,10 @@ from mavbridge.field.logs import LogError, open_log
 from mavbridge.field.tlog import Decoder, FrameStream, _decode
 from mavbridge.field.trial import record
 from tests.mavbridge.field_logs import (
+    GRAVITY,
     HOME,
     OTTER_30,
+    Motion,
     is_month,
     motion_frames,
     otter_rows,
@@ -156,6 +159,38 @@ def test_tlog_autopilot_is_the_first_heartbeat_that_names_one_or_sysid(tmp_path:
     np.testing.assert_allclose(trial2.attitude[:, 0], theirs.t + 5.0, atol=1e-9)  # the autopilot's own clock
     with pytest.raises(LogError, match="no autopilot HEARTBEAT and no ATTITUDE of system 7"):
         open_log(path, sysid=7)
+
+
+def _imu_frames(motion: Motion, kind: str, rate_hz: float, start_s: float) -> list[tuple[float, Any, int, int]]:
+    """The autopilot's IMU stream of ``kind`` at ``rate_hz`` from ``start_s`` (ArduPilot's milli-g, mrad/s)."""
+    frames, every = [], max(1, round(20.0 / rate_hz))
+    for i in range(0, motion.t.size, every):
+        t = float(motion.t[i])
+        if t < start_s:
+            continue
+        ms = round(t * 1000) + 5000
+        acc = [round(float(a) / GRAVITY * 1000) for a in motion.accel[i]]
+        gyro = [round(float(r) * 1000) for r in motion.rates[i]]
+        msg = (mav.MAVLink_scaled_imu_message(ms, *acc, *gyro, 0, 0, 0) if kind == "SCALED_IMU"
+               else mav.MAVLink_raw_imu_message(ms * 1000, *acc, *gyro, 0, 0, 0))
+        frames.append((t, msg, 1, 1))
+    return frames
+
+
+def test_a_fast_imu_stream_that_starts_late_is_the_one_used(tmp_path: Path) -> None:
+    """A ground station's log begins before a companion asks for SCALED_IMU: Rover's 1 Hz RAW_IMU comes
+    first, the 20 Hz stream 20 s later. The trial follows the fastest stream, as the companion does (before,
+    the first seconds decided for the whole log and the estimator saw one heave sample a second)."""
+    motion = sine_motion(60.0)
+    frames = motion_frames(motion) + _imu_frames(motion, "RAW_IMU", 1.0, 0.0)
+    path = tmp_path / "late-imu.tlog"
+    write_tlog(path, sorted(frames + _imu_frames(motion, "SCALED_IMU", 20.0, 20.0), key=lambda f: f[0]))
+    log = open_log(path)
+    assert record(log.messages(), log.info).imu == "SCALED_IMU"
+    only_slow = tmp_path / "slow-imu.tlog"
+    write_tlog(only_slow, sorted(frames, key=lambda f: f[0]))
+    log = open_log(only_slow)
+    assert record(log.messages(), log.info).imu == "RAW_IMU"
 
 
 def test_tlog_cut_short_damaged_and_rebooted_is_read_and_said(tmp_path: Path) -> None:
