@@ -176,31 +176,34 @@ def fit_bank(bank: Bank, s: Samples, ridge: float = 1e-2, weights: np.ndarray | 
     w_all = np.ones(s.t.size) if weights is None else np.asarray(weights, float)
     names = [n for n in ("slope_n", "slope_e", "heave", "accel") if np.count_nonzero(np.isfinite(getattr(s, n))) >= 4]
     ys, xs, ws = [], [], []
-    for name, (values, rows, ok) in zip(names, channels, strict=True):
-        ys.append(values - values.mean())  # an attitude or height offset is not a wave
-        xs.append(rows)
+    for column, (name, (values, rows, ok)) in enumerate(zip(names, channels, strict=True)):
+        offset = np.zeros((values.size, len(names)))
+        offset[:, column] = 1.0  # an attitude or height offset is not a wave: one free column per channel
+        ys.append(values)
+        xs.append(np.hstack([rows, offset]))
         ws.append(w_all[ok] / noise[name] ** 2)
     y, x, w = np.concatenate(ys), np.vstack(xs), np.concatenate(ws)
     normal = x.T @ (x * w[:, None])
+    slope = names[:2] == ["slope_n", "slope_e"]
     if prior is None:
-        penalty = np.full(normal.shape[0], float(np.trace(normal)) / normal.shape[0])
+        penalty = np.full(2 * bank.size, float(np.trace(normal)) / normal.shape[0])
     else:
-        variance = sum(float(np.mean(v * v)) for v in ys[:2]) if names[:2] == ["slope_n", "slope_e"] else 0.0
+        variance = sum(float(np.var(v)) for v in ys[:2]) if slope else 0.0
         signal = max(variance - 2 * noise["slope_n"] ** 2, 0.25 * variance, 1e-12)  # the slope's wave part, rad²
         scaled = prior * signal / max(float(np.sum(bank.k**2 * prior)), 1e-30)  # the prior's slope variance = it
         penalty = np.tile(1.0 / np.maximum(scaled, 1e-30), 2)
+    penalty = np.concatenate([ridge * penalty, np.full(len(names), 1e-9 * float(np.mean(penalty)))])
     try:
-        coef = np.linalg.solve(normal + ridge * np.diag(penalty), x.T @ (w * y))
+        coef = np.linalg.solve(normal + np.diag(penalty), x.T @ (w * y))
     except np.linalg.LinAlgError:
         return None
-    return _result(bank, coef, origin, s, ys[:2] if names[:2] == ["slope_n", "slope_e"] else [],
-                   xs[:2] if names[:2] == ["slope_n", "slope_e"] else [])
+    return _result(bank, coef, origin, s, ys[:2] if slope else [], xs[:2] if slope else [])
 
 
 def _result(bank: Bank, coef: np.ndarray, origin: tuple[float, float, float], s: Samples, ys: list[np.ndarray],
             xs: list[np.ndarray]) -> BankFit:
     """The fit as absolute-phase components and its explained share of the slope."""
-    a, b = coef[: bank.size], coef[bank.size:]
+    a, b = coef[: bank.size], coef[bank.size: 2 * bank.size]
     amplitude = np.hypot(a, b)
     t0, n0, e0 = origin
     s0 = bank.k * (n0 * np.cos(bank.direction) + e0 * np.sin(bank.direction))
@@ -210,8 +213,9 @@ def _result(bank: Bank, coef: np.ndarray, origin: tuple[float, float, float], s:
     explained, rms = 0.0, 0.0
     if ys:
         y, x = np.concatenate(ys), np.vstack(xs)
-        power = float(y @ y)
         residual = y - x @ coef
+        y = y - np.concatenate([np.full(v.size, v.mean()) for v in ys])
+        power = float(y @ y)
         explained = 1.0 - float(residual @ residual) / power if power > 0 else 0.0
-        rms = math.sqrt(power / ys[0].size)
+        rms = math.sqrt(power / ys[0].size)  # of the slope vector, less its offsets
     return BankFit(waves, explained, rms, float(s.t[-1] - s.t[0]))
