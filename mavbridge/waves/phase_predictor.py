@@ -15,8 +15,9 @@ turns and speed changes cost nothing (the fit lives in the earth frame).
 
 Why this and not an AR model of the slope or a Kalman filter on a spectral model: on the bench
 (``bench/wave_prediction.py``) a 20-lag AR model of each slope channel matched the bank 1 s ahead in quartering and
-following seas but fell well behind it in beam seas (r 0.5 against 0.85) and in the turn, and it lives in the boat's
-frame (a turn or a change of speed changes its model) and gives no slope at a point away from the boat. The bank's
+following seas but fell well behind it in beam seas (r 0.5–0.6 against 0.86–0.89) and in the turn, and it lives in
+the boat's frame (a turn or a change of speed changes its model) and gives no slope at a point away from the boat. The
+bank's
 skill comes from its prior: with a flat ridge instead it lost most of it in head and beam seas. A Kalman filter on
 the same components would be this fit made recursive; the window's least squares is simpler to bound and to reset.
 
