@@ -17,9 +17,9 @@ Why this and not an AR model of the slope or a Kalman filter on a spectral model
 (``bench/wave_prediction.py``) a 20-lag AR model of each slope channel matched the bank 1 s ahead in quartering and
 following seas but fell well behind it in beam seas (r 0.5–0.6 against 0.86–0.89) and in the turn, and it lives in
 the boat's frame (a turn or a change of speed changes its model) and gives no slope at a point away from the boat. The
-bank's
-skill comes from its prior: with a flat ridge instead it lost most of it in head and beam seas. A Kalman filter on
-the same components would be this fit made recursive; the window's least squares is simpler to bound and to reset.
+bank's skill comes from its prior: with a flat ridge instead it lost most of it in head and beam seas. A Kalman
+filter on the same components would be this fit made recursive; the window's least squares is simpler to bound and
+to reset.
 
 Confidence is measured, not modelled: every fit's prediction is scored against the slope that arrives over the next
 ``horizon_s`` seconds, per lead-time bin, and the skill (1 − error power / signal power, forgetting with
