@@ -207,6 +207,22 @@ class RollAwareNmpc:
         """
         self._sea.set_spread(covariance_ned)
 
+    def set_wave_bank(self, arrays: dict[str, np.ndarray] | None, weight: float = 1.0,
+                      roll_sign: float = -1.0) -> None:
+        """The phase-resolved sea later solves add to the regular wave (built with ``wave_components`` K > 0):
+        ``PhasePredictor.bank_arrays(K)`` (amplitude m, ω rad/s, k rad/m, direction rad NED, absolute phase rad
+        on this controller's clock), its weight 0..1 and the roll sign its slopes were read with; None: none.
+
+        While it holds a sea the roll weight acts (as with a known wave); ``set_sea_spread`` stays independent
+        (the caller decides what of the sea the bank leaves unexplained). ValueError when K = 0.
+        """
+        self._sea.set_bank(arrays, weight, roll_sign)
+
+    @property
+    def bank_active(self) -> bool:
+        """True when later solves plan with a phase-resolved bank (see ``set_wave_bank``)."""
+        return self._sea.bank_active
+
     @property
     def takes_waves(self) -> bool:
         """True when ``set_wave`` works: built with a regular wave or calm water, not a fixed field."""
@@ -236,7 +252,7 @@ class RollAwareNmpc:
         return self.inputs.to_tau(self._u_applied).copy()
 
     def _rollout(self, x0: np.ndarray, t: float) -> np.ndarray:
-        return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._sea.wave)
+        return rollout(self._step, self.layout, x0, t, self._safe, self.config.period_s, self._sea.model_wave())
 
     def prepare(self, x0: Any, t: float, waypoint_ne: Any) -> NmpcResult:
         """The cold, full solve for (x0, t, waypoint), done before the control loop starts.

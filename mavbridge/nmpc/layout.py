@@ -12,6 +12,10 @@ Parameter vector p (one built solver serves any run, time, tuning and regular wa
     wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
     roll_spread (3) √R × the lower Cholesky factor L of the NED slope covariance the wave model does not
                    explain (l_nn, l_en, l_ee): the expected roll cost R·E[φ²] = ‖Lᵀy‖², y the body y axis
+    bank (1 + 6K)  only when ``NmpcConfig.wave_components`` K > 0: a phase-resolved sea of K long-crested
+                   components added to the regular wave (see ``wave_bank``): the weight, then K amplitudes,
+                   ω, k, cos μ, sin μ and phases. Appended last, so every other block keeps its index and
+                   K = 0 is exactly the layout above (``PARAMS``).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import functools
 from dataclasses import dataclass
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from vessel import NX_RIGID
@@ -53,6 +58,7 @@ class ParameterBlocks:
     weights: Any
     wave: Any
     roll_spread: Any
+    bank: Any = None  # the wave bank block, None in a layout without one (K = 0)
 
 
 @dataclass(frozen=True)
@@ -100,6 +106,15 @@ class ParameterLayout:
         where = self.slice(name)
         return p[where.start] if where.stop - where.start == 1 else p[where]
 
+    def wave_input(self, p: Any) -> Any:
+        """What the model's step takes as its ``wave`` input: the ``wave`` block, followed by the ``bank`` block
+        when the layout has one (numpy arrays concatenated, CasADi symbols stacked)."""
+        wave = self.get(p, "wave")
+        if "bank" not in self._slices:
+            return wave
+        bank = self.get(p, "bank")
+        return np.concatenate([wave, bank]) if isinstance(p, np.ndarray) else ca.vertcat(wave, bank)
+
     def unpack(self, p: Any) -> ParameterBlocks:
         """All blocks of p, by name."""
         return ParameterBlocks(**{name: self.get(p, name) for name, _ in self.blocks})
@@ -133,6 +148,24 @@ def _count(value: Any) -> int:
 
 PARAMS = ParameterLayout()
 NP = PARAMS.size
+
+
+def bank_size(components: int) -> int:
+    """Numbers in the ``bank`` block of K components (weight + 6 per component); 0 for K = 0 (no block)."""
+    return 1 + 6 * components if components > 0 else 0
+
+
+def wave_input_size(components: int) -> int:
+    """Length of the model's ``wave`` input: the regular wave block, and the bank block when K > 0."""
+    return len(WAVE_NAMES) + bank_size(components)
+
+
+@functools.lru_cache(maxsize=8)
+def parameter_layout(components: int) -> ParameterLayout:
+    """The parameter layout of a problem with K bank components: ``PARAMS`` itself for K = 0."""
+    if components <= 0:
+        return PARAMS
+    return ParameterLayout((*PARAMS.blocks, ("bank", bank_size(components))))
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,9 @@ import numpy as np
 
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau, model_matrix
-from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, WAVE_NAMES, Layout, members
-from mavbridge.nmpc.wave_model import CALM_PARAMETERS, ParametricRegularWaves
+from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, Layout, members, parameter_layout, wave_input_size
+from mavbridge.nmpc.wave_bank import model_field
+from mavbridge.nmpc.wave_model import CALM_PARAMETERS
 from vessel import OceanCurrent, OtterParameters, WaveField
 from vessel.dynamics import body_acceleration, kinematics
 
@@ -47,14 +48,16 @@ def distance(x: ca.SX, waypoint: ca.SX) -> ca.SX:
     return ca.sqrt((waypoint[0] - x[0]) ** 2 + (waypoint[1] - x[1]) ** 2 + DIST_EPS)
 
 
-def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCurrent) -> ca.Function:
-    """The paper's model (vessel ``rigid_body_ode``) with the wave as an input: (x, τ, t, wave[7]) -> ẋ.
+def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCurrent,
+              components: int = 0) -> ca.Function:
+    """The paper's model (vessel ``rigid_body_ode``) with the wave as an input: (x, τ, t, wave) -> ẋ.
 
-    ``waves`` None: the wave is the ``wave`` input (a ``ParametricRegularWaves``), so one Function predicts
-    with any regular wave. A WaveField: that field is built in and ``wave`` is unused.
+    ``waves`` None: the wave is the ``wave`` input (a ``ParametricRegularWaves``, 7 numbers; with ``components``
+    K > 0 followed by the K-component bank, ``wave_bank``), so one Function predicts with any regular wave (and
+    bank). A WaveField: that field is built in and ``wave`` is unused.
     """
-    wave = ca.SX.sym("wave", len(WAVE_NAMES))
-    field = ParametricRegularWaves.from_vector(wave) if waves is None else waves
+    wave = ca.SX.sym("wave", wave_input_size(components))
+    field = model_field(wave, components) if waves is None else waves
     x = ca.SX.sym("x", NX)
     tau = ca.SX.sym("tau", NU)
     t = ca.SX.sym("t")
@@ -65,17 +68,17 @@ def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCu
 
 def discrete_model(params: OtterParameters, waves: WaveField | None, current: OceanCurrent,
                    cfg: NmpcConfig) -> ca.Function:
-    """One control period of the NMPC model: (x[12], u[2], t, wave[7]) -> x after period_s, held input.
+    """One control period of the NMPC model: (x[12], u[2], t, wave) -> x after period_s, held input.
 
-    ``waves`` as in ``model_ode`` (None: the wave is the run-time ``wave`` input). u is τ, or the propeller
-    thrusts (``cfg.inputs``), τ = B·u.
+    ``waves`` as in ``model_ode`` (None: the wave is the run-time ``wave`` input, 7 numbers and the bank block
+    of ``cfg.wave_components``). u is τ, or the propeller thrusts (``cfg.inputs``), τ = B·u.
     """
-    ode = model_ode(params, waves, current)
+    ode = model_ode(params, waves, current, cfg.wave_components)
     h = cfg.period_s / cfg.substeps
     x = ca.SX.sym("x", NX)
     u = ca.SX.sym("u", NU)
     t = ca.SX.sym("t")
-    wave = ca.SX.sym("wave", len(WAVE_NAMES))
+    wave = ca.SX.sym("wave", wave_input_size(cfg.wave_components))
     xk = x
     u_model = u
     u = input_tau(u_model, model_matrix(cfg, params))
@@ -98,14 +101,17 @@ NO_SPREAD = np.zeros(3)
 
 def pack_parameters(x0: np.ndarray, t: float, waypoint: np.ndarray, u_prev: np.ndarray,
                     weights: tuple[float, ...], wave: np.ndarray = CALM_PARAMETERS,
-                    roll_spread: np.ndarray = NO_SPREAD) -> np.ndarray:
-    """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``.
+                    roll_spread: np.ndarray = NO_SPREAD, bank: np.ndarray | None = None) -> np.ndarray:
+    """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``; ``bank``
+    (``wave_bank.bank_parameters``) appended as the last block of a layout with one (K > 0), None without.
 
     The per-step fast path of ``PARAMS.pack`` (slices computed once; numpy rejects wrong block sizes).
     """
-    p = np.empty(NP)
+    p = np.empty(NP if bank is None else NP + bank.size)
     for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave, roll_spread), strict=True):
         p[where] = value
+    if bank is not None:
+        p[NP:] = bank
     return p
 
 
@@ -171,15 +177,17 @@ def build_nlp(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None = No
     ``matrix``: B of propeller-thrust inputs (``inputs.model_matrix``), None when u is τ."""
     layout = Layout(cfg.horizon)
     w = ca.SX.sym("w", layout.n_w)
-    p = ca.SX.sym("p", NP)
-    par = PARAMS.unpack(p)
+    blocks = parameter_layout(cfg.wave_components)
+    p = ca.SX.sym("p", blocks.size)
+    par = blocks.unpack(p)
+    wave = blocks.wave_input(p)
     g = [w[layout.x_index(0)] - par.x0]
     f = 0
     u_before = par.u_prev
     for k in range(cfg.horizon):
         xk, uk = w[layout.x_index(k)], w[layout.u_index(k)]
         x_next = w[layout.x_index(k + 1)]
-        g.append(step(xk, uk, par.t + k * cfg.period_s, par.wave) - x_next)
+        g.append(step(xk, uk, par.t + k * cfg.period_s, wave) - x_next)
         f += (input_change_cost(uk, u_before, par.weights, matrix)
               + state_cost(x_next, par.waypoint, par.weights, cfg, par.roll_spread))
         u_before = uk

@@ -2,7 +2,9 @@
 
 The wave the model predicts with (``set_wave``: a regular wave, calm water, or None = nothing known,
 which zeroes the roll weight R: the Direct behaviour) and the sea's unexplained slope statistics
-(``set_sea_spread``: the expected-roll term, see ``sea_spread``) are run-time parameters: no rebuild.
+(``set_sea_spread``: the expected-roll term, see ``sea_spread``) are run-time parameters: no rebuild. So is
+the phase-resolved bank of a problem built with ``wave_components`` K > 0 (``set_bank``, see ``wave_bank``):
+while it holds a sea, the roll weight acts even when no regular wave is known.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.layout import PARAMS
 from mavbridge.nmpc.problem import pack_parameters
 from mavbridge.nmpc.sea_spread import slope_factor
+from mavbridge.nmpc.wave_bank import bank_parameters, no_bank
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, wave_parameters
 from vessel import CalmWater, RegularWaves, WaveField
 
@@ -27,6 +30,9 @@ class SeaKnowledge:
         self.wave = CALM_PARAMETERS.copy() if fixed_waves is not None else wave_parameters(waves)  # type: ignore[arg-type]
         self.wave_known = True
         self.factor = np.zeros(3)  # Cholesky factor of the unexplained slope covariance
+        k = config.wave_components
+        self.bank: np.ndarray | None = no_bank(k) if k > 0 else None  # None: no bank block (K = 0)
+        self._roll_sign = float(self.wave[-1])  # the regular wave's, unless a bank brings its own
 
     def set_wave(self, waves: RegularWaves | CalmWater | None) -> None:
         """The regular wave (or calm water) to predict with; None: nothing known (R = 0)."""
@@ -36,6 +42,25 @@ class SeaKnowledge:
                              f"controllers take a run-time wave")
         self.wave = wave_parameters(waves)
         self.wave_known = waves is not None
+        if not self.wave_known and self.bank_active:
+            self.wave[-1] = self._roll_sign  # calm regular wave: the model rolls with the bank's sign
+
+    def set_bank(self, arrays: dict[str, np.ndarray] | None, weight: float = 1.0, roll_sign: float = -1.0) -> None:
+        """The phase-resolved sea (``PhasePredictor.bank_arrays``), its weight (0..1) and the roll sign its slope
+        was read with; None: no bank (zeros). ValueError on a problem built without a bank (K = 0)."""
+        if self.bank is None:
+            raise ValueError("set_bank: the problem was built with wave_components = 0 (no bank block)")
+        self.bank = bank_parameters(arrays, self.config.wave_components, weight)
+        if self.bank_active:
+            self._roll_sign = float(roll_sign)
+            if not self.wave_known:
+                self.wave[-1] = self._roll_sign
+
+    @property
+    def bank_active(self) -> bool:
+        """True when the bank holds a sea (weight and some amplitude above zero)."""
+        k = self.config.wave_components
+        return self.bank is not None and self.bank[0] > 0 and bool(np.any(self.bank[1:1 + k] > 0))
 
     def set_spread(self, covariance_ned: np.ndarray | None) -> None:
         """The unexplained NED slope covariance (2×2, rad²), or None (no expected-roll term)."""
@@ -44,12 +69,16 @@ class SeaKnowledge:
     @property
     def roll_term_active(self) -> bool:
         """R > 0 and a wave (or calm water) or the sea's spread known."""
-        return (self.wave_known or bool(np.any(self.factor))) and self.config.r > 0
+        return (self.wave_known or self.bank_active or bool(np.any(self.factor))) and self.config.r > 0
+
+    def model_wave(self) -> np.ndarray:
+        """The model step's ``wave`` input: the wave block, then the bank block when there is one."""
+        return self.wave if self.bank is None else np.concatenate([self.wave, self.bank])
 
     def pack(self, x0: np.ndarray, t: float, waypoint: np.ndarray, u_applied: np.ndarray) -> np.ndarray:
         """The parameter vector for one solve (R = 0 while no wave is known; the spread scaled by √R)."""
         p = pack_parameters(x0, t, waypoint, u_applied, self.config.weights, self.wave,
-                            math.sqrt(self.config.r) * self.factor)
-        if not self.wave_known:
+                            math.sqrt(self.config.r) * self.factor, self.bank)
+        if not (self.wave_known or self.bank_active):
             p[PARAMS.index("weights", "r")] = 0.0
         return p

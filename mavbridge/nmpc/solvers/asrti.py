@@ -28,7 +28,7 @@ from mavbridge.nmpc.backend import SolveOutcome
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.functions import ProblemFunctions, problem_functions
 from mavbridge.nmpc.inputs import input_space
-from mavbridge.nmpc.layout import PARAMS
+from mavbridge.nmpc.layout import NP, PARAMS, parameter_layout
 from mavbridge.nmpc.solvers.gauss_newton import GaussNewtonSqp
 from mavbridge.nmpc.solvers.rti import RtiBackend
 from vessel import OceanCurrent, OtterParameters, WaveField
@@ -46,6 +46,7 @@ class BackgroundSolve:
         self.cfg = cfg
         self.step = functions.step
         self.layout = functions.layout
+        self.blocks = parameter_layout(cfg.wave_components)
         lin, _ = functions.load_linearisation(cfg.rti_codegen)
         self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0, input_space(cfg, functions.params))
 
@@ -55,7 +56,7 @@ class BackgroundSolve:
         start = time.perf_counter()
         cfg = self.cfg
         par = PARAMS.unpack(p)
-        x_next = np.asarray(self.step(par.x0, u_applied, par.t, par.wave)).ravel()
+        x_next = np.asarray(self.step(par.x0, u_applied, par.t, self.blocks.wave_input(p))).ravel()
         p_next = p.copy()
         p_next[PARAMS.slice("x0")] = x_next
         p_next[PARAMS.index("t")] = par.t + cfg.period_s
@@ -126,7 +127,7 @@ class AdvancedStep:
             return None, info
         info["background"] = "used"
         changed = any(not np.array_equal(PARAMS.get(p, b), PARAMS.get(p_next, b))
-                      for b in ("weights", "wave", "roll_spread"))
+                      for b in ("weights", "wave", "roll_spread")) or not np.array_equal(p[NP:], p_next[NP:])
         info["background_problem"] = "changed" if changed else "same"
         return w, info
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space
-from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES
+from mavbridge.nmpc.layout import NU, NX, ROLL_SPREAD_NAMES, WEIGHT_NAMES, parameter_layout, wave_input_size
 from mavbridge.nmpc.solvers.codegen import compiled_library, load
 from mavbridge.nmpc.solvers.gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
 from mavbridge.nmpc.solvers.native_lib import BoxQp, CompiledFunction, ptr
@@ -41,7 +41,8 @@ def _stage_function(step: ca.Function, cfg: NmpcConfig,
     z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
     on = ca.SX.sym("on")  # 0 for stage 0: no cost on the fixed initial state
     waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
-    wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
+    wave = ca.SX.sym("wave", wave_input_size(cfg.wave_components))
+    spread = ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
     zu = ca.vertcat(z, u)
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
     res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights, matrix),
@@ -65,15 +66,16 @@ def block_linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray |
     stage, terminal = _stage_function(step, cfg, matrix)
     n = P * NZU + NZ
     w = ca.MX.sym("w", n)
-    p = ca.MX.sym("p", NP)
-    par = PARAMS.unpack(p)
+    blocks = parameter_layout(cfg.wave_components)
+    p = ca.MX.sym("p", blocks.size)
+    par = blocks.unpack(p)
     W = ca.reshape(w[0:P * NZU], NZU, P)
     Z, U = W[0:NZ, :], W[NZ:, :]
     z_end = w[P * NZU:]
     times = par.t + ca.DM(np.arange(P) * cfg.period_s).T
     flags = ca.DM([[0.0] + [1.0] * (P - 1)])
     F, AB, Hs, gs = stage.map(P)(Z, U, times, flags, ca.repmat(par.waypoint, 1, P), ca.repmat(par.weights, 1, P),
-                                 ca.repmat(par.wave, 1, P), ca.repmat(par.roll_spread, 1, P))
+                                 ca.repmat(blocks.wave_input(p), 1, P), ca.repmat(par.roll_spread, 1, P))
     H_end, g_end = terminal(z_end, ca.DM.zeros(NU), par.waypoint, par.weights, par.roll_spread)
     gap = F - ca.horzcat(Z[:, 1:], z_end)
     return ca.Function("nrti_blocks", [w, p], [AB, ca.horzcat(Hs, H_end), ca.horzcat(gs, g_end), gap],

@@ -16,7 +16,16 @@ import numpy as np
 
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau
-from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, ROLL_SPREAD_NAMES, WAVE_NAMES, WEIGHT_NAMES, members
+from mavbridge.nmpc.layout import (
+    NU,
+    NX,
+    PARAMS,
+    ROLL_SPREAD_NAMES,
+    WEIGHT_NAMES,
+    members,
+    parameter_layout,
+    wave_input_size,
+)
 from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error, min_speed, roll_fade
 
 NZ = NX + NU
@@ -57,9 +66,10 @@ def linearisation_inlined(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray
     P = cfg.horizon
     n = P * (NZ + NU) + NZ
     w = ca.SX.sym("w", n)
-    p = ca.SX.sym("p", NP)
-    par = PARAMS.unpack(p)
-    t0, waypoint, weights, wave, spread = par.t, par.waypoint, par.weights, par.wave, par.roll_spread
+    blocks = parameter_layout(cfg.wave_components)
+    p = ca.SX.sym("p", blocks.size)
+    par = blocks.unpack(p)
+    t0, waypoint, weights, wave, spread = par.t, par.waypoint, par.weights, blocks.wave_input(p), par.roll_spread
 
     def z_at(k: int) -> ca.SX:
         return w[k * (NZ + NU):k * (NZ + NU) + NZ]
@@ -94,7 +104,8 @@ def linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None 
     z, u, t = ca.SX.sym("z", NZ), ca.SX.sym("u", NU), ca.SX.sym("t")
     on = ca.SX.sym("on")  # 0 for stage 0: the cost has no term on the fixed initial state
     waypoint, weights = ca.SX.sym("wp", 2), ca.SX.sym("weights", len(WEIGHT_NAMES))
-    wave, spread = ca.SX.sym("wave", len(WAVE_NAMES)), ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
+    wave = ca.SX.sym("wave", wave_input_size(cfg.wave_components))
+    spread = ca.SX.sym("roll_spread", len(ROLL_SPREAD_NAMES))
     f_aug = ca.vertcat(step(z[0:NX], u, t, wave), u)
     res = ca.vertcat(*_input_change_residuals(u, z[NX:NZ], weights, matrix),
                      on * _state_residuals(z[0:NX], waypoint, weights, cfg, spread))
@@ -109,9 +120,10 @@ def linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray | None 
 
     n = P * (NZ + NU) + NZ
     w = ca.MX.sym("w", n)
-    p = ca.MX.sym("p", NP)
-    par = PARAMS.unpack(p)
-    t0, wp, wts, wv, spread_p = par.t, par.waypoint, par.weights, par.wave, par.roll_spread
+    blocks = parameter_layout(cfg.wave_components)
+    p = ca.MX.sym("p", blocks.size)
+    par = blocks.unpack(p)
+    t0, wp, wts, wv, spread_p = par.t, par.waypoint, par.weights, blocks.wave_input(p), par.roll_spread
     W = ca.reshape(w[0:P * (NZ + NU)], NZ + NU, P)
     Z, U = W[0:NZ, :], W[NZ:, :]
     z_end = w[P * (NZ + NU):]
