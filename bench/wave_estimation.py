@@ -238,43 +238,69 @@ def _sea_runs(sea: str, seed: int, runs: dict) -> dict:
     return out
 
 
-def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "paper", sources: str = "estimated,truth"
-                      ) -> None:
-    """Balanced vs Direct on the estimate and on the truth, per seed, in ``sea``; ``watch_s`` overrides the
-    scenario's time the estimator watches the drifting boat before the run (0: a cold start)."""
+def _configured(sc: object, seed: int, source: str, watch: float, options: dict) -> object:
+    """The run flown on ``source`` with this seed; ``predicted`` with the bank of ``options["components"]`` and
+    its spread mode; every source on ``options["solver"]`` when given."""
     import dataclasses
+
+    est = dataclasses.replace(sc.estimation, seed=seed, waves=source, watch_s=watch,
+                              bank_spread=options.get("bank_spread", "full"))
+    changes = {"wave_components": options.get("components", 12)} if source == "predicted" else {}
+    if options.get("solver"):
+        changes["solver"] = options["solver"]
+    return dataclasses.replace(sc, estimation=est, controller=sc.controller.replace(**changes))
+
+
+def _row(seed: int, source: str, m: dict) -> float:
+    """Print one seed's line; returns the cut (%)."""
+    direct, balanced = m["direct"], m["balanced"]
+    cut = 1 - balanced["avg_roll_deg"] / direct["avg_roll_deg"]
+    t_direct, t_bal = direct["time_to_waypoint_s"], balanced["time_to_waypoint_s"]
+    bound = 1.2 * t_direct / (1 - cut) if t_direct is not None and cut < 1 else None
+    ratio = t_bal / bound if bound is not None and t_bal is not None else None
+
+    def pct(key: str) -> str:
+        value = balanced.get(key)
+        return "–" if value is None else f"{100 * value:.0f}"
+
+    def sec(value: float | None, digits: int = 1) -> str:
+        return "N/A" if value is None else f"{value:.{digits}f}"
+
+    print(f"| {seed} | {source} | {direct['avg_roll_deg']:.2f} | {balanced['avg_roll_deg']:.2f} | {100 * cut:+.1f} "
+          f"| {sec(t_direct)} | {sec(t_bal)} | {sec(bound)} | {sec(ratio, 2)} | {pct('confident_fraction')} "
+          f"| {pct('sea_statistics_fraction')} | {pct('bank_fraction')} |", flush=True)
+    return 100 * cut
+
+
+def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "paper", sources: str = "estimated,truth",
+                      options: dict | None = None) -> None:
+    """Balanced vs Direct on the estimate, the predictor's bank (``predicted``) and the truth, per seed, in ``sea``;
+    ``watch_s`` overrides the scenario's time the estimator watches the drifting boat before the run (0: a cold
+    start); ``options``: components (K of the bank), bank_spread, solver (default: the scenario's)."""
     from pathlib import Path
 
     from mavbridge.lab.experiment import run_scenario
     from mavbridge.lab.scenario import load_scenarios
 
+    options = options or {}
     path = Path(__file__).resolve().parents[1] / "scenarios" / SEAS[sea]
     base = {sc.name: sc for sc in load_scenarios(path)}
     watch = base["balanced"].estimation.watch_s if watch_s is None else watch_s
+    solver = options.get("solver") or base["balanced"].controller.solver
     print(f"# closed loop, {sea} sea, heave, hidden phase, default sensors, {seeds} seeds (scenarios/{SEAS[sea]}), "
-          f"estimator watching {watch:g} s before the run")
-    print("| seed | source | direct avg roll ° | balanced avg roll ° | cut % | balanced t_wpt s | confident % "
-          "| statistics only % |")
-    print("|---|---|---|---|---|---|---|---|")
+          f"estimator watching {watch:g} s before the run, solver {solver}, "
+          f"bank K = {options.get('components', 12)}, spread with the bank: {options.get('bank_spread', 'full')}")
+    print("# bound = 1.2 × T_direct / (1 − cut); ratio = T_balanced / bound")
+    print("| seed | source | direct avg roll ° | balanced avg roll ° | cut % | direct t_wpt s | balanced t_wpt s "
+          "| bound s | ratio | confident % | statistics only % | bank % |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     cuts: dict[str, list[float]] = {source: [] for source in sources.split(",")}
     for seed in range(1, seeds + 1):
         runs = _sea_runs(sea, seed, base)
         for source in cuts:
-            m = {}
-            for name in ("direct", "balanced"):
-                sc = runs[name]
-                sc = dataclasses.replace(sc, estimation=dataclasses.replace(sc.estimation, seed=seed, waves=source,
-                                                                            watch_s=watch))
-                m[name] = run_scenario(sc, None, plots=False).metrics
-            cut = 100 * (1 - m["balanced"]["avg_roll_deg"] / m["direct"]["avg_roll_deg"])
-            cuts[source].append(cut)
-            arrival = m["balanced"]["time_to_waypoint_s"]
-            conf = m["balanced"].get("confident_fraction")
-            stats = m["balanced"].get("sea_statistics_fraction")
-            print(f"| {seed} | {source} | {m['direct']['avg_roll_deg']:.2f} | {m['balanced']['avg_roll_deg']:.2f} "
-                  f"| {cut:+.0f} | {'N/A' if arrival is None else f'{arrival:.1f}'} "
-                  f"| {'–' if conf is None else f'{100 * conf:.0f}'} "
-                  f"| {'–' if stats is None else f'{100 * stats:.0f}'} |", flush=True)
+            m = {name: run_scenario(_configured(runs[name], seed, source, watch, options), None, plots=False).metrics
+                 for name in ("direct", "balanced")}
+            cuts[source].append(_row(seed, source, m))
     for source, values in cuts.items():
         print(f"# mean cut on the {source}: {statistics.mean(values):+.1f} % over {len(values)} seeds")
 
@@ -295,8 +321,14 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--no-calibration", action="store_true", help="with --plant: no hull-response calibration")
     parser.add_argument("--closed-loop", action="store_true", help="Balanced vs Direct on the estimate and truth")
     parser.add_argument("--sea", choices=tuple(SEAS), default="paper", help="with --closed-loop: the sea")
-    parser.add_argument("--sources", choices=("estimated,truth", "estimated", "truth"), default="estimated,truth",
-                        help="with --closed-loop: which wave sources to fly on")
+    parser.add_argument("--sources", default="estimated,truth",
+                        help="with --closed-loop: comma-separated wave sources to fly on: estimated, predicted "
+                             "(the estimator and the phase predictor's bank), truth")
+    parser.add_argument("--components", type=int, default=12, help="with --sources predicted: K of the bank, 1..32")
+    parser.add_argument("--bank-spread", choices=("full", "residual", "none"), default="full",
+                        help="with --sources predicted: the statistics term while the bank is in use")
+    parser.add_argument("--solver", choices=("ipopt", "rti", "asrti", "nrti"), default=None,
+                        help="with --closed-loop: the NMPC solver of every run (default: the scenario's)")
     parser.add_argument("--watch", type=float, default=None, metavar="S",
                         help="with --closed-loop: seconds the estimator watches the drifting boat first (default: "
                              "the scenario's, 60; 0: a cold start)")
@@ -311,6 +343,10 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         parser.exit(2, f"--duration: {args.duration:g} is outside the allowed range [10, 3600] s\n")
     if not all(0 <= v <= 5 for v in args.speeds):
         parser.exit(2, f"--speeds: {args.speeds} has a value outside the allowed range [0, 5] m/s\n")
+    if not set(args.sources.split(",")) <= {"estimated", "predicted", "truth"}:
+        parser.exit(2, f"--sources: {args.sources!r} is not a comma-separated list of estimated, predicted, truth\n")
+    if not 1 <= args.components <= 32:
+        parser.exit(2, f"--components: {args.components} is outside the allowed range [1, 32]\n")
     if args.watch is not None and not 0 <= args.watch <= 3600:
         parser.exit(2, f"--watch: {args.watch:g} is outside the allowed range [0, 3600] s\n")
     return args
@@ -323,7 +359,8 @@ def main(argv: list[str] | None = None) -> int:
     if not (args.kinematic or args.closed_loop or args.cost_only or args.plant):
         print_table(args.seeds)
     elif args.closed_loop:
-        closed_loop_table(args.seeds, args.watch, args.sea, args.sources)
+        closed_loop_table(args.seeds, args.watch, args.sea, args.sources,
+                          {"components": args.components, "bank_spread": args.bank_spread, "solver": args.solver})
         return 0
     if args.plant and not args.cost_only:
         plant_table(args)

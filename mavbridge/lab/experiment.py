@@ -35,6 +35,7 @@ from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.waves import EstimatorSettings, make_estimator
+from mavbridge.waves.bank_source import BankFeed, PredictedSource
 from mavbridge.waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth
 from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
@@ -128,17 +129,25 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
     if scenario.plant != "tau":
         raise ConfigError(f"plant: {scenario.plant!r} with estimation settings; allowed: tau")
     truth = hidden_sea(scenario.sea.waves(), est.seed) if est.hidden_phase else scenario.sea.waves()
-    if est.waves == "estimated":
+    bank: BankFeed | None = None
+    if est.waves in ("estimated", "predicted"):
         settings = (calibrated_settings(params, est.surface_heave, est.roll_sign) if est.calibrate
                     else EstimatorSettings(roll_sign=est.roll_sign))
         source: Any = make_estimator(settings)
+        if est.waves == "predicted":
+            if cfg.wave_components < 1:
+                raise ConfigError("estimation.waves: predicted needs controller.wave_components >= 1 (the bank's "
+                                  "size K); allowed [1, 32]")
+            source = PredictedSource(source, cfg.wave_components, est.roll_sign)
+            bank = BankFeed(source, est.bank_spread)
     else:
         source = ScenarioTruth(truth)
     plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
                            scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source)
-    plant.watch(est.watch_s, cfg.period_s)
     say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
-    return plant, WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s)
+    feed = WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s, bank)
+    plant.watch(est.watch_s, cfg.period_s)
+    return plant, feed
 
 
 def _model_waves(scenario: Scenario) -> WaveField:
@@ -146,7 +155,7 @@ def _model_waves(scenario: Scenario) -> WaveField:
     regular component set at run time (an irregular field is fixed at build: on the truth it is the full
     field, known to the NMPC)."""
     waves = scenario.sea.waves()
-    if scenario.estimation.waves == "estimated" and not isinstance(waves, RegularWaves | CalmWater):
+    if scenario.estimation.waves != "truth" and not isinstance(waves, RegularWaves | CalmWater):
         return CalmWater()
     return waves
 
@@ -207,7 +216,7 @@ def _write_plots(out: Path, scenario: Scenario, rows: list[dict[str, Any]], feed
               feed.truth if feed is not None else scenario.sea.waves(), float(t[-1]), title)
     plot_timeseries(out / "timeseries.png", t, column(rows, "wave_force_n"), np.degrees(column(rows, "roll_rad")),
                     np.degrees(column(rows, "pitch_rad")), column(rows, "tau_x_n"), column(rows, "tau_n_nm"), title)
-    if feed is not None and feed.mode == "estimated":
+    if feed is not None and feed.mode in ("estimated", "predicted"):
         plot_wave_estimate(out / "wave_estimate.png", rows, feed.truth, title)
 
 

@@ -36,7 +36,8 @@ from vessel.world import (
 )
 
 PLANTS = ("tau", "propellers")
-WAVE_SOURCES = ("truth", "estimated")
+WAVE_SOURCES = ("truth", "estimated", "predicted")
+BANK_SPREADS = ("full", "residual", "none")  # mavbridge.waves.bank_source.SPREAD_MODES
 SENSOR_MODELS = ("default", "ideal")
 RUN_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
@@ -70,7 +71,12 @@ class Estimation:
     for the sea seed of the ``simsea`` branch (the lead reconciles the two).
     """
 
-    waves: str = choice("truth", WAVE_SOURCES, "truth: the true wave to the NMPC; estimated: the wave estimator")
+    waves: str = choice("truth", WAVE_SOURCES, "truth: the true wave to the NMPC; estimated: the wave estimator; "
+                        "predicted: the estimator and the phase predictor's bank of controller.wave_components "
+                        "components while it is confident 1 s ahead")
+    bank_spread: str = choice("full", BANK_SPREADS, "predicted: the statistics term while the bank is in use: the "
+                              "sea's whole slope covariance (full), its share the predictor's skill leaves "
+                              "(residual), or none")
     surface_heave: bool = False
     hidden_phase: bool = False
     seed: int = bounded(0, 0, 2**31 - 1, "", "seed of the hidden sea phase and of the sensor noise")
@@ -84,7 +90,7 @@ class Estimation:
                             "the confidence drops (0: degrade at once); in-process and in the companion")
 
     def __post_init__(self) -> None:
-        for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS)):
+        for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS), ("bank_spread", BANK_SPREADS)):
             if getattr(self, name) not in allowed:
                 raise ConfigError(f"estimation.{name}: {getattr(self, name)!r} is not one of {', '.join(allowed)}")
         if self.roll_sign not in (-1.0, 1.0):
@@ -93,7 +99,7 @@ class Estimation:
     @property
     def realistic(self) -> bool:
         """True when anything differs from the paper's setting (then the sensed 20 Hz loop runs)."""
-        return self.waves == "estimated" or self.surface_heave or self.hidden_phase
+        return self.waves in ("estimated", "predicted") or self.surface_heave or self.hidden_phase
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from mavbridge.waves.bank_source import BankFeed
 from mavbridge.waves.calibration import hull_response, record_plant, settings_for
 from mavbridge.waves.kinematic import estimate_errors, paper_sea
 from mavbridge.waves.settings import EstimatorSettings
@@ -150,13 +151,18 @@ class WaveFeed:
 
     ``truth`` mode hands the NMPC the true (hidden-phase) wave; ``estimated`` mode the estimate's field,
     or None below the confidence threshold (calm prediction, R = 0: the Direct behaviour). Says once when
-    it flies without the roll term and each time the confidence drops.
+    it flies without the roll term and each time the confidence drops. ``predicted`` mode is ``estimated``
+    with a phase-resolved bank (``bank``, a ``bank_source.BankFeed``) that replaces the regular wave while
+    the predictor is confident.
     """
 
     def __init__(self, mode: str, source: WaveSource, truth: WaveField, horizon_s: float,
-                 say: Any = None, hold_s: float = 0.0) -> None:
+                 say: Any = None, hold_s: float = 0.0, bank: BankFeed | None = None) -> None:
         self.mode, self.source, self.truth, self.horizon_s = mode, source, truth, horizon_s
         self.say = say
+        self.bank = bank
+        if bank is not None:
+            bank.note = self._note
         self.notes: list[str] = []
         self.first_confident_s: float | None = None
         self.confident_steps = self.steps = self.spread_steps = 0
@@ -185,11 +191,14 @@ class WaveFeed:
             self.estimator_ms.append((time.perf_counter() - start) * 1e3)
             return est.row() if est is not None else {}
         est = self._hold.apply(self.source.estimate(t), t)
-        nmpc.set_wave(est.field() if est is not None else None)
-        spread = sea_spread(self.source, est is not None)
+        if self.bank is not None:
+            wave, spread = self.bank.step(t, nmpc, est)
+        else:
+            wave, spread = est, sea_spread(self.source, est is not None)
+        nmpc.set_wave(wave.field() if wave is not None else None)
         nmpc.set_sea_spread(spread)
         self.estimator_ms.append((time.perf_counter() - start) * 1e3)
-        self._track_spread(t, spread, est is not None)
+        self._track_spread(t, spread, wave is not None or bool(getattr(nmpc, "bank_active", False)))
         if est is not None and self.first_confident_s is None:
             self.first_errors = estimate_metrics(est, self.truth, t, plant.rigid_state, self.horizon_s)
         self._track(t, est is not None, bool(getattr(nmpc, "roll_term_active", True)))
@@ -227,13 +236,16 @@ class WaveFeed:
     def metrics(self, t_end: float, x_end: np.ndarray) -> dict[str, Any]:
         """Time to a confident estimate, final errors against the truth, the estimator's cost per step."""
         regular = isinstance(self.truth, RegularWaves)  # an irregular sea has one phase per component
-        out: dict[str, Any] = {"wave_source": "estimated" if self.mode == "estimated" else "scenario-truth",
+        names = {"estimated": "estimated", "predicted": "estimated+phase-bank"}
+        out: dict[str, Any] = {"wave_source": names.get(self.mode, "scenario-truth"),
                                "sea_phase_rad": float(self.truth.phase_rad) if regular else None}
         ms = np.asarray(self.estimator_ms, float)
         out["estimator_ms_median"] = float(np.median(ms)) if ms.size else None
         out["estimator_ms_p99"] = float(np.percentile(ms, 99)) if ms.size else None
-        if self.mode != "estimated":
+        if self.mode not in names:
             return out
+        if self.bank is not None:
+            out.update(self.bank.metrics())
         latest = self.source.latest(t_end) if hasattr(self.source, "latest") else None
         out.update(time_to_confident_s=self.first_confident_s,
                    confident_fraction=self.confident_steps / max(self.steps, 1),
