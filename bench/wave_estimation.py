@@ -244,7 +244,8 @@ def _configured(sc: object, seed: int, source: str, watch: float, options: dict)
     import dataclasses
 
     est = dataclasses.replace(sc.estimation, seed=seed, waves=source, watch_s=watch,
-                              bank_spread=options.get("bank_spread", "full"))
+                              bank_spread=options.get("bank_spread", "full"), bank_fade=options.get("bank_fade", True),
+                              bank_lead_s=options.get("bank_lead_s", 1.0))
     changes = {"wave_components": options.get("components", 12)} if source == "predicted" else {}
     if options.get("solver"):
         changes["solver"] = options["solver"]
@@ -289,7 +290,9 @@ def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "pape
     solver = options.get("solver") or base["balanced"].controller.solver
     print(f"# closed loop, {sea} sea, heave, hidden phase, default sensors, {seeds} seeds (scenarios/{SEAS[sea]}), "
           f"estimator watching {watch:g} s before the run, solver {solver}, "
-          f"bank K = {options.get('components', 12)}, spread with the bank: {options.get('bank_spread', 'full')}")
+          f"bank K = {options.get('components', 12)}, spread with the bank: {options.get('bank_spread', 'full')}, "
+          f"bank faded: {options.get('bank_fade', True)}, used when confident {options.get('bank_lead_s', 1.0):g} s "
+          "ahead")
     print("# bound = 1.2 × T_direct / (1 − cut); ratio = T_balanced / bound")
     print("| seed | source | direct avg roll ° | balanced avg roll ° | cut % | direct t_wpt s | balanced t_wpt s "
           "| bound s | ratio | confident % | statistics only % | bank % |")
@@ -327,6 +330,10 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--components", type=int, default=12, help="with --sources predicted: K of the bank, 1..32")
     parser.add_argument("--bank-spread", choices=("full", "residual", "none"), default="full",
                         help="with --sources predicted: the statistics term while the bank is in use")
+    parser.add_argument("--bank-fade", choices=("on", "off"), default="on",
+                        help="with --sources predicted: fade the bank out where the predictor's skill halves")
+    parser.add_argument("--bank-lead", type=float, default=1.0, metavar="S",
+                        help="with --sources predicted: use the bank while confident this far ahead, 0..4 s")
     parser.add_argument("--solver", choices=("ipopt", "rti", "asrti", "nrti"), default=None,
                         help="with --closed-loop: the NMPC solver of every run (default: the scenario's)")
     parser.add_argument("--watch", type=float, default=None, metavar="S",
@@ -345,6 +352,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         parser.exit(2, f"--speeds: {args.speeds} has a value outside the allowed range [0, 5] m/s\n")
     if not set(args.sources.split(",")) <= {"estimated", "predicted", "truth"}:
         parser.exit(2, f"--sources: {args.sources!r} is not a comma-separated list of estimated, predicted, truth\n")
+    if not 0 <= args.bank_lead <= 4:
+        parser.exit(2, f"--bank-lead: {args.bank_lead:g} is outside the allowed range [0, 4] s\n")
     if not 1 <= args.components <= 32:
         parser.exit(2, f"--components: {args.components} is outside the allowed range [1, 32]\n")
     if args.watch is not None and not 0 <= args.watch <= 3600:
@@ -360,7 +369,8 @@ def main(argv: list[str] | None = None) -> int:
         print_table(args.seeds)
     elif args.closed_loop:
         closed_loop_table(args.seeds, args.watch, args.sea, args.sources,
-                          {"components": args.components, "bank_spread": args.bank_spread, "solver": args.solver})
+                          {"components": args.components, "bank_spread": args.bank_spread, "solver": args.solver,
+                           "bank_fade": args.bank_fade == "on", "bank_lead_s": args.bank_lead})
         return 0
     if args.plant and not args.cost_only:
         plant_table(args)

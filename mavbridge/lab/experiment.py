@@ -138,8 +138,8 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
             if cfg.wave_components < 1:
                 raise ConfigError("estimation.waves: predicted needs controller.wave_components >= 1 (the bank's "
                                   "size K); allowed [1, 32]")
-            source = PredictedSource(source, cfg.wave_components, est.roll_sign)
-            bank = BankFeed(source, est.bank_spread)
+            source = PredictedSource(source, cfg.wave_components, est.roll_sign, est.bank_lead_s)
+            bank = BankFeed(source, est.bank_spread, fade=est.bank_fade)
     else:
         source = ScenarioTruth(truth)
     plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,

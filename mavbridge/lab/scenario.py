@@ -77,6 +77,9 @@ class Estimation:
     bank_spread: str = choice("full", BANK_SPREADS, "predicted: the statistics term while the bank is in use: the "
                               "sea's whole slope covariance (full), its share the predictor's skill leaves "
                               "(residual), or none")
+    bank_fade: bool = True  # predicted: fade the bank out of the NMPC's horizon where the predictor's skill halves
+    bank_lead_s: float = bounded(1.0, 0.0, 4.0, "s", "predicted: the bank is used while the predictor is confident "
+                                 "this far ahead")
     surface_heave: bool = False
     hidden_phase: bool = False
     seed: int = bounded(0, 0, 2**31 - 1, "", "seed of the hidden sea phase and of the sensor noise")

@@ -208,15 +208,16 @@ class RollAwareNmpc:
         self._sea.set_spread(covariance_ned)
 
     def set_wave_bank(self, arrays: dict[str, np.ndarray] | None, weight: float = 1.0,
-                      roll_sign: float = -1.0) -> None:
+                      roll_sign: float = -1.0, fade: tuple[float, float] | None = None) -> None:
         """The phase-resolved sea later solves add to the regular wave (built with ``wave_components`` K > 0):
         ``PhasePredictor.bank_arrays(K)`` (amplitude m, ω rad/s, k rad/m, direction rad NED, absolute phase rad
-        on this controller's clock), its weight 0..1 and the roll sign its slopes were read with; None: none.
+        on this controller's clock), its weight 0..1, the roll sign its slopes were read with and its fade (from
+        t s, over s: half weight then, ``wave_bank``; None: none); None arrays: no bank.
 
         While it holds a sea the roll weight acts (as with a known wave); ``set_sea_spread`` stays independent
         (the caller decides what of the sea the bank leaves unexplained). ValueError when K = 0.
         """
-        self._sea.set_bank(arrays, weight, roll_sign)
+        self._sea.set_bank(arrays, weight, roll_sign, *(() if fade is None else (fade,)))
 
     @property
     def bank_active(self) -> bool:

@@ -12,10 +12,10 @@ Parameter vector p (one built solver serves any run, time, tuning and regular wa
     wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
     roll_spread (3) √R × the lower Cholesky factor L of the NED slope covariance the wave model does not
                    explain (l_nn, l_en, l_ee): the expected roll cost R·E[φ²] = ‖Lᵀy‖², y the body y axis
-    bank (1 + 6K)  only when ``NmpcConfig.wave_components`` K > 0: a phase-resolved sea of K long-crested
-                   components added to the regular wave (see ``wave_bank``): the weight, then K amplitudes,
-                   ω, k, cos μ, sin μ and phases. Appended last, so every other block keeps its index and
-                   K = 0 is exactly the layout above (``PARAMS``).
+    bank (3 + 6K)  only when ``NmpcConfig.wave_components`` K > 0: a phase-resolved sea of K long-crested
+                   components added to the regular wave (see ``wave_bank``): its weight, the time it fades
+                   from and the fade time, then K amplitudes, ω, k, cos μ, sin μ and phases. Appended last,
+                   so every other block keeps its index and K = 0 is exactly the layout above (``PARAMS``).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ WAVE_NAMES = ("height_m", "wavenumber_rad_per_m", "frequency_rad_per_s", "cos_tr
 
 
 ROLL_SPREAD_NAMES = ("l_nn", "l_en", "l_ee")
+BANK_HEADER = ("weight", "fade_from_s", "fade_s")  # the bank block's scalars before its 6 K-vectors
 
 
 MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES, "roll_spread": ROLL_SPREAD_NAMES}
@@ -151,8 +152,8 @@ NP = PARAMS.size
 
 
 def bank_size(components: int) -> int:
-    """Numbers in the ``bank`` block of K components (weight + 6 per component); 0 for K = 0 (no block)."""
-    return 1 + 6 * components if components > 0 else 0
+    """Numbers in the ``bank`` block of K components (``BANK_HEADER`` + 6 per component); 0 for K = 0 (no block)."""
+    return len(BANK_HEADER) + 6 * components if components > 0 else 0
 
 
 def wave_input_size(components: int) -> int:

@@ -17,7 +17,7 @@ from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.layout import PARAMS
 from mavbridge.nmpc.problem import pack_parameters
 from mavbridge.nmpc.sea_spread import slope_factor
-from mavbridge.nmpc.wave_bank import bank_parameters, no_bank
+from mavbridge.nmpc.wave_bank import NO_FADE_S, H, bank_parameters, no_bank
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, wave_parameters
 from vessel import CalmWater, RegularWaves, WaveField
 
@@ -45,12 +45,14 @@ class SeaKnowledge:
         if not self.wave_known and self.bank_active:
             self.wave[-1] = self._roll_sign  # calm regular wave: the model rolls with the bank's sign
 
-    def set_bank(self, arrays: dict[str, np.ndarray] | None, weight: float = 1.0, roll_sign: float = -1.0) -> None:
-        """The phase-resolved sea (``PhasePredictor.bank_arrays``), its weight (0..1) and the roll sign its slope
-        was read with; None: no bank (zeros). ValueError on a problem built without a bank (K = 0)."""
+    def set_bank(self, arrays: dict[str, np.ndarray] | None, weight: float = 1.0, roll_sign: float = -1.0,
+                 fade: tuple[float, float] = (0.0, NO_FADE_S)) -> None:
+        """The phase-resolved sea (``PhasePredictor.bank_arrays``), its weight (0..1), the roll sign its slope
+        was read with and its fade (from t s, over s; see ``wave_bank``); None: no bank (zeros). ValueError on a
+        problem built without a bank (K = 0)."""
         if self.bank is None:
             raise ValueError("set_bank: the problem was built with wave_components = 0 (no bank block)")
-        self.bank = bank_parameters(arrays, self.config.wave_components, weight)
+        self.bank = bank_parameters(arrays, self.config.wave_components, weight, *fade)
         if self.bank_active:
             self._roll_sign = float(roll_sign)
             if not self.wave_known:
@@ -60,7 +62,7 @@ class SeaKnowledge:
     def bank_active(self) -> bool:
         """True when the bank holds a sea (weight and some amplitude above zero)."""
         k = self.config.wave_components
-        return self.bank is not None and self.bank[0] > 0 and bool(np.any(self.bank[1:1 + k] > 0))
+        return self.bank is not None and self.bank[0] > 0 and bool(np.any(self.bank[H:H + k] > 0))
 
     def set_spread(self, covariance_ned: np.ndarray | None) -> None:
         """The unexplained NED slope covariance (2×2, rad²), or None (no expected-roll term)."""

@@ -13,7 +13,9 @@ with the bank in use it carries the part of the sea the bank does not explain, `
 * ``residual``: the covariance times 1 − the predictor's measured skill at ``lead_s`` (the unexplained share);
 * ``none``: no statistics term while the bank is in use.
 
-Every change of state is said (``notes``) and counted (``bank_fraction`` in the run's metrics).
+The bank fades out of the model's horizon where the predictor's measured skill falls to a half (``fade``,
+``nmpc.wave_bank``): beyond that its crests are guesses. Every change of state is said (``notes``) and counted
+(``bank_fraction`` in the run's metrics).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from mavbridge.waves.source import MotionSample, WaveEstimate, sea_spread
 from mavbridge.waves.window_buffer import GAP_S, TRACK_PULL_S, down_acceleration
 
 SPREAD_MODES = ("full", "residual", "none")
+FADE_SKILL = 0.5  # the bank's weight in the NMPC's model halves where the predictor's skill falls to this
 GPS_LAG_S = 0.2  # the default sensors' fix lag (0.1 s) plus half their fix interval (5 Hz)
 
 
@@ -101,24 +104,41 @@ class PredictedSource:
         value = float(self.predictor.skill(self.lead_s))
         return value if math.isfinite(value) else 0.0
 
+    def fade(self) -> tuple[float, float]:
+        """(t_f, τ_f) for the NMPC's bank (``nmpc.wave_bank``): from the last fit's time, half weight at the lead
+        where the measured skill (per 1 s bin, at the bins' centres, interpolated) falls to ``FADE_SKILL``; the
+        scored horizon when it never does, half a second at least."""
+        horizon = self.predictor.s.horizon_s
+        leads = np.arange(0.5, horizon, 1.0)
+        skill = np.nan_to_num(self.predictor.skill(leads), neginf=-1.0)
+        below = np.flatnonzero(skill < FADE_SKILL)
+        if below.size == 0:
+            return self.predictor.fit_time_s, horizon
+        i = int(below[0])
+        if i == 0:
+            return self.predictor.fit_time_s, 0.5
+        share = (skill[i - 1] - FADE_SKILL) / max(skill[i - 1] - skill[i], 1e-9)
+        return self.predictor.fit_time_s, max(0.5, float(leads[i - 1] + share))
+
 
 class BankFeed:
     """Per control step: the bank (or none) to the NMPC, the wave and spread that go with it; notes, counts."""
 
     def __init__(self, source: PredictedSource, spread_mode: str = "full",
-                 note: Callable[[str], None] | None = None) -> None:
+                 note: Callable[[str], None] | None = None, fade: bool = True) -> None:
         if spread_mode not in SPREAD_MODES:
             raise ValueError(f"bank spread mode {spread_mode!r} is not one of {', '.join(SPREAD_MODES)}")
-        self.source, self.spread_mode, self.note = source, spread_mode, note
+        self.source, self.spread_mode, self.note, self.fade = source, spread_mode, note, fade
         self.steps = self.bank_steps = 0
         self._on: bool | None = None
         self.skills: list[float] = []
+        self.fades: list[float] = []
 
     def step(self, t: float, nmpc: Any, est: WaveEstimate | None) -> tuple[WaveEstimate | None, np.ndarray | None]:
         """Hand ``nmpc`` the bank or none; (the regular wave to plan with, the spread covariance to hand it)."""
         arrays = self.source.bank()
         on = arrays is not None
-        nmpc.set_wave_bank(arrays, 1.0, self.source.roll_sign)
+        nmpc.set_wave_bank(arrays, 1.0, self.source.roll_sign, self.source.fade() if on and self.fade else None)
         self.steps += 1
         self.bank_steps += int(on)
         self._say(t, on)
@@ -126,6 +146,7 @@ class BankFeed:
             return est, self.source.spread(est is not None)
         skill = self.source.skill()
         self.skills.append(skill)
+        self.fades.append(self.source.fade()[1] if self.fade else math.inf)
         full = self.source.spread(False)
         if full is None or self.spread_mode == "none":
             return None, None
@@ -151,5 +172,6 @@ class BankFeed:
         """Share of steps planned on the bank, the predictor's median skill then, its fits and spread mode."""
         return {"bank_fraction": self.bank_steps / max(self.steps, 1),
                 "bank_skill_median": float(np.median(self.skills)) if self.skills else None,
+                "bank_fade_s_median": float(np.median(self.fades)) if self.fades else None,
                 "bank_components": self.source.components, "bank_spread": self.spread_mode,
                 "predictor_fits": self.source.predictor.fits}

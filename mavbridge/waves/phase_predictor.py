@@ -268,6 +268,11 @@ class PhasePredictor:
 
     # ------------------------------------------------------------------ answers
     @property
+    def fit_time_s(self) -> float:
+        """Autopilot time (s) of the window the last fit ended on (its lead times count from here); −inf before."""
+        return self._fit_t if self._fit is not None else -math.inf
+
+    @property
     def peak_frequency_rad_s(self) -> float:
         """The ωp (rad/s) the prior is centred on."""
         return self._peak

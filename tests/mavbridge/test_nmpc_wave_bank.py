@@ -76,10 +76,10 @@ def test_no_bank_leaves_the_layout_and_the_problem_as_before() -> None:
     assert built.nlp["p"].numel() == PARAMS.size
     assert built.step.size1_in(3) == 7
     with_bank = parameter_layout(K)
-    assert with_bank.blocks[:-1] == PARAMS.blocks and with_bank.blocks[-1] == ("bank", 1 + 6 * K)
+    assert with_bank.blocks[:-1] == PARAMS.blocks and with_bank.blocks[-1] == ("bank", 3 + 6 * K)
     assert all(with_bank.slice(name) == PARAMS.slice(name) for name, _ in PARAMS.blocks)
     banked = problem_functions(otter_parameters(), None, OceanCurrent(), cfg.replace(wave_components=K))
-    assert banked.nlp["p"].numel() == PARAMS.size + 1 + 6 * K
+    assert banked.nlp["p"].numel() == PARAMS.size + 3 + 6 * K
     p = pack_parameters(np.zeros(12), 1.0, np.array([1.0, 2.0]), np.zeros(2), cfg.weights, CALM_PARAMETERS,
                         bank=no_bank(K))
     np.testing.assert_array_equal(with_bank.wave_input(p), np.concatenate([CALM_PARAMETERS, no_bank(K)]))
@@ -106,3 +106,39 @@ def test_a_controller_on_the_bank_weights_roll_and_plans_against_the_sea(solver:
         assert np.max(np.abs(result.states[:, 3])) > math.radians(0.3)
         nmpc.set_wave_bank(None)
         assert not nmpc.bank_active and not nmpc.roll_term_active
+
+
+def test_the_bank_fades_to_half_its_weight_after_the_fade_time() -> None:
+    sea = _sea()
+    wave = np.concatenate([CALM_PARAMETERS, bank_parameters(_arrays(sea), K, 0.8, 10.0, 1.5)])
+    model = ParametricSea.from_vector(ca.DM(wave), K)
+    assert float(model.weight_at(10.0)) == pytest.approx(0.8)
+    assert float(model.weight_at(11.5)) == pytest.approx(0.4)
+    full = ParametricSea.from_vector(ca.DM(np.concatenate([CALM_PARAMETERS, bank_parameters(_arrays(sea), K)])), K)
+    g_half, g_full = (float(m.gradient(3.0, 4.0, 11.5)[1]) for m in (model, full))
+    assert abs(g_full) > 1e-3 and g_half == pytest.approx(0.4 * g_full, rel=1e-12)
+    with pytest.raises(ValueError, match="fade"):
+        bank_parameters(_arrays(sea), K, 1.0, 0.0, 0.0)
+
+
+def test_a_short_closed_loop_on_the_predictor_plans_on_its_bank() -> None:
+    """Beam seas, under way: the predictor watches the drifting boat, becomes confident 1 s ahead, and the NMPC
+    plans on its bank for most of the run (said in the notes, counted in the metrics)."""
+    import dataclasses
+    from pathlib import Path
+
+    from mavbridge.lab.experiment import run_scenario
+    from mavbridge.lab.scenario import load_scenarios
+
+    root = Path(__file__).resolve().parents[2]
+    sc = {s.name: s for s in load_scenarios(root / "scenarios" / "jonswap_estimated.yaml")}["balanced"]
+    world = dataclasses.replace(sc.world, start=dataclasses.replace(sc.world.start, heading_deg=0.0, surge_mps=1.5))
+    sc = dataclasses.replace(sc, world=world, t_max_s=6.0,
+                             waypoint=dataclasses.replace(sc.waypoint, north_m=100.0, east_m=0.0),
+                             estimation=dataclasses.replace(sc.estimation, waves="predicted", watch_s=20.0),
+                             controller=sc.controller.replace(wave_components=K, horizon=10))
+    m = run_scenario(sc, None, plots=False).metrics
+    assert m["wave_source"] == "estimated+phase-bank"
+    assert m["bank_fraction"] > 0.5
+    assert any("phase bank confident" in line for line in m["notes"])
+    assert 0.5 <= m["bank_fade_s_median"] <= 4.0
