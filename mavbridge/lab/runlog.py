@@ -39,6 +39,7 @@ LOG_COLUMNS = (
     "yaw_rate_target_rad_s",  # attitude_target, rate and tau forms: the body yaw rate sent (heading form: empty)
     "wave_slope_rad", "wave_force_n",  # the true sea at the boat (experiment: it knows the truth)
     *WAVE_COLUMNS,
+    "wave_bank_on",  # estimation.waves predicted: 1 while the NMPC plans on the phase predictor's bank, else 0
     "solve_ms", "iterations", "status", "fallback", "fallback_reason", "sent",
     "state_age_s",  # companion: autopilot time now (estimated) minus the state's time_boot_ms
 )

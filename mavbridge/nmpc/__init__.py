@@ -9,10 +9,11 @@ waypoint_ne)`` for the cold, full solve before the loop, ``set_wave(RegularWaves
 the wave later solves predict with (a run-time parameter: no rebuild), and ``close()`` / ``with``.
 
 Modules: ``layout`` (named blocks of the decision and parameter vectors), ``wave_model`` (the regular
-wave as parameters), ``problem`` (model, costs, NLP), ``functions`` (the per-process cache of immutable
-built Functions), ``backend`` (the solver protocol: prepare / solve / advance / reset / close), and in
-``solvers`` four backends: ``ipopt``, the reference (the notes' configuration: SX, warm start, max_iter
-50); ``rti``, Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation
+wave as parameters), ``wave_bank`` (with ``wave_components`` K > 0: K long-crested components of a
+phase-resolved sea as parameters, ``set_wave_bank``), ``problem`` (model, costs, NLP), ``functions`` (the
+per-process cache of immutable built Functions), ``backend`` (the solver protocol: prepare / solve / advance /
+reset / close), and in ``solvers`` four backends: ``ipopt``, the reference (the notes' configuration: SX, warm
+start, max_iter 50); ``rti``, Gauss–Newton real-time iterations with HPIPM and a compiled, disk-cached linearisation
 (``gauss_newton``, ``codegen``); and ``asrti``, advanced-step RTI: a converged Gauss–Newton SQP for the
 predicted next state runs in a background worker during the period, and the step is one iteration from
 its plan (the same

@@ -203,7 +203,10 @@ class WaveFeed:
             self.first_errors = estimate_metrics(est, self.truth, t, plant.rigid_state, self.horizon_s)
         self._track(t, est is not None, bool(getattr(nmpc, "roll_term_active", True)))
         latest = self.source.latest(t) if hasattr(self.source, "latest") else est
-        return latest.row() if latest is not None else {}
+        row: dict[str, float] = latest.row() if latest is not None else {}
+        if self.bank is not None:
+            row["wave_bank_on"] = float(bool(getattr(nmpc, "bank_active", False)))
+        return row
 
     def _track_spread(self, t: float, spread: np.ndarray | None, explained: bool) -> None:
         """Count the steps planned on the sea's statistics alone; say when that starts and stops."""

@@ -3,7 +3,10 @@ given its components, K = 0 leaves the problem as it was, and the bank reaches t
 
 from __future__ import annotations
 
+import csv
+import dataclasses
 import math
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -121,12 +124,9 @@ def test_the_bank_fades_to_half_its_weight_after_the_fade_time() -> None:
         bank_parameters(_arrays(sea), K, 1.0, 0.0, 0.0)
 
 
-def test_a_short_closed_loop_on_the_predictor_plans_on_its_bank() -> None:
+def test_a_short_closed_loop_on_the_predictor_plans_on_its_bank(tmp_path: Path) -> None:
     """Beam seas, under way: the predictor watches the drifting boat, becomes confident 1 s ahead, and the NMPC
     plans on its bank for most of the run (said in the notes, counted in the metrics)."""
-    import dataclasses
-    from pathlib import Path
-
     from mavbridge.lab.experiment import run_scenario
     from mavbridge.lab.scenario import load_scenarios
 
@@ -137,8 +137,12 @@ def test_a_short_closed_loop_on_the_predictor_plans_on_its_bank() -> None:
                              waypoint=dataclasses.replace(sc.waypoint, north_m=100.0, east_m=0.0),
                              estimation=dataclasses.replace(sc.estimation, waves="predicted", watch_s=20.0),
                              controller=sc.controller.replace(wave_components=K, horizon=10))
-    m = run_scenario(sc, None, plots=False).metrics
+    out = tmp_path / "run"
+    m = run_scenario(sc, out, plots=False).metrics
     assert m["wave_source"] == "estimated+phase-bank"
+    with (out / "timeseries.csv").open(encoding="utf-8") as handle:
+        on = [float(row["wave_bank_on"]) for row in csv.DictReader(handle)]
+    assert set(on) <= {0.0, 1.0} and sum(on) / len(on) == pytest.approx(m["bank_fraction"], abs=0.02)
     assert m["bank_fraction"] > 0.5
     assert any("phase bank confident" in line for line in m["notes"])
     assert 0.5 <= m["bank_fade_s_median"] <= 4.0
