@@ -239,13 +239,16 @@ def _sea_runs(sea: str, seed: int, runs: dict) -> dict:
 
 
 def _configured(sc: object, seed: int, source: str, watch: float, options: dict) -> object:
-    """The run flown on ``source`` with this seed; ``predicted`` with the bank of ``options["components"]`` and
-    its spread mode; every source on ``options["solver"]`` when given."""
+    """The run flown on ``source`` with this seed; ``predicted`` (and ``oracle``: its bank from the true sea) with
+    the bank of ``options["components"]``, its spread mode, fade and lead; every source on ``options["solver"]``
+    when given."""
     import dataclasses
 
+    oracle, source = source == "oracle", "predicted" if source == "oracle" else source
     est = dataclasses.replace(sc.estimation, seed=seed, waves=source, watch_s=watch,
                               bank_spread=options.get("bank_spread", "full"), bank_fade=options.get("bank_fade", True),
-                              bank_lead_s=options.get("bank_lead_s", 1.0))
+                              bank_lead_s=options.get("bank_lead_s", 1.0), bank_oracle=oracle,
+                              bank_select=options.get("bank_select", "compressed"))
     changes = {"wave_components": options.get("components", 12)} if source == "predicted" else {}
     if options.get("solver"):
         changes["solver"] = options["solver"]
@@ -292,7 +295,7 @@ def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "pape
           f"estimator watching {watch:g} s before the run, solver {solver}, "
           f"bank K = {options.get('components', 12)}, spread with the bank: {options.get('bank_spread', 'full')}, "
           f"bank faded: {options.get('bank_fade', True)}, used when confident {options.get('bank_lead_s', 1.0):g} s "
-          "ahead")
+          f"ahead, {options.get('bank_select', 'compressed')} components")
     print("# bound = 1.2 × T_direct / (1 − cut); ratio = T_balanced / bound")
     print("| seed | source | direct avg roll ° | balanced avg roll ° | cut % | direct t_wpt s | balanced t_wpt s "
           "| bound s | ratio | confident % | statistics only % | bank % |")
@@ -326,12 +329,16 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--sea", choices=tuple(SEAS), default="paper", help="with --closed-loop: the sea")
     parser.add_argument("--sources", default="estimated,truth",
                         help="with --closed-loop: comma-separated wave sources to fly on: estimated, predicted "
-                             "(the estimator and the phase predictor's bank), truth")
+                             "(the estimator and the phase predictor's bank), oracle (the bank made of the true sea's "
+                             "K strongest components: simulation only, a bound on the bank), truth")
     parser.add_argument("--components", type=int, default=12, help="with --sources predicted: K of the bank, 1..32")
     parser.add_argument("--bank-spread", choices=("full", "residual", "none"), default="full",
                         help="with --sources predicted: the statistics term while the bank is in use")
     parser.add_argument("--bank-fade", choices=("on", "off"), default="on",
                         help="with --sources predicted: fade the bank out where the predictor's skill halves")
+    parser.add_argument("--bank-select", choices=("compressed", "strongest"), default="compressed",
+                        help="with --sources predicted/oracle: the fit compressed over the horizon to K, or its K "
+                             "strongest components")
     parser.add_argument("--bank-lead", type=float, default=1.0, metavar="S",
                         help="with --sources predicted: use the bank while confident this far ahead, 0..4 s")
     parser.add_argument("--solver", choices=("ipopt", "rti", "asrti", "nrti"), default=None,
@@ -350,12 +357,13 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         parser.exit(2, f"--duration: {args.duration:g} is outside the allowed range [10, 3600] s\n")
     if not all(0 <= v <= 5 for v in args.speeds):
         parser.exit(2, f"--speeds: {args.speeds} has a value outside the allowed range [0, 5] m/s\n")
-    if not set(args.sources.split(",")) <= {"estimated", "predicted", "truth"}:
-        parser.exit(2, f"--sources: {args.sources!r} is not a comma-separated list of estimated, predicted, truth\n")
+    if not set(args.sources.split(",")) <= {"estimated", "predicted", "oracle", "truth"}:
+        parser.exit(2, f"--sources: {args.sources!r} is not a comma-separated list of estimated, predicted, oracle, "
+                    "truth\n")
     if not 0 <= args.bank_lead <= 4:
         parser.exit(2, f"--bank-lead: {args.bank_lead:g} is outside the allowed range [0, 4] s\n")
-    if not 1 <= args.components <= 32:
-        parser.exit(2, f"--components: {args.components} is outside the allowed range [1, 32]\n")
+    if not 1 <= args.components <= 256:
+        parser.exit(2, f"--components: {args.components} is outside the allowed range [1, 256]\n")
     if args.watch is not None and not 0 <= args.watch <= 3600:
         parser.exit(2, f"--watch: {args.watch:g} is outside the allowed range [0, 3600] s\n")
     return args
@@ -370,7 +378,8 @@ def main(argv: list[str] | None = None) -> int:
     elif args.closed_loop:
         closed_loop_table(args.seeds, args.watch, args.sea, args.sources,
                           {"components": args.components, "bank_spread": args.bank_spread, "solver": args.solver,
-                           "bank_fade": args.bank_fade == "on", "bank_lead_s": args.bank_lead})
+                           "bank_fade": args.bank_fade == "on", "bank_lead_s": args.bank_lead,
+                           "bank_select": args.bank_select})
         return 0
     if args.plant and not args.cost_only:
         plant_table(args)

@@ -40,6 +40,7 @@ from mavbridge.waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth
 from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
+from vessel.sea.irregular import IrregularWaves
 
 
 @dataclass
@@ -137,8 +138,10 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
         if est.waves == "predicted":
             if cfg.wave_components < 1:
                 raise ConfigError("estimation.waves: predicted needs controller.wave_components >= 1 (the bank's "
-                                  "size K); allowed [1, 32]")
-            source = PredictedSource(source, cfg.wave_components, est.roll_sign, est.bank_lead_s)
+                                  "size K); allowed [1, 256]")
+            oracle = truth if est.bank_oracle and isinstance(truth, IrregularWaves) else None
+            source = PredictedSource(source, cfg.wave_components, est.roll_sign, est.bank_lead_s, oracle=oracle,
+                                     select=est.bank_select, horizon_s=cfg.horizon * cfg.period_s)
             bank = BankFeed(source, est.bank_spread, fade=est.bank_fade)
     else:
         source = ScenarioTruth(truth)

@@ -77,6 +77,9 @@ class Estimation:
     bank_spread: str = choice("full", BANK_SPREADS, "predicted: the statistics term while the bank is in use: the "
                               "sea's whole slope covariance (full), its share the predictor's skill leaves "
                               "(residual), or none")
+    bank_oracle: bool = False  # predicted, simulation only: the bank is the true sea's K strongest components
+    bank_select: str = choice("compressed", ("compressed", "strongest"), "predicted: the K components handed to the "
+                              "NMPC: the fit compressed over its horizon, or the fit's K of most slope energy")
     bank_fade: bool = True  # predicted: fade the bank out of the NMPC's horizon where the predictor's skill halves
     bank_lead_s: float = bounded(1.0, 0.0, 4.0, "s", "predicted: the bank is used while the predictor is confident "
                                  "this far ahead")
@@ -93,7 +96,8 @@ class Estimation:
                             "the confidence drops (0: degrade at once); in-process and in the companion")
 
     def __post_init__(self) -> None:
-        for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS), ("bank_spread", BANK_SPREADS)):
+        for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS), ("bank_spread", BANK_SPREADS),
+                              ("bank_select", ("compressed", "strongest"))):
             if getattr(self, name) not in allowed:
                 raise ConfigError(f"estimation.{name}: {getattr(self, name)!r} is not one of {', '.join(allowed)}")
         if self.roll_sign not in (-1.0, 1.0):

@@ -56,7 +56,7 @@ class NmpcConfig:
     roll_fade_m: float = structural(bounded(8.0, 0.0, 1000.0, "m", "the roll terms fade to 0 near the waypoint, half "
                                            "their weight at this distance (0: never, the paper's cost; see "
                                            "problem.roll_fade)"))
-    wave_components: int = structural(bounded(0, 0, 32, "", "K long-crested components of a phase-resolved sea the "
+    wave_components: int = structural(bounded(0, 0, 256, "", "K long-crested components of a phase-resolved sea the "
                                               "model adds to its regular wave (the ``bank`` parameter block, "
                                               "see nmpc.wave_bank); 0: none, the problem as without the option"))
     min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))

@@ -2,10 +2,13 @@
 
 ``PredictedSource`` is the estimator the loop already has (a regular wave when confident, and the sea's slope
 statistics) with a ``PhasePredictor`` fed every motion sample it is fed. ``BankFeed`` runs once per control step:
-when the predictor is confident ``lead_s`` ahead (1 s by default) the NMPC gets its ``bank_arrays(K)`` — the K
-components of most slope energy, absolute phases on the autopilot clock — and plans on them instead of the
-regular wave (both at once would count the dominant wave twice); otherwise a zero bank and, exactly as on
-the estimate alone, the regular wave or nothing. The statistics term (``roll_spread``) stays on in both cases:
+when the predictor is confident ``lead_s`` ahead (1 s by default) the NMPC gets K components with absolute
+phases on the autopilot clock and plans on them instead of the regular wave (both at once would count the
+dominant wave twice); otherwise a zero bank and, exactly as on the estimate alone, the regular wave or nothing.
+The K are, by ``select``, the fit compressed over the NMPC's horizon (``bank_compress``, default) or its K
+components of most slope energy (``bank_arrays(K)``): in the JONSWAP scenario those hold a small share of the
+slope (the strongest 12 of the true sea 14 %; along a 4 s path their skill is about 0), the compressed 12 nearly
+all of it. The statistics term (``roll_spread``) stays on in both cases:
 with the bank in use it carries the part of the sea the bank does not explain, ``spread_mode``:
 
 * ``full``: the sea's whole slope covariance (as if nothing were explained: the bank then plans on the crests
@@ -26,13 +29,25 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.waves.bank_compress import compress
 from mavbridge.waves.phase_predictor import PhasePredictor, PredictorSettings
 from mavbridge.waves.source import MotionSample, WaveEstimate, sea_spread
-from mavbridge.waves.window_buffer import GAP_S, TRACK_PULL_S, down_acceleration
+from mavbridge.waves.window_buffer import GAP_S, TRACK_PULL_S
+from vessel.sea.irregular import IrregularWaves
+
+NO_FADE_S = 1e12  # nmpc.wave_bank.NO_FADE_S (waves may not import nmpc)
 
 SPREAD_MODES = ("full", "residual", "none")
+SELECTIONS = ("compressed", "strongest")
 FADE_SKILL = 0.5  # the bank's weight in the NMPC's model halves where the predictor's skill falls to this
 GPS_LAG_S = 0.2  # the default sensors' fix lag (0.1 s) plus half their fix interval (5 Hz)
+
+
+def strongest(waves: IrregularWaves, components: int) -> dict[str, np.ndarray]:
+    """The ``components`` components of ``waves`` with most slope energy (a k)², as ``bank_arrays`` gives them."""
+    order = np.argsort(-(waves.amplitude_m * waves.wavenumber_rad_m) ** 2)[:components]
+    return {name: np.asarray(getattr(waves, name))[order] for name in
+            ("amplitude_m", "frequency_rad_s", "wavenumber_rad_m", "direction_rad", "phase_rad")}
 
 
 class DeadReckonedTrack:
@@ -64,12 +79,20 @@ class PredictedSource:
     name = "estimated+phase-bank"
 
     def __init__(self, estimator: Any, components: int, roll_sign: float, lead_s: float = 1.0,
-                 settings: PredictorSettings | None = None, use_accel: bool = False) -> None:
+                 settings: PredictorSettings | None = None, oracle: IrregularWaves | None = None,
+                 select: str = "compressed", horizon_s: float = 4.0) -> None:
+        if select not in SELECTIONS:
+            raise ValueError(f"bank selection {select!r} is not one of {', '.join(SELECTIONS)}")
         self.estimator = estimator
-        self.use_accel = use_accel
         self.components, self.roll_sign, self.lead_s = components, roll_sign, lead_s
+        self.select, self.horizon_s = select, horizon_s
         self.predictor = PhasePredictor(settings or PredictorSettings(roll_sign=roll_sign))
         self.track = DeadReckonedTrack()
+        self._where = (0.0, 0.0, 0.0, 0.0)  # the last sample's time, track north/east and speed
+        self.explained: list[float] = []  # compressed: the share of the horizon's predicted slope the K hold
+        self.oracle = oracle  # simulation only: the true sea replaces the prediction
+        if oracle is not None:
+            self.name = "truth-bank (simulation)"
 
     def observe(self, sample: MotionSample) -> None:
         """Both watch the sample; the predictor's position is the dead-reckoned track, not the raw fix."""
@@ -79,8 +102,9 @@ class PredictedSource:
                                      and np.all(np.isfinite(vel[:2]))):
             return
         north, east = self.track.update(sample.t_s, pos, vel)
-        accel = down_acceleration(tuple(att), sample.accel_body) if self.use_accel else math.nan
-        self.predictor.observe_attitude(sample.t_s, north, east, att[0], att[1], att[2], math.nan, accel)
+        self._where = (sample.t_s, north, east, float(np.hypot(vel[0], vel[1])))
+        # no heave channel: the IMU's heave is the hull's response, not the surface (it cost the fit its skill)
+        self.predictor.observe_attitude(sample.t_s, north, east, att[0], att[1], att[2])
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The estimator's regular wave (None while not confident)."""
@@ -96,11 +120,33 @@ class PredictedSource:
         return sea_spread(self.estimator, explained)
 
     def bank(self) -> dict[str, np.ndarray] | None:
-        """The K strongest components when the predictor is confident ``lead_s`` ahead, else None."""
-        return self.predictor.bank_arrays(self.components) if self.predictor.confident(self.lead_s) else None
+        """K components while the predictor is confident ``lead_s`` ahead (an oracle: always), else None: the fit
+        compressed over the horizon (``bank_compress``) or its K strongest components (``select``)."""
+        waves = self.oracle
+        if waves is None:
+            if not self.predictor.confident(self.lead_s):
+                return None
+            waves = self.predictor.fitted_waves
+        if waves is None:
+            return None
+        if self.select == "strongest":
+            return strongest(waves, self.components)
+        t, north, east, speed = self._where
+        squeezed = compress(waves, self.components, t, north, east, speed, self.horizon_s,
+                            self.predictor.s.band_rad_s)
+        if squeezed is None:
+            return None
+        self.explained.append(squeezed[1])
+        return squeezed[0]
 
     def skill(self) -> float:
-        """The predictor's measured skill at ``lead_s`` (1 perfect, ≤ 0 none; 0 before any is scored)."""
+        """The predictor's measured skill at ``lead_s`` (1 perfect, ≤ 0 none; 0 before any is scored; an oracle's
+        is the share of the true slope variance its K components hold: over the horizon when compressed)."""
+        if self.oracle is not None and self.select == "compressed":
+            return self.explained[-1] if self.explained else 1.0
+        if self.oracle is not None:
+            energy = (self.oracle.amplitude_m * self.oracle.wavenumber_rad_m) ** 2
+            return float(np.sort(energy)[::-1][:self.components].sum() / max(energy.sum(), 1e-30))
         value = float(self.predictor.skill(self.lead_s))
         return value if math.isfinite(value) else 0.0
 
@@ -109,6 +155,8 @@ class PredictedSource:
         where the measured skill (per 1 s bin, at the bins' centres, interpolated) falls to ``FADE_SKILL``; the
         scored horizon when it never does, half a second at least."""
         horizon = self.predictor.s.horizon_s
+        if self.oracle is not None:
+            return 0.0, NO_FADE_S  # the truth does not age
         leads = np.arange(0.5, horizon, 1.0)
         skill = np.nan_to_num(self.predictor.skill(leads), neginf=-1.0)
         below = np.flatnonzero(skill < FADE_SKILL)
@@ -174,4 +222,7 @@ class BankFeed:
                 "bank_skill_median": float(np.median(self.skills)) if self.skills else None,
                 "bank_fade_s_median": float(np.median(self.fades)) if self.fades else None,
                 "bank_components": self.source.components, "bank_spread": self.spread_mode,
+                "bank_select": self.source.select,
+                "bank_compressed_share_median": (float(np.median(self.source.explained)) if self.source.explained
+                                                 else None),
                 "predictor_fits": self.source.predictor.fits}

@@ -49,6 +49,7 @@ from mavbridge.waves.phase_bank import (
 )
 from mavbridge.waves.source import MotionSample
 from mavbridge.waves.window_buffer import down_acceleration
+from vessel.sea.irregular import IrregularWaves
 
 FIELDS = ("t", "north", "east", "slope_n", "slope_e", "heave", "accel")
 CLOCK_BACK_S = 5.0  # a clock going back by more than this is a reboot: the window belongs to the old clock
@@ -267,6 +268,11 @@ class PhasePredictor:
         self._pending = keep
 
     # ------------------------------------------------------------------ answers
+    @property
+    def fitted_waves(self) -> IrregularWaves | None:
+        """The last fit's components (absolute phases, autopilot clock), None before the first fit."""
+        return self._fit.waves if self._fit is not None else None
+
     @property
     def fit_time_s(self) -> float:
         """Autopilot time (s) of the window the last fit ended on (its lead times count from here); −inf before."""
