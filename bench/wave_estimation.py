@@ -244,11 +244,12 @@ def _configured(sc: object, seed: int, source: str, watch: float, options: dict)
     when given."""
     import dataclasses
 
-    oracle, source = source == "oracle", "predicted" if source == "oracle" else source
+    oracle, true_slope = source == "oracle", source == "trueslope"
+    source = "predicted" if source in ("oracle", "trueslope") else source
     est = dataclasses.replace(sc.estimation, seed=seed, waves=source, watch_s=watch,
                               bank_spread=options.get("bank_spread", "full"), bank_fade=options.get("bank_fade", True),
                               bank_lead_s=options.get("bank_lead_s", 1.0), bank_oracle=oracle,
-                              bank_select=options.get("bank_select", "compressed"))
+                              bank_select=options.get("bank_select", "compressed"), bank_true_slope=true_slope)
     changes = {"wave_components": options.get("components", 12)} if source == "predicted" else {}
     if options.get("solver"):
         changes["solver"] = options["solver"]
@@ -330,7 +331,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--sources", default="estimated,truth",
                         help="with --closed-loop: comma-separated wave sources to fly on: estimated, predicted "
                              "(the estimator and the phase predictor's bank), oracle (the bank made of the true sea's "
-                             "K strongest components: simulation only, a bound on the bank), truth")
+                             "K strongest components: simulation only, a bound on the bank), trueslope (the predictor "
+                             "fed the true slope instead of the attitude: simulation only), truth")
     parser.add_argument("--components", type=int, default=12, help="with --sources predicted: K of the bank, 1..32")
     parser.add_argument("--bank-spread", choices=("full", "residual", "none"), default="full",
                         help="with --sources predicted: the statistics term while the bank is in use")
@@ -357,9 +359,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         parser.exit(2, f"--duration: {args.duration:g} is outside the allowed range [10, 3600] s\n")
     if not all(0 <= v <= 5 for v in args.speeds):
         parser.exit(2, f"--speeds: {args.speeds} has a value outside the allowed range [0, 5] m/s\n")
-    if not set(args.sources.split(",")) <= {"estimated", "predicted", "oracle", "truth"}:
+    if not set(args.sources.split(",")) <= {"estimated", "predicted", "oracle", "trueslope", "truth"}:
         parser.exit(2, f"--sources: {args.sources!r} is not a comma-separated list of estimated, predicted, oracle, "
-                    "truth\n")
+                    "trueslope, truth\n")
     if not 0 <= args.bank_lead <= 4:
         parser.exit(2, f"--bank-lead: {args.bank_lead:g} is outside the allowed range [0, 4] s\n")
     if not 1 <= args.components <= 256:

@@ -35,8 +35,8 @@ from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.waves import EstimatorSettings, make_estimator
-from mavbridge.waves.bank_source import BankFeed, PredictedSource
 from mavbridge.waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
+from mavbridge.waves.phase.bank_source import BankFeed, PredictedSource
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth
 from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
@@ -139,9 +139,11 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
             if cfg.wave_components < 1:
                 raise ConfigError("estimation.waves: predicted needs controller.wave_components >= 1 (the bank's "
                                   "size K); allowed [1, 256]")
-            oracle = truth if est.bank_oracle and isinstance(truth, IrregularWaves) else None
-            source = PredictedSource(source, cfg.wave_components, est.roll_sign, est.bank_lead_s, oracle=oracle,
-                                     select=est.bank_select, horizon_s=cfg.horizon * cfg.period_s)
+            irregular = truth if isinstance(truth, IrregularWaves) else None
+            source = PredictedSource(source, cfg.wave_components, est.roll_sign, est.bank_lead_s,
+                                     oracle=irregular if est.bank_oracle else None, select=est.bank_select,
+                                     horizon_s=cfg.horizon * cfg.period_s,
+                                     true_slope=irregular if est.bank_true_slope else None)
             bank = BankFeed(source, est.bank_spread, fade=est.bank_fade)
     else:
         source = ScenarioTruth(truth)

@@ -37,7 +37,7 @@ from vessel.world import (
 
 PLANTS = ("tau", "propellers")
 WAVE_SOURCES = ("truth", "estimated", "predicted")
-BANK_SPREADS = ("full", "residual", "none")  # mavbridge.waves.bank_source.SPREAD_MODES
+BANK_SPREADS = ("full", "residual", "none")  # mavbridge.waves.phase.bank_source.SPREAD_MODES
 SENSOR_MODELS = ("default", "ideal")
 RUN_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
@@ -77,10 +77,14 @@ class Estimation:
     bank_spread: str = choice("full", BANK_SPREADS, "predicted: the statistics term while the bank is in use: the "
                               "sea's whole slope covariance (full), its share the predictor's skill leaves "
                               "(residual), or none")
-    bank_oracle: bool = False  # predicted, simulation only: the bank is the true sea's K strongest components
+    bank_oracle: bool = dataclasses.field(default=False, metadata={"doc": "predicted, simulation only: the bank is "
+                                          "made of the true sea's components (a bound on what a predictor gives)"})
+    bank_true_slope: bool = dataclasses.field(default=False, metadata={"doc": "predicted, simulation only: the "
+                                              "predictor is fed the true slope at its track instead of the attitude"})
     bank_select: str = choice("compressed", ("compressed", "strongest"), "predicted: the K components handed to the "
                               "NMPC: the fit compressed over its horizon, or the fit's K of most slope energy")
-    bank_fade: bool = True  # predicted: fade the bank out of the NMPC's horizon where the predictor's skill halves
+    bank_fade: bool = dataclasses.field(default=True, metadata={"doc": "predicted: fade the bank out of the NMPC's "
+                                        "horizon where the predictor's measured skill halves"})
     bank_lead_s: float = bounded(1.0, 0.0, 4.0, "s", "predicted: the bank is used while the predictor is confident "
                                  "this far ahead")
     surface_heave: bool = False

@@ -29,8 +29,8 @@ from mavbridge.nmpc.inputs import InputSpace, input_space
 from mavbridge.nmpc.layout import NU, NX, Layout
 from mavbridge.nmpc.model_state import on_mean_surface
 from mavbridge.nmpc.problem import input_bounds
-from mavbridge.nmpc.run_parameters import SeaKnowledge
-from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, RegularWaves, WaveField, otter_parameters
+from mavbridge.nmpc.run_parameters import SeaInputs, SeaKnowledge
+from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, WaveField, otter_parameters
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,7 @@ def shift_duals(layout: Layout, lam_w: np.ndarray | None,
     return layout.shift(lam_w), np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
 
 
-class RollAwareNmpc:
+class RollAwareNmpc(SeaInputs):
     """The paper's roll-aware NMPC for the Otter; ``solve`` once per control period.
 
     Each controller owns its backend (solver instances, the asrti worker); only immutable CasADi Functions
@@ -187,52 +187,10 @@ class RollAwareNmpc:
 
     # --- the wave -------------------------------------------------------------------------------------
 
-    def set_wave(self, waves: RegularWaves | CalmWater | None) -> None:
-        """The wave later solves predict with; no rebuild, the stored plan stays the warm start.
-
-        ``None`` means no confident wave knowledge: the model predicts calm water and the roll weight R
-        is 0 for those solves (the Direct behaviour); ``NmpcResult.roll_term_active`` says which applied.
-        A background (asrti) solve already running keeps the wave it was started with.
-        """
-        self._sea.set_wave(waves)
-        self.waves = waves or CalmWater()
-
-    def set_sea_spread(self, covariance_ned: np.ndarray | None) -> None:
-        """The NED covariance (2×2, rad²) of the hull's roll-producing slope that the wave model does not
-        explain, or None (zero): later solves add its expected roll R·E[φ²] at each predicted heading.
-
-        An irregular sea's unpredictable part cannot be planned against wave by wave, but its expected
-        roll still depends on the heading (beam seas roll the hull, head seas barely): this term is what
-        lets the roll weight act on it. It is independent of ``set_wave`` and applies with R > 0 only.
-        """
-        self._sea.set_spread(covariance_ned)
-
-    def set_wave_bank(self, arrays: dict[str, np.ndarray] | None, weight: float = 1.0,
-                      roll_sign: float = -1.0, fade: tuple[float, float] | None = None) -> None:
-        """The phase-resolved sea later solves add to the regular wave (built with ``wave_components`` K > 0):
-        ``PhasePredictor.bank_arrays(K)`` (amplitude m, ω rad/s, k rad/m, direction rad NED, absolute phase rad
-        on this controller's clock), its weight 0..1, the roll sign its slopes were read with and its fade (from
-        t s, over s: half weight then, ``wave_bank``; None: none); None arrays: no bank.
-
-        While it holds a sea the roll weight acts (as with a known wave); ``set_sea_spread`` stays independent
-        (the caller decides what of the sea the bank leaves unexplained). ValueError when K = 0.
-        """
-        self._sea.set_bank(arrays, weight, roll_sign, *(() if fade is None else (fade,)))
-
-    @property
-    def bank_active(self) -> bool:
-        """True when later solves plan with a phase-resolved bank (see ``set_wave_bank``)."""
-        return self._sea.bank_active
-
     @property
     def takes_waves(self) -> bool:
         """True when ``set_wave`` works: built with a regular wave or calm water, not a fixed field."""
         return self._functions.fixed_waves is None
-
-    @property
-    def roll_term_active(self) -> bool:
-        """True when solves weight roll: R > 0 and a wave (or calm water) or the sea's spread is known."""
-        return self._sea.roll_term_active
 
     def pace(self, wall_period_s: float) -> None:
         """Fly in real time, periods of ``wall_period_s`` wall seconds: a step waits a quarter of one at most for

@@ -3,8 +3,9 @@
 The interface the companion and the lab see is ``source`` (``WaveSource``, ``MotionSample``,
 ``WaveEstimate``); the estimator and its parts (filters, oscillator, heave, Doppler, solve, steadiness,
 spread, calibration) and the in-process sensed plant (``inloop``) sit beside it; so does the phase-resolved
-predictor of an irregular sea (``phase_predictor`` on ``phase_bank``), which ``bank_source`` hands to the NMPC's
-wave bank in-process (``estimation.waves: predicted``; not yet in the companion).
+predictor of an irregular sea in the subpackage ``phase`` (``phase_predictor`` on ``phase_bank``), whose
+``bank_source`` hands it to the NMPC's wave bank in-process (``estimation.waves: predicted``; not yet in the
+companion).
 
 May import: ``vessel`` and ``mavbridge.waves``. Imported by ``mavbridge.companion`` and ``mavbridge.lab``.
 """

@@ -20,9 +20,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from mavbridge.waves.bank_source import BankFeed
 from mavbridge.waves.calibration import hull_response, record_plant, settings_for
 from mavbridge.waves.kinematic import estimate_errors, paper_sea
+from mavbridge.waves.phase.bank_source import BankFeed
 from mavbridge.waves.settings import EstimatorSettings
 from mavbridge.waves.source import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
 from vessel import Plant, RegularWaves, WaveField

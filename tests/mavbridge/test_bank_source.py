@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from mavbridge.waves.bank_compress import compress, dominant_direction
-from mavbridge.waves.bank_source import DeadReckonedTrack, strongest
+from mavbridge.waves.phase.bank_compress import compress, dominant_direction
+from mavbridge.waves.phase.bank_source import DeadReckonedTrack, strongest
 from vessel.sea.irregular import IrregularWaves, synthesise
 
 

@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from mavbridge.waves.bank_compress import compress
-from mavbridge.waves.phase_predictor import PhasePredictor, PredictorSettings
+from mavbridge.waves.phase.bank_compress import compress
+from mavbridge.waves.phase.phase_predictor import PhasePredictor, PredictorSettings
 from mavbridge.waves.source import MotionSample, WaveEstimate, sea_spread
 from mavbridge.waves.window_buffer import GAP_S, TRACK_PULL_S
 from vessel.sea.irregular import IrregularWaves
@@ -80,7 +80,7 @@ class PredictedSource:
 
     def __init__(self, estimator: Any, components: int, roll_sign: float, lead_s: float = 1.0,
                  settings: PredictorSettings | None = None, oracle: IrregularWaves | None = None,
-                 select: str = "compressed", horizon_s: float = 4.0) -> None:
+                 select: str = "compressed", horizon_s: float = 4.0, true_slope: IrregularWaves | None = None) -> None:
         if select not in SELECTIONS:
             raise ValueError(f"bank selection {select!r} is not one of {', '.join(SELECTIONS)}")
         self.estimator = estimator
@@ -89,10 +89,14 @@ class PredictedSource:
         self.predictor = PhasePredictor(settings or PredictorSettings(roll_sign=roll_sign))
         self.track = DeadReckonedTrack()
         self._where = (0.0, 0.0, 0.0, 0.0)  # the last sample's time, track north/east and speed
+        self._fit = (0, -math.inf)  # the predictor's fit count and the time of its last fit
         self.explained: list[float] = []  # compressed: the share of the horizon's predicted slope the K hold
         self.oracle = oracle  # simulation only: the true sea replaces the prediction
+        self.true_slope = true_slope  # simulation only: the predictor is fed the true slope, not the attitude
         if oracle is not None:
             self.name = "truth-bank (simulation)"
+        elif true_slope is not None:
+            self.name = "estimated+phase-bank on the true slope (simulation)"
 
     def observe(self, sample: MotionSample) -> None:
         """Both watch the sample; the predictor's position is the dead-reckoned track, not the raw fix."""
@@ -104,7 +108,13 @@ class PredictedSource:
         north, east = self.track.update(sample.t_s, pos, vel)
         self._where = (sample.t_s, north, east, float(np.hypot(vel[0], vel[1])))
         # no heave channel: the IMU's heave is the hull's response, not the surface (it cost the fit its skill)
-        self.predictor.observe_attitude(sample.t_s, north, east, att[0], att[1], att[2])
+        if self.true_slope is None:
+            self.predictor.observe_attitude(sample.t_s, north, east, att[0], att[1], att[2])
+        else:
+            slope_n, slope_e = self.true_slope.gradient(north, east, sample.t_s)
+            self.predictor.observe(sample.t_s, north, east, float(slope_n), float(slope_e))
+        if self.predictor.fits != self._fit[0]:  # a fit ends on the sample that started it
+            self._fit = (self.predictor.fits, sample.t_s)
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The estimator's regular wave (None while not confident)."""
@@ -126,9 +136,7 @@ class PredictedSource:
         if waves is None:
             if not self.predictor.confident(self.lead_s):
                 return None
-            waves = self.predictor.fitted_waves
-        if waves is None:
-            return None
+            waves = IrregularWaves(**self.predictor.bank_arrays())
         if self.select == "strongest":
             return strongest(waves, self.components)
         t, north, east, speed = self._where
@@ -161,12 +169,12 @@ class PredictedSource:
         skill = np.nan_to_num(self.predictor.skill(leads), neginf=-1.0)
         below = np.flatnonzero(skill < FADE_SKILL)
         if below.size == 0:
-            return self.predictor.fit_time_s, horizon
+            return self._fit[1], horizon
         i = int(below[0])
         if i == 0:
-            return self.predictor.fit_time_s, 0.5
+            return self._fit[1], 0.5
         share = (skill[i - 1] - FADE_SKILL) / max(skill[i - 1] - skill[i], 1e-9)
-        return self.predictor.fit_time_s, max(0.5, float(leads[i - 1] + share))
+        return self._fit[1], max(0.5, float(leads[i - 1] + share))
 
 
 class BankFeed:

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mavbridge.waves.phase_bank import (
+from mavbridge.waves.phase.phase_bank import (
     Bank,
     BankFit,
     Samples,
@@ -49,7 +49,6 @@ from mavbridge.waves.phase_bank import (
 )
 from mavbridge.waves.source import MotionSample
 from mavbridge.waves.window_buffer import down_acceleration
-from vessel.sea.irregular import IrregularWaves
 
 FIELDS = ("t", "north", "east", "slope_n", "slope_e", "heave", "accel")
 CLOCK_BACK_S = 5.0  # a clock going back by more than this is a reboot: the window belongs to the old clock
@@ -269,16 +268,6 @@ class PhasePredictor:
 
     # ------------------------------------------------------------------ answers
     @property
-    def fitted_waves(self) -> IrregularWaves | None:
-        """The last fit's components (absolute phases, autopilot clock), None before the first fit."""
-        return self._fit.waves if self._fit is not None else None
-
-    @property
-    def fit_time_s(self) -> float:
-        """Autopilot time (s) of the window the last fit ended on (its lead times count from here); −inf before."""
-        return self._fit_t if self._fit is not None else -math.inf
-
-    @property
     def peak_frequency_rad_s(self) -> float:
         """The ωp (rad/s) the prior is centred on."""
         return self._peak
@@ -322,10 +311,11 @@ class PhasePredictor:
         ok = np.array([self.confident(float(b) * LEAD_BIN_S) for b in unique], bool)
         return slope_n, slope_e, zeta, ok[index.reshape(bins.shape)] & (lead >= 0)
 
-    def bank_arrays(self, size: int) -> dict[str, np.ndarray]:
+    def bank_arrays(self, size: int | None = None) -> dict[str, np.ndarray]:
         """The fitted bank as fixed-size arrays for a sum-of-components model (e.g. CasADi parameters): the ``size``
         components of most slope energy — amplitude m, ω rad/s, k rad/m, direction rad NED, phase rad (absolute:
-        ζ = Σ a cos(ω t − k (N cos μ + E sin μ) + ε), t in autopilot seconds) — padded with zero amplitudes."""
+        ζ = Σ a cos(ω t − k (N cos μ + E sin μ) + ε), t in autopilot seconds) — zero-padded (None: all of them)."""
+        size = (self._fit.waves.n_components if self._fit is not None else 0) if size is None else size
         out = {name: np.zeros(size) for name in ("amplitude_m", "frequency_rad_s", "wavenumber_rad_m",
                                                    "direction_rad", "phase_rad")}
         if self._fit is None:
