@@ -34,6 +34,7 @@ UNITLESS = {
     "run": "count: firmware runs", "frame_count": "count: the firmware's frame counter",
     "case_id": "text: the case's hash", "failures": "count: steps with no usable plan",
     "roll_reduction": "fraction: 1 - avg roll / the reference's",
+    "wave_bank_on": "flag: 1 while the NMPC plans on the phase predictor's bank",
 }
 ROOT = Path(__file__).resolve().parents[2]
 
