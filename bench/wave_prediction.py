@@ -14,7 +14,7 @@ the position with a slow error (0.3 m RMS, 30 s time constant: the window estima
 raw GPS fixes — white noise of 0.1 m on the position alone cut the following-sea skill at 1 s from 0.99 to 0.78); no
 heave.
 
-The predictor (``mavbridge.waves.phase.phase_predictor``, default settings) watches 60 s, then every fit over the next
+The predictor (``mavbridge.waves.phase.predictor``, default settings) watches 60 s, then every fit over the next
 60 s predicts along the true path ahead; the columns are, pooled over both slope components, fits and seeds: the
 correlation r and the RMS error (°) of the predicted against the true slope at 1, 2 and 4 s ahead; r of two
 baselines at 1 s — persistence (the slope measured now) and a 20-lag autoregressive model of each measured slope
@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mavbridge.waves.phase.phase_bank import slope_from_attitude
-from mavbridge.waves.phase.phase_predictor import PhasePredictor
+from mavbridge.waves.phase.bank import slope_from_attitude
+from mavbridge.waves.phase.predictor import PhasePredictor
 from vessel import otter_parameters
 from vessel.sea.irregular_sea import IrregularSea
 

@@ -3,7 +3,7 @@
 The interface the companion and the lab see is ``source`` (``WaveSource``, ``MotionSample``,
 ``WaveEstimate``); the estimator and its parts (filters, oscillator, heave, Doppler, solve, steadiness,
 spread, calibration) and the in-process sensed plant (``inloop``) sit beside it; so does the phase-resolved
-predictor of an irregular sea in the subpackage ``phase`` (``phase_predictor`` on ``phase_bank``), whose
+predictor of an irregular sea in the subpackage ``phase`` (``predictor`` on ``bank``), whose
 ``bank_source`` hands it to the NMPC's wave bank in-process (``estimation.waves: predicted``; not yet in the
 companion).
 

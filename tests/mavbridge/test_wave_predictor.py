@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
-from mavbridge.waves.phase.phase_bank import Samples, fit_bank, make_bank, slope_from_attitude, spectral_prior
-from mavbridge.waves.phase.phase_predictor import PhasePredictor
+from mavbridge.waves.phase.bank import Samples, fit_bank, make_bank, slope_from_attitude, spectral_prior
+from mavbridge.waves.phase.predictor import PhasePredictor
 from vessel import otter_parameters
 from vessel.sea.irregular import IrregularWaves
 from vessel.sea.irregular_sea import IrregularSea

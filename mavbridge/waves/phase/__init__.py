@@ -1,6 +1,6 @@
 """Phase-resolved prediction of an irregular sea from the boat's own motion, and its way into the NMPC.
 
-``phase_bank`` (the maths: a ridge fit of long-crested components with absolute phases) and ``phase_predictor``
+``bank`` (the maths: a ridge fit of long-crested components with absolute phases) and ``predictor``
 (``PhasePredictor``: samples in, a fitted bank, its measured skill per lead time, predictions at any future time
 and place); ``bank_compress`` (the fit squeezed into the K components the NMPC's model carries, over its horizon)
 and ``bank_source`` (the estimator plus the predictor as the in-process wave source ``estimation.waves:

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from mavbridge.waves.phase.phase_bank import Samples, fit_bank, make_bank
+from mavbridge.waves.phase.bank import Samples, fit_bank, make_bank
 from vessel.sea.irregular import IrregularWaves
 
 STEP_S = 0.1  # the region's time step (the NMPC's period)

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from mavbridge.waves.phase.bank_compress import compress
-from mavbridge.waves.phase.phase_predictor import PhasePredictor, PredictorSettings
+from mavbridge.waves.phase.predictor import PhasePredictor, PredictorSettings
 from mavbridge.waves.source import MotionSample, WaveEstimate, sea_spread
 from mavbridge.waves.window_buffer import GAP_S, TRACK_PULL_S
 from vessel.sea.irregular import IrregularWaves

@@ -1,4 +1,4 @@
-"""A bank of long-crested wave components fitted by regularised linear least squares: the maths of ``phase_predictor``.
+"""A bank of long-crested wave components fitted by regularised linear least squares: the maths of ``predictor``.
 
 The sea near the boat is written as K·D linear components on fixed frequencies ω_j (a grid over a band, rad/s),
 each with the wavenumber of the dispersion relation (deep water k = ω²/g unless a depth is given,

@@ -2,9 +2,9 @@
 
 ``PhasePredictor`` is fed time-stamped samples on the autopilot's clock — the boat's NED position (m) and the
 earth-frame surface slope (∂ζ/∂N, ∂ζ/∂E) it measures (or the roll/pitch/heading it is read from, as the window
-estimator reads it: ``phase_bank.slope_from_attitude``), optionally the heave ζ (m, up) or the IMU's down
+estimator reads it: ``bank.slope_from_attitude``), optionally the heave ζ (m, up) or the IMU's down
 acceleration — and every ``fit_interval_s`` fits the last ``window_s`` seconds (thinned to ``rate_hz``) with a bank
-of long-crested components (``phase_bank``): a frequency grid over ``band_rad_s`` fine enough for the window in the
+of long-crested components (``bank``): a frequency grid over ``band_rad_s`` fine enough for the window in the
 encounter domain, deep-water (or finite-depth) wavenumbers, and directions around the sea's own: the principal
 axis of the measured slope, both ways along it, then only the way that carries most of the fitted energy (an
 opposite bank soaks up energy and spoils a following sea; at rest the two are alike and both are kept), fanned by
@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mavbridge.waves.phase.phase_bank import (
+from mavbridge.waves.phase.bank import (
     Bank,
     BankFit,
     Samples,
