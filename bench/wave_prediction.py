@@ -14,7 +14,7 @@ the position with a slow error (0.3 m RMS, 30 s time constant: the window estima
 raw GPS fixes — white noise of 0.1 m on the position alone cut the following-sea skill at 1 s from 0.99 to 0.78); no
 heave.
 
-The predictor (``mavbridge.waves.phase_predictor``, default settings) watches 60 s, then every fit over the next
+The predictor (``mavbridge.waves.phase.predictor``, default settings) watches 60 s, then every fit over the next
 60 s predicts along the true path ahead; the columns are, pooled over both slope components, fits and seeds: the
 correlation r and the RMS error (°) of the predicted against the true slope at 1, 2 and 4 s ahead; r of two
 baselines at 1 s — persistence (the slope measured now) and a 20-lag autoregressive model of each measured slope
@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mavbridge.waves.phase_bank import slope_from_attitude
-from mavbridge.waves.phase_predictor import PhasePredictor
+from mavbridge.waves.phase.bank import slope_from_attitude
+from mavbridge.waves.phase.predictor import PhasePredictor
 from vessel import otter_parameters
 from vessel.sea.irregular_sea import IrregularSea
 
@@ -49,8 +49,7 @@ CASES = {"head": 180.0, "beam": 90.0, "quartering": 45.0, "following": 0.0, "tur
 TURN_RATE_DEG_S = 4.5
 POSITION_NOISE_M = [0.3]  # RMS of the track's error, m
 TRACK_TAU_S = 30.0  # its time constant (the window estimator pulls its track to GPS over 30 s)
-SETTINGS: list = [None]
-LAST: list = [None]  # the predictor's settings (None: its defaults)
+SETTINGS: list = [None]  # the predictor's settings (None: its defaults)
 
 
 @dataclass
@@ -66,6 +65,7 @@ class Pairs:
 
 
 def new_pairs() -> Pairs:
+    """Empty pairs for every lead."""
     return Pairs({h: [] for h in LEADS_S}, {h: [] for h in LEADS_S}, {h: [] for h in LEADS_S}, [], [], [])
 
 
@@ -154,6 +154,7 @@ def one_run(sea_name: str, case: str, seed: int, pairs: Pairs) -> None:
 
 
 def _r(a: list[np.ndarray], b: list[np.ndarray], mask: list[np.ndarray] | None = None) -> float:
+    """Correlation of the concatenated ``a`` and ``b`` (only where ``mask``), NaN when too few points."""
     x, y = np.concatenate(a), np.concatenate(b)
     if mask is not None:
         keep = np.concatenate(mask).astype(bool)

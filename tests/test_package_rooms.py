@@ -22,6 +22,7 @@ ROOMS = {  # a room, and the rooms (other than itself and its own subpackages) i
     "mavbridge": {"vessel"},
     "mavbridge.link": {"vessel"},
     "mavbridge.waves": {"vessel", "vessel.sea"},
+    "mavbridge.waves.phase": {"vessel", "vessel.sea", "mavbridge.waves"},
     "mavbridge.nmpc": {"vessel", "vessel.sea", "mavbridge.nmpc.solvers"},
     "mavbridge.nmpc.solvers": {"vessel", "mavbridge.nmpc"},
     "mavbridge.companion.guided": {"vessel", "mavbridge.link", "mavbridge.companion"},

@@ -2,8 +2,8 @@
 
 The interface the companion and the lab see is ``source`` (``WaveSource``, ``MotionSample``,
 ``WaveEstimate``); the estimator and its parts (filters, oscillator, heave, Doppler, solve, steadiness,
-spread, calibration) and the in-process sensed plant (``inloop``) sit beside it; so does the phase-resolved
-predictor of an irregular sea (``phase_predictor`` on ``phase_bank``: issue 33, not yet wired into the NMPC).
+spread, calibration) and the in-process sensed plant (``inloop``) sit beside it; the phase-resolved predictor of
+an irregular sea has its own room, ``phase`` (issue 33, not yet wired into the NMPC).
 
 May import: ``vessel`` and ``mavbridge.waves``. Imported by ``mavbridge.companion`` and ``mavbridge.lab``.
 """
