@@ -49,8 +49,7 @@ CASES = {"head": 180.0, "beam": 90.0, "quartering": 45.0, "following": 0.0, "tur
 TURN_RATE_DEG_S = 4.5
 POSITION_NOISE_M = [0.3]  # RMS of the track's error, m
 TRACK_TAU_S = 30.0  # its time constant (the window estimator pulls its track to GPS over 30 s)
-SETTINGS: list = [None]
-LAST: list = [None]  # the predictor's settings (None: its defaults)
+SETTINGS: list = [None]  # the predictor's settings (None: its defaults)
 
 
 @dataclass
@@ -66,6 +65,7 @@ class Pairs:
 
 
 def new_pairs() -> Pairs:
+    """Empty pairs for every lead."""
     return Pairs({h: [] for h in LEADS_S}, {h: [] for h in LEADS_S}, {h: [] for h in LEADS_S}, [], [], [])
 
 
@@ -154,6 +154,7 @@ def one_run(sea_name: str, case: str, seed: int, pairs: Pairs) -> None:
 
 
 def _r(a: list[np.ndarray], b: list[np.ndarray], mask: list[np.ndarray] | None = None) -> float:
+    """Correlation of the concatenated ``a`` and ``b`` (only where ``mask``), NaN when too few points."""
     x, y = np.concatenate(a), np.concatenate(b)
     if mask is not None:
         keep = np.concatenate(mask).astype(bool)

@@ -162,16 +162,16 @@ def mean_velocity(s: Samples) -> tuple[float, float]:
 
 def fit_bank(bank: Bank, s: Samples, ridge: float = 1e-2, weights: np.ndarray | None = None,
              noise: dict[str, float] | None = None, prior: np.ndarray | None = None) -> BankFit | None:
-    """Ridge fit of the bank's cos/sin coefficients to the samples (see the module docstring); None when the window
-    has no slope samples or too few for the bank. ``weights`` (per sample, ≥ 0) favour recent samples; ``noise``
-    (per channel, in its unit) scales the channels against each other (default: slope 0.01 rad, heave 0.3 m,
-    acceleration 0.1 m/s²). With a ``prior`` shape (``spectral_prior``), scaled so that its slope variance is the
-    window's (less the noise), the fit is the Bayesian MAP estimate with noise σ² = ``ridge`` × the channel
-    noise²; without one a plain ridge relative to the normal matrix's mean diagonal."""
+    """Ridge fit of the bank's cos/sin coefficients to the samples (see the module docstring); None when the window has
+    no slope samples (more unknowns than rows are fine: the penalty holds them). ``weights`` (per sample, ≥ 0)
+    favour recent samples; ``noise`` (per channel, in its unit) scales the channels against each other (default:
+    slope 0.01 rad, heave 0.3 m, acceleration 0.1 m/s²). With a ``prior`` shape (``spectral_prior``), scaled so that
+    its slope variance is the window's (less the noise), the fit is the Bayesian MAP estimate with noise σ² =
+    ``ridge`` × the channel noise²; without one a plain ridge relative to the normal matrix's mean diagonal."""
     noise = {"slope_n": 0.01, "slope_e": 0.01, "heave": 0.3, "accel": 0.1, **(noise or {})}
     origin = (float(s.t[-1]), float(s.north[-1]), float(s.east[-1]))
     channels = _channel_rows(bank, s, origin, mean_velocity(s))
-    if not channels or s.t.size < bank.size:
+    if not channels:
         return None
     w_all = np.ones(s.t.size) if weights is None else np.asarray(weights, float)
     names = [n for n in ("slope_n", "slope_e", "heave", "accel") if np.count_nonzero(np.isfinite(getattr(s, n))) >= 4]

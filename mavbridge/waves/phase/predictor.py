@@ -23,16 +23,19 @@ to reset.
 
 Confidence is measured, not modelled: every fit's prediction is scored against the slope that arrives over the next
 ``horizon_s`` seconds, per lead-time bin, and the skill (1 − error power / signal power, forgetting with
-``skill_memory_s``) says how far ahead it can be trusted; ``confident(lead)`` is False (the controller keeps its
-statistics term) before enough fits are scored, below ``min_skill`` or with a slope below ``min_slope_rad`` (calm
-water, noise). Bad input (NaN, time not increasing) is skipped with a reason; a clock that goes back by more than
-5 s, or a silence longer than the window, restarts the window.
+``skill_memory_s`` of autopilot time) says how far ahead it can be trusted. A bin becomes trusted at ``min_skill`` +
+``skill_margin`` and stays so until its skill falls below ``min_skill`` (a pooled skill near one threshold would
+flicker), and a lead is trusted only when every shorter one is. ``confident(lead)`` is False (the controller keeps
+its statistics term) before ``min_scored`` fits are scored, beyond the horizon, when the last fit is stale (the
+later ones failed), when the slope less the channels' noise is below ``min_slope_rad`` (calm water) or when the
+skill is not trusted. Bad input (NaN, time not increasing) is skipped with a reason; a clock that goes back by
+more than 5 s, or a silence longer than the window, restarts the window. A fit costs tens of milliseconds (a
+40 s window, up to 140 frequencies each way): a control loop runs it off its own thread.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -47,67 +50,13 @@ from mavbridge.waves.phase.bank import (
     slope_from_attitude,
     spectral_prior,
 )
+from mavbridge.waves.phase.skill import LEAD_BIN_S, PredictorSettings, Skill
 from mavbridge.waves.source import MotionSample
 from mavbridge.waves.window_buffer import down_acceleration
 
 FIELDS = ("t", "north", "east", "slope_n", "slope_e", "heave", "accel")
 CLOCK_BACK_S = 5.0  # a clock going back by more than this is a reboot: the window belongs to the old clock
-LEAD_BIN_S = 1.0  # the skill is kept per lead-time bin of this width
 PEAK_RATIO = 0.8  # ωp ≈ this × the fitted mean frequency m1/m0 (0.77 Pierson–Moskowitz, 0.83 JONSWAP γ 3.3)
-
-
-@dataclass(frozen=True)
-class PredictorSettings:
-    """What the predictor fits and when it is trusted (SI units, rad)."""
-
-    window_s: float = 40.0  # seconds of samples a fit uses
-    fit_interval_s: float = 1.0  # a new fit at most this often (autopilot time)
-    rate_hz: float = 10.0  # samples a fit uses per second (thinned)
-    # the bank's band (rad/s): its top must lie above every slope the hull feels (energy above it is aliased into
-    # the bank and ruins its extrapolation): 4.5 rad/s (λ 3 m) holds a Tp 6 s sea synthesised up to 4 ωp
-    band_rad_s: tuple[float, float] = (0.4, 4.5)
-    max_frequencies: int = 140  # cap of the frequency grid (cost grows with its square)
-    fan_deg: tuple[float, ...] = (0.0,)  # directions around the dominant one (short-crested seas: e.g. −30, 0, 30)
-    peak_frequency_rad_s: float | None = None  # ωp when known (e.g. the window estimator's ω); else adapted
-    initial_peak_rad_s: float = 2 * math.pi / 6.0  # the adapted ωp's start
-    ridge: float = 1.0  # noise variance over prior variance, in units of the channel noise²
-    slope_noise_rad: float = 0.01  # the slope channels' noise (attitude noise and what the bank cannot hold)
-    depth_m: float | None = None  # water depth for dispersion (None: deep water)
-    roll_sign: float = -1.0  # as ``slope_from_attitude``
-    horizon_s: float = 4.0  # the longest lead time scored (and so trusted)
-    min_skill: float = 0.5  # skill below this at a lead time is not confident there
-    min_slope_rad: float = 0.01  # an RMS slope below this is no sea (``spread.NOISE_FLOOR_RAD``)
-    skill_memory_s: float = 30.0  # the skill forgets with this time constant
-    min_scored: int = 5  # fits scored before any confidence
-
-
-@dataclass
-class _Skill:
-    """Forgetting sums of error and signal power per lead-time bin of past fits' predictions."""
-
-    bins: int
-    memory_s: float
-    error: np.ndarray = field(init=False)
-    signal: np.ndarray = field(init=False)
-    scored: int = 0
-
-    def __post_init__(self) -> None:
-        self.error, self.signal = np.zeros(self.bins), np.zeros(self.bins)
-
-    def add(self, lead: np.ndarray, err2: np.ndarray, sig2: np.ndarray, dt: float) -> None:
-        """One scored fit: per sample its lead (s), squared error and squared signal (rad²)."""
-        decay = math.exp(-dt / self.memory_s)
-        index = np.minimum((lead / LEAD_BIN_S).astype(int), self.bins - 1)
-        self.error = self.error * decay + np.bincount(index, err2, self.bins)
-        self.signal = self.signal * decay + np.bincount(index, sig2, self.bins)
-        self.scored += 1
-
-    def at(self, lead_s: np.ndarray) -> np.ndarray:
-        """Skill (≤ 1; 0 = no better than predicting zero) at lead times (s), −inf in an unscored bin."""
-        index = np.clip((np.asarray(lead_s, float) / LEAD_BIN_S).astype(int), 0, self.bins - 1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            skill = np.where(self.signal > 0, 1.0 - self.error / self.signal, -np.inf)
-        return skill[index]
 
 
 class PhasePredictor:
@@ -117,9 +66,11 @@ class PhasePredictor:
         self.s = settings or PredictorSettings()
         self._rows: dict[str, list[float]] = {key: [] for key in FIELDS}
         self._fit: BankFit | None = None
-        self._fit_t = -math.inf
+        self._fit_t = -math.inf  # the autopilot time the current fit ends at (its leads count from here)
+        self._next_fit_t = -math.inf  # when the next fit is due
         self._pending: list[tuple[float, BankFit, tuple[float, float]]] = []  # fits not yet scored, with offsets
-        self._skill = _Skill(math.ceil(self.s.horizon_s / LEAD_BIN_S), self.s.skill_memory_s)
+        self._skill = self._new_skill()
+        self._last_sample_t = -math.inf
         self._peak = self.s.peak_frequency_rad_s or self.s.initial_peak_rad_s
         self._offset = (0.0, 0.0)
         self.skipped: dict[str, int] = {}
@@ -133,15 +84,23 @@ class PhasePredictor:
         ``skipped``)."""
         reason = self._check(t_s, north_m, east_m, slope_n, slope_e)
         if reason is not None:
-            self.skipped[reason] = self.skipped.get(reason, 0) + 1
+            self._skip(reason)
             return reason
         for key, value in zip(FIELDS, (t_s, north_m, east_m, slope_n, slope_e, heave_m, accel_down_mps2),
                               strict=True):
             self._rows[key].append(float(value))
-        if t_s - self._fit_t >= self.s.fit_interval_s:
-            self._fit_t = t_s
+        self._last_sample_t = t_s
+        if t_s >= self._next_fit_t:
+            self._next_fit_t = t_s + self.s.fit_interval_s
             self._refit(t_s)
         return None
+
+    def _new_skill(self) -> Skill:
+        return Skill(math.ceil(self.s.horizon_s / LEAD_BIN_S), self.s.skill_memory_s,
+                      self.s.min_skill + self.s.skill_margin, self.s.min_skill)
+
+    def _skip(self, reason: str) -> None:
+        self.skipped[reason] = self.skipped.get(reason, 0) + 1
 
     def observe_attitude(self, t_s: float, north_m: float, east_m: float, roll: float, pitch: float, yaw: float,
                          heave_m: float = math.nan, accel_down_mps2: float = math.nan) -> str | None:
@@ -153,7 +112,7 @@ class PhasePredictor:
         """``observe_attitude`` from what the autopilot streams (ATTITUDE, position, the IMU's heave if streamed)."""
         att, pos = np.asarray(sample.attitude, float), np.asarray(sample.position_ned, float)
         if att.shape != (3,) or pos.shape != (3,):
-            self.skipped["malformed sample"] = self.skipped.get("malformed sample", 0) + 1
+            self._skip("malformed sample")
             return "malformed sample"
         accel = down_acceleration(tuple(att), sample.accel_body) if np.all(np.isfinite(att)) else math.nan
         return self.observe_attitude(sample.t_s, pos[0], pos[1], att[0], att[1], att[2], math.nan, accel)
@@ -176,12 +135,13 @@ class PhasePredictor:
         """Forget the window, the fit and its skill (a reboot of the autopilot clock, a long silence)."""
         for values in self._rows.values():
             values.clear()
-        self._fit, self._fit_t, self._pending = None, -math.inf, []
-        self._skill = _Skill(self._skill.bins, self.s.skill_memory_s)
+        self._fit, self._fit_t, self._next_fit_t, self._pending = None, -math.inf, -math.inf, []
+        self._skill = self._new_skill()
 
     # ------------------------------------------------------------------ fitting
-    def window(self, t_s: float) -> Samples | None:
-        """The last ``window_s`` seconds up to ``t_s``, thinned to ``rate_hz``; None with under 4 s of them."""
+    def _window(self, t_s: float) -> Samples | None:
+        """The last ``window_s`` seconds up to ``t_s`` (older rows are dropped), thinned to ``rate_hz``; None with
+        under 4 s of them."""
         times = self._rows["t"]
         first = next((i for i, v in enumerate(times) if v >= t_s - self.s.window_s), len(times))
         if first > 0:
@@ -194,47 +154,19 @@ class PhasePredictor:
         start = (len(times) - 1) % step
         return Samples(*(np.asarray(self._rows[key][start::step], float) for key in FIELDS))
 
-    def _directions(self, s: Samples) -> list[float]:
-        """The principal axis of the measured slope (rad NED), both ways along it."""
-        sn, se = s.slope_n - s.slope_n.mean(), s.slope_e - s.slope_e.mean()
-        axis = 0.5 * math.atan2(2 * float(sn @ se), float(sn @ sn - se @ se))
-        return [axis, axis + math.pi]
-
-    def _bank(self, s: Samples, directions: list[float]) -> Bank:
-        band = self.s.band_rad_s
-        speed = math.hypot(*mean_velocity(s))
-        n = min(frequencies_needed(band, float(s.t[-1] - s.t[0]), speed), self.s.max_frequencies)
-        return make_bank(band, n, directions, self.s.depth_m)
-
-    def _fit_window(self, s: Samples) -> BankFit | None:
-        """Both ways along the axis, then (when one way carries over three quarters of the energy) that way with
-        its fan."""
-        noise = {"slope_n": self.s.slope_noise_rad, "slope_e": self.s.slope_noise_rad}
-        axis = self._directions(s)
-        bank = self._bank(s, axis)
-        fit = fit_bank(bank, s, self.s.ridge, noise=noise, prior=spectral_prior(bank, self._peak))
-        if fit is None:
-            return None
-        energy = (fit.waves.amplitude_m * fit.waves.wavenumber_rad_m) ** 2
-        ahead = float(energy[0::2].sum()) / max(float(energy.sum()), 1e-30)
-        if 0.25 <= ahead <= 0.75 and len(self.s.fan_deg) == 1:
-            return fit
-        main = axis[0] if ahead > 0.5 else axis[1]
-        sides = [main + math.radians(d) for d in self.s.fan_deg] if not 0.25 <= ahead <= 0.75 else \
-            [a + math.radians(d) for a in axis for d in self.s.fan_deg]
-        bank = self._bank(s, sides)
-        return fit_bank(bank, s, self.s.ridge, noise=noise, prior=spectral_prior(bank, self._peak)) or fit
-
     def _refit(self, t: float) -> None:
         """A new fit on the window ending at ``t``; past fits whose horizon has passed are scored first."""
-        s = self.window(t)
+        s = self._window(t)
         if s is None:
             return
         self._score(s, t)
-        fit = self._fit_window(s)
+        fit, notes = fit_window(s, self.s, self._peak)
+        for note in notes:
+            self._skip(note)
         if fit is None:
+            self._skip("fit failed (the last fit is kept and ages)")
             return
-        self._fit = fit
+        self._fit, self._fit_t = fit, t
         self.fits += 1
         self._offset = (float(np.mean(s.slope_n)), float(np.mean(s.slope_e)))
         self._pending.append((t, fit, self._offset))
@@ -262,11 +194,15 @@ class PhasePredictor:
                 continue
             pn, pe, _ = fit.predict(s.t[after], s.north[after], s.east[after])
             mn, me = s.slope_n[after] - off_n, s.slope_e[after] - off_e
-            self._skill.add(s.t[after] - t_fit, (pn - mn) ** 2 + (pe - me) ** 2, mn**2 + me**2,
-                            self.s.fit_interval_s)
+            self._skill.add(t_fit, s.t[after] - t_fit, (pn - mn) ** 2 + (pe - me) ** 2, mn**2 + me**2)
         self._pending = keep
 
     # ------------------------------------------------------------------ answers
+    @property
+    def fit_time_s(self) -> float:
+        """The autopilot time (s) the current fit ends at: leads count from here (−inf before the first fit)."""
+        return self._fit_t
+
     @property
     def peak_frequency_rad_s(self) -> float:
         """The ωp (rad/s) the prior is centred on."""
@@ -283,13 +219,18 @@ class PhasePredictor:
             return "no fit yet"
         if lead_s > self.s.horizon_s:
             return f"lead {lead_s:.1f} s beyond the scored horizon {self.s.horizon_s:g} s"
+        age = self._last_sample_t - self._fit_t
+        if age > self.s.fit_interval_s + LEAD_BIN_S:
+            return f"the last fit is {age:.1f} s old (later fits failed)"
         if self._skill.scored < self.s.min_scored:
             return f"{self._skill.scored} of {self.s.min_scored} fits scored"
-        if fit.slope_rms < self.s.min_slope_rad:
-            return f"slope RMS {fit.slope_rms:.4f} rad below {self.s.min_slope_rad:g} rad: no sea"
-        skill = float(self.skill(lead_s))
-        if skill < self.s.min_skill:
-            return f"skill {skill:.2f} at {lead_s:.1f} s below {self.s.min_skill:g}"
+        wave_rms = math.sqrt(max(fit.slope_rms**2 - 2 * self.s.slope_noise_rad**2, 0.0))  # less the channels' noise
+        if wave_rms < self.s.min_slope_rad:
+            return f"slope RMS {wave_rms:.4f} rad (less noise) below {self.s.min_slope_rad:g} rad: no sea"
+        if not self._skill.trusted_to(lead_s):
+            skill = float(np.min(self.skill(np.arange(0.0, lead_s + 1e-9, LEAD_BIN_S))))
+            return (f"skill {skill:.2f} up to {lead_s:.1f} s not trusted (on at {self._skill.trust_on:.2f}, "
+                    f"off below {self._skill.trust_off:.2f})")
         return None
 
     def confident(self, lead_s: float) -> bool:
@@ -309,7 +250,8 @@ class PhasePredictor:
         bins = np.floor(np.clip(lead, 0.0, None) / LEAD_BIN_S)
         unique, index = np.unique(bins, return_inverse=True)
         ok = np.array([self.confident(float(b) * LEAD_BIN_S) for b in unique], bool)
-        return slope_n, slope_e, zeta, ok[index.reshape(bins.shape)] & (lead >= 0)
+        inside = (lead >= 0) & (lead <= self.s.horizon_s)  # the bin's start may be inside while the lead is not
+        return slope_n, slope_e, zeta, ok[index.reshape(bins.shape)] & inside
 
     def bank_arrays(self, size: int | None = None) -> dict[str, np.ndarray]:
         """The fitted bank as fixed-size arrays for a sum-of-components model (e.g. CasADi parameters): the ``size``
@@ -325,3 +267,44 @@ class PhasePredictor:
         for name in out:
             out[name][: order.size] = getattr(w, name)[order]
         return out
+
+
+def principal_axis(s: Samples) -> list[float]:
+    """The principal axis of the measured slope (rad NED), both ways along it."""
+    sn, se = s.slope_n - s.slope_n.mean(), s.slope_e - s.slope_e.mean()
+    axis = 0.5 * math.atan2(2 * float(sn @ se), float(sn @ sn - se @ se))
+    return [axis, axis + math.pi]
+
+
+def window_bank(s: Samples, settings: PredictorSettings, directions: list[float], notes: list[str]) -> Bank:
+    """The bank for the window: as many frequencies as its span resolves in the encounter domain at its speed
+    (capped at ``max_frequencies``: a coarser grid, said in ``notes``), at each of ``directions``."""
+    band = settings.band_rad_s
+    needed = frequencies_needed(band, float(s.t[-1] - s.t[0]), math.hypot(*mean_velocity(s)))
+    if needed > settings.max_frequencies:
+        notes.append("frequency grid capped (coarser than the window resolves)")
+    return make_bank(band, min(needed, settings.max_frequencies), directions, settings.depth_m)
+
+
+def fit_window(s: Samples, settings: PredictorSettings, peak_rad_s: float) -> tuple[BankFit | None, list[str]]:
+    """Both ways along the slope's axis, then (when one way carries over three quarters of the energy) that way with
+    its fan; with what went wrong on the way (for the predictor's ``skipped``)."""
+    notes: list[str] = []
+    noise = {"slope_n": settings.slope_noise_rad, "slope_e": settings.slope_noise_rad}
+    axis = principal_axis(s)
+    bank = window_bank(s, settings, axis, notes)
+    fit = fit_bank(bank, s, settings.ridge, noise=noise, prior=spectral_prior(bank, peak_rad_s))
+    if fit is None:
+        return None, notes
+    energy = (fit.waves.amplitude_m * fit.waves.wavenumber_rad_m) ** 2
+    ahead = float(energy[0::2].sum()) / max(float(energy.sum()), 1e-30)
+    mixed = 0.25 <= ahead <= 0.75
+    if mixed and len(settings.fan_deg) == 1:
+        return fit, notes
+    main = axis[0] if ahead > 0.5 else axis[1]
+    sides = [a + math.radians(d) for a in (axis if mixed else [main]) for d in settings.fan_deg]
+    bank = window_bank(s, settings, sides, notes)
+    one_way = fit_bank(bank, s, settings.ridge, noise=noise, prior=spectral_prior(bank, peak_rad_s))
+    if one_way is None:
+        notes.append("one-way fit failed (both ways kept)")
+    return one_way or fit, notes
