@@ -114,6 +114,16 @@ class Flight:
         self.solve_ms.append(result.wall_time_s * 1e3)
         self.rows.append(self._row(t, x, result, wave))
 
+    def finish(self) -> None:
+        """The state the log ends with: a log that stops at the waypoint arrives at its last step. A companion's
+        own log ends where it arrived, and its step may have seen a position stamped a few milliseconds after the
+        ATTITUDE that made the step (received first), which the log's order puts after that step."""
+        if self.arrived_s is not None or not self.rows or not self.state.ready():
+            return
+        x = self.state.vector()
+        if self.tracker.target(float(x[0]), float(x[1])) is None:
+            self.arrived_s = float(self.rows[-1]["t_s"])
+
     def _row(self, t: float, x: np.ndarray, result: Any, wave: dict[str, float]) -> dict[str, Any]:
         """The step's columns: state, command (and what it means for the motors), the boat's, the wave's."""
         try:
@@ -262,6 +272,7 @@ def replay_command(req: ReplayRequest) -> int:
                 if t > window[1] + 1.0:
                     break
                 flight.take(t, msg)
+            flight.finish()
         finally:
             progress.done()
     for line in summary_lines(flight, trial, req, scenario.controller.solver):
