@@ -52,6 +52,17 @@ def wait_for(
     raise WaitTimeoutError(f"no {kind}{_describe(cond)} within {timeout:g} s{seen}")
 
 
+def list_parameters(conn: Any) -> dict[str, Any]:
+    """Every PARAM_VALUE of a PARAM_REQUEST_LIST download from system 1, by name (indices 0..count-1 each once)."""
+    conn.mav.param_request_list_send(1, 1)
+    seen: dict[int, Any] = {}
+    while True:
+        msg = wait_for(conn, "PARAM_VALUE", 5)
+        seen[msg.param_index] = msg
+        if len(seen) == msg.param_count:
+            return {m.param_id: m for m in seen.values()}
+
+
 def drain(conn: Any) -> list[Any]:
     """Every message already waiting on the connection (so that the next one read is fresh)."""
     msgs = []

@@ -9,27 +9,16 @@ from pathlib import Path
 import pytest
 
 from sim_vehicle.harness import SimProcess, sim_vehicle_command
-from tests.waits import WaitTimeoutError, wait_for
+from tests.waits import WaitTimeoutError, list_parameters, wait_for
 
 pytestmark = pytest.mark.integration
 DOES_NOT_EXIST = 1
 
 
-def _listed(conn) -> dict[str, object]:
-    """Every PARAM_VALUE of a list download, by name (indices 0..count-1 each once)."""
-    conn.mav.param_request_list_send(1, 1)
-    seen: dict[int, object] = {}
-    while True:
-        msg = wait_for(conn, "PARAM_VALUE", 5)
-        seen[msg.param_index] = msg
-        if len(seen) == msg.param_count:
-            return {m.param_id: m for m in seen.values()}
-
-
 def test_a_hidden_parameter_is_absent_from_the_list_and_reads_as_unknown(tmp_path: Path) -> None:
     with SimProcess(tmp_path, speedup=10, extra=["--hide-params", "RC3_TRIM,PILOT_STEER_TYPE"]) as sim:
         conn = sim.connect()
-        listed = _listed(conn)
+        listed = list_parameters(conn)
         assert "RC3_TRIM" not in listed and "PILOT_STEER_TYPE" not in listed and "RC3_MIN" in listed
         assert sorted(m.param_index for m in listed.values()) == list(range(len(listed)))  # no gap where it was
         conn.mav.param_request_read_send(1, 1, b"RC3_TRIM", -1)

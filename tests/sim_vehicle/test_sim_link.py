@@ -19,7 +19,7 @@ from tests.rover import (
     RTL,
     SET_MESSAGE_INTERVAL,
 )
-from tests.waits import command, command_texts, set_mode, wait_for, wait_mode
+from tests.waits import command, command_texts, list_parameters, set_mode, wait_for, wait_mode
 
 # the tests of this module share the conftest ``sim`` process (10x) and leave it disarmed in MANUAL
 MISSION_START = 300
@@ -36,15 +36,7 @@ def test_boat_heartbeat(sim: SimProcess) -> None:
 
 def test_download_every_parameter(sim: SimProcess) -> None:
     """PARAM_REQUEST_LIST yields each index once, with Rover's names and types."""
-    conn = sim.connect()
-    conn.mav.param_request_list_send(1, 1)
-    seen: dict[int, object] = {}
-    while True:
-        msg = wait_for(conn, "PARAM_VALUE", 5)
-        seen[msg.param_index] = msg
-        if len(seen) == msg.param_count:
-            break
-    by_name = {m.param_id: m for m in seen.values()}
+    by_name = list_parameters(sim.connect())
     assert by_name["FRAME_CLASS"].param_value == 2 and by_name["FRAME_CLASS"].param_type == 2
     assert by_name["SYSID_MYGCS"].param_value == 255
     assert by_name["SERVO1_FUNCTION"].param_value == 73 and by_name["SERVO3_FUNCTION"].param_value == 74
