@@ -1,4 +1,4 @@
-"""Shared fixtures: simulator processes and ground-station links; the ``integration`` mark.
+"""Shared fixtures: simulator processes and ground-station links; the ``integration`` mark; the suite's order.
 
 Every test that starts a process is marked ``integration`` here, so ``pytest -m "not integration"`` runs
 the fast unit tests alone: everything under tests/system, every test using a process fixture below, and
@@ -7,6 +7,7 @@ every test in a module that starts processes itself (it imports ``subprocess`` o
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ from typing import Any
 import pytest
 
 from sim_vehicle.harness import SimProcess
+from tests.expected_durations import balanced_order, read_expected
 from tests.rover import ARM, HOLD
 from tests.waits import command, set_mode
 
@@ -32,10 +34,14 @@ def _starts_processes(item: pytest.Item) -> bool:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark every test that starts a process ``integration``."""
+    """Mark every test that starts a process ``integration``; order the tests so that each xdist worker starts
+    with its share of the slowest (``tests.expected_durations``)."""
     for item in items:
         if _starts_processes(item):
             item.add_marker(pytest.mark.integration)
+    by_id = {item.nodeid: item for item in items}
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    items[:] = [by_id[test] for test in balanced_order(list(by_id), read_expected(), workers)]
 
 
 @pytest.fixture(scope="module")
