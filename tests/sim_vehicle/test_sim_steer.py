@@ -38,8 +38,13 @@ def _yaw_rate(conn, ch1: int, ch3: int, sim_s: float = 5.0, settle_s: float = 3.
     return sum(rates) / len(rates)
 
 
-def _servos(conn) -> tuple[int, int]:
-    msg = wait_for(conn, "SERVO_OUTPUT_RAW", 5)
+def _servos(conn, ch1: int, ch3: int) -> tuple[int, int]:
+    """Servos 1 and 3 from a SERVO_OUTPUT_RAW sent while ch1/ch3 are still held: the override is sent again
+    before each read, so a slow read on a loaded machine cannot outlast RC_OVERRIDE_TIME (simulated seconds)
+    and show the sticks released. The second message read is the one returned (the first may predate it)."""
+    for _ in range(2):
+        _override(conn, ch1, ch3)
+        msg = wait_for(conn, "SERVO_OUTPUT_RAW", 5)
     return msg.servo1_raw, msg.servo3_raw
 
 
@@ -75,12 +80,12 @@ def test_two_paddles_drive_each_motor(conn) -> None:
     """Type 1: ch1 is the left motor and ch3 the right; opposite paddles spin the boat in place."""
     _set_steer_type(conn, 1)
     right_spin = _yaw_rate(conn, 1900, 1100)
-    assert _servos(conn) == (1900, 1100)
+    assert _servos(conn, 1900, 1100) == (1900, 1100)
     left_spin = _yaw_rate(conn, 1100, 1900)
-    assert _servos(conn) == (1100, 1900)
+    assert _servos(conn, 1100, 1900) == (1100, 1900)
     assert right_spin > 0.1 and left_spin < -0.1, (right_spin, left_spin)
     run_for(conn, 3.0, lambda: _override(conn, 1700, 1600))  # no dead zone: 1600 is a quarter ahead
-    assert _servos(conn) == (1700, 1600)
+    assert _servos(conn, 1700, 1600) == (1700, 1600)
 
 
 def test_acro_turn_rate_follows_the_same_rule(conn) -> None:
