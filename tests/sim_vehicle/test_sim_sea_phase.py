@@ -135,12 +135,15 @@ def _seen(seed: int, workdir: Path) -> tuple[dict[str, frozenset[str]], dict[str
             now = time.monotonic()
             if now > deadline:
                 raise TimeoutError(f"3 simulated s of ATTITUDE and {param_count} parameters did not arrive in 60 s "
-                                   f"({len(params)} parameters so far)")
+                                   f"({len(params)} parameters so far; banner seen: {'STATUSTEXT' in fields})")
             if 0 < param_count and len(indices) < param_count and now - last_param > 1.0:
                 # as a ground station does: a download that stalls (a busy machine's full socket buffer drops
                 # PARAM_VALUEs, as a lossy radio would) is completed by reading the missing ones by index
                 for index in sorted(set(range(param_count)) - indices)[:20]:
                     conn.mav.param_request_read_send(1, 1, b"", index)
+                last_param = now
+            elif len(params) == param_count and "STATUSTEXT" not in fields and now - last_param > 1.0:
+                conn.mav.param_request_list_send(1, 1)  # the banner (STATUSTEXT) was dropped the same way: again
                 last_param = now
             msg = conn.recv_match(blocking=True, timeout=0.5)
             if msg is None or msg.get_type() == "BAD_DATA":
@@ -153,7 +156,8 @@ def _seen(seed: int, workdir: Path) -> tuple[dict[str, frozenset[str]], dict[str
                 indices.add(int(msg.param_index))
             elif kind in STATIC_TYPES:
                 static.add((kind, _static_values(msg)))
-            done = kind == "ATTITUDE" and msg.time_boot_ms - start > 3000 and len(params) == param_count
+            done = (kind == "ATTITUDE" and msg.time_boot_ms - start > 3000 and len(params) == param_count
+                    and "STATUSTEXT" in fields)
     return fields, params, static
 
 
