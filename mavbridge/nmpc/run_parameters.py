@@ -33,6 +33,7 @@ class SeaKnowledge:
         k = config.wave_components
         self.bank: np.ndarray | None = no_bank(k) if k > 0 else None  # None: no bank block (K = 0)
         self._roll_sign = float(self.wave[-1])  # the regular wave's, unless a bank brings its own
+        self._wave_of: tuple[object, np.ndarray] | None = None  # (the field last given, its block): fields are frozen
 
     def set_wave(self, waves: RegularWaves | CalmWater | None) -> None:
         """The regular wave (or calm water) to predict with; None: nothing known (R = 0)."""
@@ -40,7 +41,9 @@ class SeaKnowledge:
             raise ValueError(f"set_wave: this controller was built with a fixed "
                              f"{type(self.fixed_waves).__name__}; only RegularWaves or CalmWater "
                              f"controllers take a run-time wave")
-        self.wave = wave_parameters(waves)
+        if self._wave_of is None or waves is not self._wave_of[0]:  # the gate hands the same field while it holds
+            self._wave_of = (waves, wave_parameters(waves))
+        self.wave = self._wave_of[1].copy()  # (the bank's roll sign may be written into it)
         self.wave_known = waves is not None
         if not self.wave_known and self.bank_active:
             self.wave[-1] = self._roll_sign  # calm regular wave: the model rolls with the bank's sign
