@@ -21,9 +21,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from mavbridge.nmpc import compile_native_function
 from mavbridge.nmpc.problem import model_ode
-from mavbridge.nmpc.solvers.codegen import compiled_library, load
-from mavbridge.nmpc.solvers.native_lib import CompiledFunction
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, is_parametric, wave_parameters
 from vessel import OceanCurrent, OtterParameters, WaveField
 
@@ -72,11 +71,9 @@ class StatePredictor:
         k3 = ode(x + h / 2 * k2, tau, t + h / 2, wave)
         k4 = ode(x + h * k3, tau, t + h, wave)
         step = ca.Function("predict_step", [x, tau, t, wave, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-        library, self.how = compiled_library(step)  # C, cached: the SX machine took a sixth of the loop
-        self._step = load(step, library)
-        # The same library called through its C API: CasADi's Python call converts each argument to a DM and
-        # back (≈ 90 µs a step, most of the prediction's cost); this one writes into a preallocated buffer
-        self._native = None if library is None else CompiledFunction(library, step.name(), [12])
+        # C, cached (the SX machine took a sixth of the loop), and the same library called through its C API:
+        # CasADi's Python call converts each argument to a DM and back (≈ 90 µs a step, most of the prediction)
+        self._step, self._native, self.how = compile_native_function(step, [12])
         self._inputs = (np.zeros(12), np.zeros(2), np.zeros(1), np.zeros(len(CALM_PARAMETERS)), np.zeros(1))
         if self._native is not None:
             self._native.bind(*self._inputs)  # (x, τ, t, wave, h), refilled each step

@@ -19,9 +19,10 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 
-from mavbridge.nmpc.solvers.codegen import cache_dir, compiler
+from mavbridge.nmpc.solvers.codegen import cache_dir, compiled_library, compiler, load
 from mavbridge.nmpc.solvers.native_source import C_SOURCE
 
 FLAGS = ("-O3", "-fPIC", "-shared", "-std=c99")
@@ -162,3 +163,11 @@ class CompiledFunction:
         if self.fn(self.arg, self.res, *self._work, 0) != 0:
             raise RuntimeError("compiled function failed")
         return self.outputs
+
+
+def compiled_native(fn: ca.Function, n_out: list[int]) -> tuple[ca.Function, CompiledFunction | None, str]:
+    """(Function, the same library called through its C API or None, how): ``codegen.compiled`` plus a direct
+    caller for per-step use (CasADi's Python call converts each argument to a DM and back). None, and the
+    Function in CasADi's virtual machine, without a C compiler."""
+    library, how = compiled_library(fn)
+    return load(fn, library), None if library is None else CompiledFunction(library, fn.name(), n_out), how
