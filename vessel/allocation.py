@@ -11,8 +11,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-
 from vessel.mathops import ops, where
 from vessel.params import OtterParameters
 
@@ -42,18 +40,10 @@ def shaft_speeds_to_tau(params: OtterParameters, n_left: Any, n_right: Any) -> t
     return thrust_to_tau(params, propeller_thrust(params, n_left), propeller_thrust(params, n_right))
 
 
-def thrust_to_shaft_speed(params: OtterParameters, thrust: float | np.ndarray) -> np.ndarray:
-    """Shaft speed (rad/s, saturated) that gives this thrust (N), with the coefficient for its sign."""
-    mats = params.matrices()
-    thrust = np.asarray(thrust, float)
-    k = np.where(thrust > 0, mats.k_pos, mats.k_neg)
-    n = np.sign(thrust) * np.sqrt(np.abs(thrust) / k)
-    return saturate_shaft_speed(params, n)
-
-
 def _float_shaft_speed(k_pos: float, k_neg: float, n_min: float, n_max: float, thrust: float) -> float:
-    """``thrust_to_shaft_speed`` of one finite float in plain Python (the same operations, so the same result):
-    the companion converts every control step's command, and numpy's calls on scalars cost ten times more."""
+    """Shaft speed (rad/s, saturated to [n_min, n_max]) that gives this finite thrust (N), with the thrust
+    coefficient for its sign, in plain Python: the companion converts every control step's command, and numpy's
+    calls on single numbers cost ten times more."""
     k = k_pos if thrust > 0 else k_neg
     sign = 1.0 if thrust > 0 else -1.0 if thrust < 0 else 0.0  # np.sign's
     return min(max(sign * math.sqrt(abs(thrust) / k), n_min), n_max)

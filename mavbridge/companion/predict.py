@@ -73,7 +73,7 @@ class StatePredictor:
         step = ca.Function("predict_step", [x, tau, t, wave, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
         # C, cached (the SX machine took a sixth of the loop), and the same library called through its C API:
         # CasADi's Python call converts each argument to a DM and back (≈ 90 µs a step, most of the prediction)
-        self._step, self._native, self.how = compile_native_function(step, [12])
+        self._step, self._native, self.how = compile_native_function(step)
         self._inputs = (np.zeros(12), np.zeros(2), np.zeros(1), np.zeros(len(CALM_PARAMETERS)), np.zeros(1))
         if self._native is not None:
             self._native.bind(*self._inputs)  # (x, τ, t, wave, h), refilled each step
@@ -92,7 +92,7 @@ class StatePredictor:
     def predict(self, x: np.ndarray, t0: float, t1: float, history: CommandHistory,
                 waves: WaveField | None = None) -> np.ndarray:
         """The state at autopilot time t1 from x at t0 (x itself when t1 <= t0, or if the model diverges)."""
-        x_now = np.asarray(x, float).copy()
+        x_now = np.asarray(x, float).ravel().copy()  # a (12, 1) column too, as CasADi's call took it
         if not t1 > t0:
             return x_now
         if waves is not self._wave_of:

@@ -45,7 +45,10 @@ def imu_specific_force(msg: Any) -> tuple[int, np.ndarray] | None:
         usec = getattr(msg, "time_usec", None)
         stamp = None if usec is None else int(usec) // 1000
     scale = GRAVITY_MSS / 1000.0
-    fx, fy, fz = float(msg.xacc) * scale, float(msg.yacc) * scale, float(msg.zacc) * scale
+    try:
+        fx, fy, fz = float(msg.xacc) * scale, float(msg.yacc) * scale, float(msg.zacc) * scale
+    except (TypeError, ValueError):  # a field that is no number (a hand-made or replayed message): unusable
+        return None
     if stamp is None or not (math.isfinite(fx) and math.isfinite(fy) and math.isfinite(fz)) or not (fx or fy or fz):
         return None  # an all-zero reading is an IMU that is not there, never a boat at rest
     return int(stamp), np.array([fx, fy, fz])

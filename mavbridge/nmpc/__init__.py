@@ -36,5 +36,4 @@ from mavbridge.nmpc.wave_model import wave_parameters
 
 __all__ = ["INTEGRATORS", "PARAMS", "SOLVERS", "Layout", "NmpcConfig", "NmpcResult", "ParameterLayout",
            "RollAwareNmpc", "compile_function", "compile_native_function", "discrete_model", "heading_error",
-           "wave_parameters",
-           "wrap_angle"]
+           "wave_parameters", "wrap_angle"]

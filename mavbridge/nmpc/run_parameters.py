@@ -21,6 +21,8 @@ from mavbridge.nmpc.wave_bank import NO_FADE_S, H, bank_parameters, no_bank
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, wave_parameters
 from vessel import CalmWater, RegularWaves, WaveField
 
+_CALM = CalmWater()  # frozen: the field planned with while no wave is known
+
 
 class SeaKnowledge:
     """The wave block, whether a wave is known, and the slope-spread factor; ``pack`` builds p."""
@@ -104,7 +106,7 @@ class SeaInputs:
         A background (asrti) solve already running keeps the wave it was started with.
         """
         self._sea.set_wave(waves)
-        self.waves = waves or CalmWater()
+        self.waves = waves or _CALM  # one object: the delay predictor knows it from the last step's
 
     def set_sea_spread(self, covariance_ned: np.ndarray | None) -> None:
         """The NED covariance (2×2, rad²) of the hull's roll-producing slope that the wave model does not
