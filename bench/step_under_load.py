@@ -16,13 +16,15 @@ ATTITUDE reaches the next tick (``flight.schedule``, as the companion's loop dec
 does from connection until the pilot engages), then the cold solve, then ``--duration`` paced seconds.
 
 A step's time is its control step plus the message handling since the previous one (state updates and the
-estimator's observes: the companion's whole work per period). Missed ticks are ticks the loop reached a period or
-more late (skipped, as the companion skips them), not counting the ticks the recording itself has no ATTITUDE for
-(a datagram lost while recording: "gaps", printed apart). Conditions, each on a fresh set of parts: quiet; two
-spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two spinners with
-the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where the system
-has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten minutes. The
-load average (1 min) is printed before and after each.
+estimator's observes: the companion's whole work per period). "command" is the part of the control step until the
+command is ready to send: as in the run, the next period's preparation (nrti's background job) is started only
+after it (``RollAwareNmpc.solve(defer_advance=True)``, then ``advance()``). Missed ticks are ticks the loop reached
+a period or more late (skipped, as the companion skips them), not counting the ticks the recording itself has no
+ATTITUDE for (a datagram lost while recording: "gaps", printed apart). Conditions, each on a fresh set of parts:
+quiet; two spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two
+spinners with the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where
+the system has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten
+minutes. The load average (1 min) is printed before and after each.
 """
 
 from __future__ import annotations
@@ -127,18 +129,21 @@ class CompanionStep:
         self.gate.step(self.nmpc, t_s)
         self.nmpc.prepare(self.state.vector(), t_s, WAYPOINT_NE)
 
-    def control(self, now_ms: int) -> None:
+    def control(self, now_ms: int) -> float:
         """The control step of `mavbridge run` (its _control_step without the link): wave, prediction, solve,
-        command."""
+        command, then the next period's preparation started; returns the wall clock when the command was ready."""
         x = self.state.vector()
         _age_s, plan_s = self.delay.compensate(now_ms / 1000.0)
         self.gate.step(self.nmpc, plan_s)
         result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s,
-                                 WAYPOINT_NE, deadline_s=self.period_s)
+                                 WAYPOINT_NE, deadline_s=self.period_s, defer_advance=True)
         self.delay.sent(plan_s, result.tau)
         self.output.compute(result, now_ms)
+        command_ready = time.perf_counter()
+        self.nmpc.advance()
         self.solve_ms.append(result.wall_time_s * 1e3)
         self.roll_term += bool(getattr(result, "roll_term_active", False))
+        return command_ready
 
 
 @dataclass
@@ -147,6 +152,7 @@ class Timings:
 
     steps_ms: list[float] = field(default_factory=list)
     handling_ms: list[float] = field(default_factory=list)  # of each step: the messages since the previous one
+    command_ms: list[float] = field(default_factory=list)  # of each step: from its start to the command ready
     late_ms: list[float] = field(default_factory=list)  # the tick's ATTITUDE due to the start of its step
     missed: int = 0  # ticks skipped, in all
     gaps: int = 0  # of them, ticks the recording itself has no ATTITUDE for (a datagram lost while recording)
@@ -190,8 +196,9 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         if not due:
             continue
         begin = time.perf_counter()
-        step.control(now_ms)
+        command_ready = step.control(now_ms)
         out.steps_ms.append((time.perf_counter() - begin + handled_s) * 1e3)
+        out.command_ms.append((command_ready - begin) * 1e3)
         out.handling_ms.append(handled_s * 1e3)
         out.late_ms.append((begin - attitude_due) * 1e3)  # from the ATTITUDE's arrival to the step's start
         handled_s = 0.0
@@ -240,8 +247,10 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
 def figures(row: dict[str, Any]) -> str:
     """One line of the table."""
     t: Timings = row["timings"]
-    steps, late, solve = (np.asarray(v, float) for v in (t.steps_ms, t.late_ms or [math.nan], row["solve_ms"]))
+    steps, late, solve, command = (np.asarray(v, float) for v in (t.steps_ms, t.late_ms or [math.nan],
+                                                                   row["solve_ms"], t.command_ms))
     return (f"{row['name']:<26} {len(steps):>6} {np.median(steps):>8.3f} {np.percentile(steps, 99):>8.3f} "
+            f"{np.median(command):>8.3f} {np.percentile(command, 99):>8.3f} "
             f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
             f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
             f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5}")
@@ -279,10 +288,11 @@ def main() -> None:
         print(apply_realtime().line(), flush=True)
         rows.append(run_condition(f"{args.spinners} spinners + realtime", lambda: spinners(args.spinners), rec,
                                   args, scenario))
-    print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'max':>8} {'missed':>7} {'solve':>8} "
-          f"{'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} {'load 1 min':>12} {'gaps':>5}")
-    print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'':>8} {'ticks':>7} {'median':>8} "
-          f"{'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5}")
+    print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'command':>8} {'command':>8} {'max':>8} "
+          f"{'missed':>7} {'solve':>8} {'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} "
+          f"{'load 1 min':>12} {'gaps':>5}")
+    print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'median':>8} {'p99':>8} {'':>8} {'ticks':>7} "
+          f"{'median':>8} {'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5}")
     for row in rows:
         print(figures(row))
 

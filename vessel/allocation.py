@@ -8,9 +8,8 @@ Every function works on floats, numpy arrays and CasADi symbols.
 
 from __future__ import annotations
 
+import math
 from typing import Any
-
-import numpy as np
 
 from vessel.mathops import ops, where
 from vessel.params import OtterParameters
@@ -41,23 +40,25 @@ def shaft_speeds_to_tau(params: OtterParameters, n_left: Any, n_right: Any) -> t
     return thrust_to_tau(params, propeller_thrust(params, n_left), propeller_thrust(params, n_right))
 
 
-def thrust_to_shaft_speed(params: OtterParameters, thrust: float | np.ndarray) -> np.ndarray:
-    """Shaft speed (rad/s, saturated) that gives this thrust (N), with the coefficient for its sign."""
-    mats = params.matrices()
-    thrust = np.asarray(thrust, float)
-    k = np.where(thrust > 0, mats.k_pos, mats.k_neg)
-    n = np.sign(thrust) * np.sqrt(np.abs(thrust) / k)
-    return saturate_shaft_speed(params, n)
+def _float_shaft_speed(k_pos: float, k_neg: float, n_min: float, n_max: float, thrust: float) -> float:
+    """Shaft speed (rad/s, saturated to [n_min, n_max]) that gives this finite thrust (N), with the thrust
+    coefficient for its sign, in plain Python: the companion converts every control step's command, and numpy's
+    calls on single numbers cost ten times more."""
+    k = k_pos if thrust > 0 else k_neg
+    sign = 1.0 if thrust > 0 else -1.0 if thrust < 0 else 0.0  # np.sign's
+    return min(max(sign * math.sqrt(abs(thrust) / k), n_min), n_max)
 
 
 def tau_to_shaft_speeds(params: OtterParameters, tau_x: float, tau_n: float) -> tuple[float, float]:
     """Shaft speeds (left, right) in rad/s for surge force τ_X (N) and yaw moment τ_N (N·m), saturated."""
-    if not (np.isfinite(tau_x) and np.isfinite(tau_n)):
+    if not (math.isfinite(tau_x) and math.isfinite(tau_n)):
         raise ValueError(f"tau: non-finite surge force {tau_x!r} N or yaw moment {tau_n!r} N·m")
+    mats = params.matrices()
+    limits = (float(mats.k_pos), float(mats.k_neg), float(mats.n_min), float(mats.n_max))
     differential = tau_n / params.pontoon_offset
-    left = thrust_to_shaft_speed(params, 0.5 * (tau_x + differential))
-    right = thrust_to_shaft_speed(params, 0.5 * (tau_x - differential))
-    return float(left), float(right)
+    left = _float_shaft_speed(*limits, float(0.5 * (tau_x + differential)))
+    right = _float_shaft_speed(*limits, float(0.5 * (tau_x - differential)))
+    return left, right
 
 
 def tau_limits(params: OtterParameters) -> tuple[float, float, float]:

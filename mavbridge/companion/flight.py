@@ -242,10 +242,11 @@ class Companion:
             deadline_s = self.delay.wall_seconds(self.period_s)
             self.nmpc.pace(deadline_s)
         result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
-                                 deadline_s=deadline_s)
+                                 deadline_s=deadline_s, defer_advance=True)
         self.delay.sent(plan_s, result.tau)
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
+        self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
         if columns is None:  # not finite: neutral was sent instead
             if result.success:  # a failed solve is counted by the recorder already
                 self.record.failures += 1

@@ -40,7 +40,7 @@ class RcCalibration:
 
 def pwm_from_fraction(fraction: float, cal: RcCalibration) -> int:
     """PWM (µs) that an ArduPilot centred input with dead zone reads back as ``fraction`` in [-1, 1]."""
-    f = float(np.clip(fraction, -1.0, 1.0))
+    f = min(max(float(fraction), -1.0), 1.0)  # np.clip's result (NaN stays NaN: trim), without numpy's cost
     if f > 0:
         return round(cal.trim + cal.dead_zone + f * (cal.maximum - cal.trim - cal.dead_zone))
     if f < 0:
@@ -61,7 +61,7 @@ def fraction_from_pwm(pwm: int, cal: RcCalibration) -> float:
 
 def motor_output(n: float, n_max: float, n_min: float) -> float:
     """Motor output in [-1, 1] for a shaft speed (rad/s): +1 is n_max, −1 is n_min (reverse)."""
-    return float(np.clip(n / n_max if n >= 0 else n / abs(n_min), -1.0, 1.0))
+    return min(max(float(n / n_max if n >= 0 else n / abs(n_min)), -1.0), 1.0)  # np.clip's, in plain Python
 
 
 def inverse_skid_mix(left: float, right: float) -> tuple[float, float]:

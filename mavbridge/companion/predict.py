@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from mavbridge.nmpc import compile_function
+from mavbridge.nmpc import compile_native_function
 from mavbridge.nmpc.problem import model_ode
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, is_parametric, wave_parameters
 from vessel import OceanCurrent, OtterParameters, WaveField
@@ -71,7 +71,14 @@ class StatePredictor:
         k3 = ode(x + h / 2 * k2, tau, t + h / 2, wave)
         k4 = ode(x + h * k3, tau, t + h, wave)
         step = ca.Function("predict_step", [x, tau, t, wave, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-        self._step, self.how = compile_function(step)  # C, cached: the SX machine took a sixth of the loop
+        # C, cached (the SX machine took a sixth of the loop), and the same library called through its C API:
+        # CasADi's Python call converts each argument to a DM and back (≈ 90 µs a step, most of the prediction)
+        self._step, self._native, self.how = compile_native_function(step)
+        self._inputs = (np.zeros(12), np.zeros(2), np.zeros(1), np.zeros(len(CALM_PARAMETERS)), np.zeros(1))
+        if self._native is not None:
+            self._native.bind(*self._inputs)  # (x, τ, t, wave, h), refilled each step
+        self._wave_of: object = None  # the field ``_wave`` was made from (fields are immutable): no rebuild a step
+        self._wave = self.wave_vector(None)
 
     def wave_vector(self, waves: WaveField | None) -> np.ndarray:
         """The model's wave input for the field the NMPC plans with now (calm when fixed or not regular)."""
@@ -85,13 +92,22 @@ class StatePredictor:
     def predict(self, x: np.ndarray, t0: float, t1: float, history: CommandHistory,
                 waves: WaveField | None = None) -> np.ndarray:
         """The state at autopilot time t1 from x at t0 (x itself when t1 <= t0, or if the model diverges)."""
-        x_now = np.asarray(x, float).copy()
+        x_now = np.asarray(x, float).ravel().copy()  # a (12, 1) column too, as CasADi's call took it
         if not t1 > t0:
             return x_now
-        wave = self.wave_vector(waves)
+        if waves is not self._wave_of:
+            self._wave_of, self._wave = waves, self.wave_vector(waves)
         for start, end, tau in history.segments(t0, t1):
             steps = max(1, math.ceil((end - start) / MAX_STEP_S - 1e-9))
             h = (end - start) / steps
             for i in range(steps):
-                x_now = np.asarray(self._step(x_now, tau, start + i * h, wave, h)).ravel()
-        return x_now if np.all(np.isfinite(x_now)) else np.asarray(x, float).copy()
+                x_now = self._rk4(x_now, tau, start + i * h, h)
+        return x_now if np.isfinite(x_now).all() else np.asarray(x, float).copy()
+
+    def _rk4(self, x: np.ndarray, tau: np.ndarray, t: float, h: float) -> np.ndarray:
+        """One RK4 step of ``h`` s from x at t under τ and the current wave input (a new array)."""
+        if self._native is None:
+            return np.asarray(self._step(x, tau, t, self._wave, h)).ravel()
+        x_in, tau_in, t_in, wave_in, h_in = self._inputs
+        x_in[:], tau_in[:], t_in[0], wave_in[:], h_in[0] = x, tau, t, self._wave, h
+        return self._native.call()[0].copy()

@@ -64,6 +64,8 @@ class WaveGate:
     first_sample_s: float | None = None  # autopilot time of the first motion sample the source got
     _watched_t: float = -math.inf
     _hold: EstimateHold = field(init=False)
+    _made: tuple[tuple[str, ...], Any] | None = field(default=None, init=False, repr=False, compare=False)
+    # (an estimate's wave numbers as exact bits, the field made of them)
 
     def __post_init__(self) -> None:
         self._hold = EstimateHold(self.hold_s)
@@ -116,13 +118,20 @@ class WaveGate:
         wave model's ranges (e.g. a breaking steepness), said once per run."""
         if est is None:
             return None
+        key = tuple(float(v).hex() for v in (est.height_m, est.length_m, est.period_s, est.travel_dir_rad,
+                                             est.phase_rad, est.roll_sign))  # exact bits: −0.0 is not 0.0 here
+        if self._made is not None and self._made[0] == key:
+            return self._made[1]  # the same wave as the last step's (the fit has not moved): the same field object,
+            # which the NMPC and the predictor recognise without building its parameters again
         try:
-            return est.field()
+            made = est.field()
         except (ConfigError, ValueError) as exc:
             if not self._rejected:
                 self.log(f"waves ({self.source.name}): estimate outside the wave model ({exc}); no roll term")
             self._rejected += 1
             return None
+        self._made = (key, made)
+        return made
 
     @property
     def statistics_only(self) -> bool:

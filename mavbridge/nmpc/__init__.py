@@ -1,7 +1,8 @@
 """The roll-aware NMPC (the paper's controller), no I/O.
 
 ``compile_function``: a CasADi Function compiled to C once and cached on disk (``solvers.codegen``), for other
-rooms' per-step model calls.
+rooms' per-step model calls; ``compile_native_function`` also answers a caller of the compiled library's C API
+on bound buffers (``solvers.native_lib``), microseconds a call instead of CasADi's tens.
 
 ``NmpcConfig`` (weights, horizon, discretisation, τ bounds, solver) -> ``RollAwareNmpc(config, params,
 waves, current).solve(x0, t, waypoint_ne, deadline_s=None) -> NmpcResult``, with ``prepare(x0, t,
@@ -30,8 +31,9 @@ from mavbridge.nmpc.controller import NmpcResult, RollAwareNmpc
 from mavbridge.nmpc.layout import PARAMS, Layout, ParameterLayout
 from mavbridge.nmpc.problem import discrete_model, heading_error, wrap_angle
 from mavbridge.nmpc.solvers.codegen import compiled as compile_function
+from mavbridge.nmpc.solvers.native_lib import compiled_native as compile_native_function
 from mavbridge.nmpc.wave_model import wave_parameters
 
 __all__ = ["INTEGRATORS", "PARAMS", "SOLVERS", "Layout", "NmpcConfig", "NmpcResult", "ParameterLayout",
-           "RollAwareNmpc", "compile_function", "discrete_model", "heading_error", "wave_parameters",
-           "wrap_angle"]
+           "RollAwareNmpc", "compile_function", "compile_native_function", "discrete_model", "heading_error",
+           "wave_parameters", "wrap_angle"]

@@ -182,6 +182,7 @@ class RollAwareNmpc(SeaInputs):
         self._plan_age = 0
         self._plan_t: float | None = None  # the time the stored plan starts at
         self._u_applied = np.zeros(NU)
+        self._deferred: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # (plan, p, u) for ``advance``
         if not self._closed:
             self._backend.reset()  # asrti: let a running background solve end, and forget it
 
@@ -253,14 +254,20 @@ class RollAwareNmpc(SeaInputs):
         lam_w, lam_g = (self._lam_w, self._lam_g) if current else shift_duals(self.layout, self._lam_w, self._lam_g)
         return guess, lam_w, lam_g
 
-    def solve(self, x0: Any, t: float, waypoint_ne: Any, deadline_s: float | None = None) -> NmpcResult:
+    def solve(self, x0: Any, t: float, waypoint_ne: Any, deadline_s: float | None = None,
+              defer_advance: bool = False) -> NmpcResult:
         """Plan from state x0 (12 rigid-body states) at time t (s) towards waypoint (north, east) m.
 
         ``deadline_s``: a solve taking longer (wall clock) is answered by the fallback input. With the
         asrti solver, the wait for the background solve started at the previous step is not part of the
         step's time (in real time that solve runs during the rest of the period); it is in ``stats``.
+        ``defer_advance``: the work ahead for the next period (asrti, nrti: the background preparation) is not
+        started here but by ``advance()``, which the companion calls once the command is sent, so that the
+        command neither waits for its start nor shares the interpreter with it; ``wall_time_s`` then ends at
+        the input. The next ``solve`` starts what was left if ``advance`` was not called.
         """
         self._check_open()
+        self.advance()
         x0, t, waypoint = model_inputs(self.config, x0, t, waypoint_ne)
         start = time.perf_counter()
         have_plan = self._w is not None and self._plan_age < self.layout.horizon
@@ -277,14 +284,23 @@ class RollAwareNmpc(SeaInputs):
         u = self.inputs.clip(u_chosen)  # the model's input u: τ, or the propeller thrusts
         self._u_applied = u.copy()
         if outcome.usable:
-            self._backend.advance(plan, p, u)
-            wall = time.perf_counter() - start - outcome.wait_s  # starting work ahead is part of the step
+            self._deferred = (plan, p, u)
+            if not defer_advance:
+                self.advance()
+                wall = time.perf_counter() - start - outcome.wait_s  # starting work ahead is part of the step
         X, U = self.layout.split(plan)
         stats = {"violation": outcome.violation, "background_wait_s": outcome.wait_s, **outcome.stats}
         return NmpcResult(tau=self.inputs.to_tau(u), states=X, inputs=self.inputs.to_tau(U), wall_time_s=wall,
                           iterations=outcome.iterations, status=outcome.status, success=outcome.usable,
                           fallback=fallback,
                           fallback_source=source, stats=stats, roll_term_active=self.roll_term_active)
+
+    def advance(self) -> None:
+        """Start the work ahead that ``solve(..., defer_advance=True)`` left (nothing if none is left)."""
+        if self._deferred is not None:
+            plan, p, u = self._deferred
+            self._deferred = None
+            self._backend.advance(plan, p, u)
 
     def _choose_input(self, outcome: SolveOutcome, guess: np.ndarray, lam_w: np.ndarray | None,
                       lam_g: np.ndarray | None, have_plan: bool,

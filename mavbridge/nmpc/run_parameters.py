@@ -21,6 +21,8 @@ from mavbridge.nmpc.wave_bank import NO_FADE_S, H, bank_parameters, no_bank
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, wave_parameters
 from vessel import CalmWater, RegularWaves, WaveField
 
+_CALM = CalmWater()  # frozen: the field planned with while no wave is known
+
 
 class SeaKnowledge:
     """The wave block, whether a wave is known, and the slope-spread factor; ``pack`` builds p."""
@@ -33,6 +35,7 @@ class SeaKnowledge:
         k = config.wave_components
         self.bank: np.ndarray | None = no_bank(k) if k > 0 else None  # None: no bank block (K = 0)
         self._roll_sign = float(self.wave[-1])  # the regular wave's, unless a bank brings its own
+        self._wave_of: tuple[object, np.ndarray] | None = None  # (the field last given, its block): fields are frozen
 
     def set_wave(self, waves: RegularWaves | CalmWater | None) -> None:
         """The regular wave (or calm water) to predict with; None: nothing known (R = 0)."""
@@ -40,7 +43,9 @@ class SeaKnowledge:
             raise ValueError(f"set_wave: this controller was built with a fixed "
                              f"{type(self.fixed_waves).__name__}; only RegularWaves or CalmWater "
                              f"controllers take a run-time wave")
-        self.wave = wave_parameters(waves)
+        if self._wave_of is None or waves is not self._wave_of[0]:  # the gate hands the same field while it holds
+            self._wave_of = (waves, wave_parameters(waves))
+        self.wave = self._wave_of[1].copy()  # (the bank's roll sign may be written into it)
         self.wave_known = waves is not None
         if not self.wave_known and self.bank_active:
             self.wave[-1] = self._roll_sign  # calm regular wave: the model rolls with the bank's sign
@@ -101,7 +106,7 @@ class SeaInputs:
         A background (asrti) solve already running keeps the wave it was started with.
         """
         self._sea.set_wave(waves)
-        self.waves = waves or CalmWater()
+        self.waves = waves or _CALM  # one object: the delay predictor knows it from the last step's
 
     def set_sea_spread(self, covariance_ned: np.ndarray | None) -> None:
         """The NED covariance (2×2, rad²) of the hull's roll-producing slope that the wave model does not

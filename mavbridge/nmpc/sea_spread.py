@@ -23,11 +23,13 @@ def slope_factor(covariance_ned: np.ndarray | None) -> np.ndarray:
     if covariance_ned is None:
         return np.zeros(3)
     c = np.asarray(covariance_ned, float)
-    if c.shape != (2, 2) or not np.all(np.isfinite(c)):
+    if c.shape != (2, 2):
         raise ValueError(f"sea spread: expected a finite 2x2 covariance, got {c.tolist()}")
-    if abs(c[0, 1] - c[1, 0]) > 1e-12 * max(1.0, abs(c).max()):
+    (c_nn, c_ne), (c_en, c_ee) = c.tolist()  # plain floats: the companion factors one each control step
+    if not (math.isfinite(c_nn) and math.isfinite(c_ne) and math.isfinite(c_en) and math.isfinite(c_ee)):
+        raise ValueError(f"sea spread: expected a finite 2x2 covariance, got {c.tolist()}")
+    if abs(c_ne - c_en) > 1e-12 * max(1.0, abs(c_nn), abs(c_ne), abs(c_en), abs(c_ee)):
         raise ValueError(f"sea spread: covariance {c.tolist()} is not symmetric")
-    c_nn, c_en, c_ee = c[0, 0], c[1, 0], c[1, 1]
     if c_nn < 0 or c_ee < 0 or c_en * c_en > c_nn * c_ee * (1 + 1e-9) + 1e-18:
         raise ValueError(f"sea spread: covariance {c.tolist()} is not positive semi-definite")
     l_nn = math.sqrt(c_nn)

@@ -1,4 +1,6 @@
-"""Build, cache and load the native RTI kernels (``native_source``) and call them with preallocated buffers.
+"""Build, cache and load the native RTI kernels (``native_source``) and call them with preallocated buffers;
+call any compiled CasADi library through its C API (``CompiledFunction``, ``compiled_native``: the condensing's
+linearisation, the companion's delay prediction) without CasADi's per-call conversions.
 
 The library is compiled once with the system C compiler (``codegen.compiler``: $CC, gcc or cc) into the
 same cache as the compiled linearisations (``codegen.cache_dir``), named by a hash of the source and the
@@ -19,9 +21,10 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 
-from mavbridge.nmpc.solvers.codegen import cache_dir, compiler
+from mavbridge.nmpc.solvers.codegen import cache_dir, compiled_library, compiler, load
 from mavbridge.nmpc.solvers.native_source import C_SOURCE
 
 FLAGS = ("-O3", "-fPIC", "-shared", "-std=c99")
@@ -128,7 +131,9 @@ class CompiledFunction:
     GIL is released while it runs. One instance per thread (it owns its work vectors).
     """
 
-    def __init__(self, library: Path, fn_name: str, n_out: list[int]) -> None:
+    def __init__(self, library: Path, fn_name: str, n_out: list[int], n_in: list[int] | None = None) -> None:
+        """``n_out``: each output's nonzeros (the buffers' sizes); ``n_in``: each input's, checked by ``bind``."""
+        self.n_in = n_in
         self.lib = ctypes.CDLL(str(library))
         self.fn = getattr(self.lib, fn_name)
         self.fn.argtypes = (_P, _P, _P, _P, _I)
@@ -144,11 +149,39 @@ class CompiledFunction:
         self.outputs = [np.zeros(n) for n in n_out]
         for i, out in enumerate(self.outputs):
             self.res[i] = out.ctypes.data
+        self._work = (ptr(self.iw), ptr(self.w))
 
     def __call__(self, *inputs: np.ndarray) -> list[np.ndarray]:
         """Evaluate at the (C-contiguous float) ``inputs``; answers this instance's output buffers."""
+        self.bind(*inputs)
+        return self.call()
+
+    def bind(self, *inputs: np.ndarray) -> None:
+        """Point the inputs at these (C-contiguous float) arrays, which the caller keeps alive and refills between
+        ``call``s: taking an array's address costs microseconds, as much as a small function's evaluation."""
+        if self.n_in is not None and len(inputs) != len(self.n_in):
+            raise ValueError(f"{len(inputs)} inputs bound, the function takes {len(self.n_in)}")
         for i, x in enumerate(inputs):
+            if x.dtype != np.float64 or (self.n_in is not None and x.size != self.n_in[i]):
+                raise ValueError(f"input {i}: {x.dtype} of size {x.size}, the function reads float64 "
+                                 f"of size {self.n_in[i] if self.n_in is not None else '?'}")
             self.arg[i] = ptr(x)
-        if self.fn(self.arg, self.res, ptr(self.iw), ptr(self.w), 0) != 0:
+
+    def call(self) -> list[np.ndarray]:
+        """Evaluate at the inputs last bound (their current contents); answers this instance's output buffers."""
+        if self.fn(self.arg, self.res, *self._work, 0) != 0:
             raise RuntimeError("compiled function failed")
         return self.outputs
+
+
+def compiled_native(fn: ca.Function) -> tuple[ca.Function, CompiledFunction | None, str]:
+    """(Function, the same library called through its C API or None, how): ``codegen.compiled`` plus a direct
+    caller for per-step use (CasADi's Python call converts each argument to a DM and back), its buffer sizes
+    taken from ``fn`` and every bound input checked against them. None, and the Function in CasADi's virtual
+    machine, without a C compiler."""
+    library, how = compiled_library(fn)
+    if library is None:
+        return load(fn, library), None, how
+    n_out = [fn.nnz_out(i) for i in range(fn.n_out())]
+    n_in = [fn.nnz_in(i) for i in range(fn.n_in())]
+    return load(fn, library), CompiledFunction(library, fn.name(), n_out, n_in), how

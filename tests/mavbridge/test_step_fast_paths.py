@@ -1,0 +1,108 @@
+"""The companion step's fast paths (issue 32) give what the general ones give: the delay prediction through the
+compiled library's C API, the wave gate's reused field, the checks on bound buffers, the IMU's hostile fields."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from mavbridge.companion.predict import CommandHistory, StatePredictor
+from mavbridge.companion.state import imu_specific_force
+from mavbridge.companion.wave_gate import WaveGate
+from mavbridge.nmpc import compile_native_function
+from mavbridge.nmpc.solvers.codegen import compiler
+from mavbridge.waves.source import WaveEstimate
+from vessel import OceanCurrent, RegularWaves, otter_parameters
+
+needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler: the C API path does not exist")
+
+
+@needs_cc
+def test_the_native_prediction_is_casadis_bit_for_bit() -> None:
+    native = StatePredictor(otter_parameters(), OceanCurrent())
+    assert native._native is not None
+    general = StatePredictor(otter_parameters(), OceanCurrent())
+    general._native = None  # CasADi's own call on the same compiled library
+    history = CommandHistory()
+    history.add(0.0, np.array([80.0, 5.0]))
+    history.add(0.45, np.array([-20.0, -30.0]))
+    sea = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2, phase_rad=0.3)
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        x = rng.normal(0.0, 0.3, 12)
+        x[0:2] = rng.uniform(-50, 50, 2)
+        for waves in (sea, None):
+            a = native.predict(x, 0.1, 0.95, history, waves)
+            b = general.predict(x, 0.1, 0.95, history, waves)
+            assert np.array_equal(a, b) and not np.array_equal(a, x)
+    column = native.predict(x.reshape(12, 1), 0.1, 0.95, history, sea)  # a column state, as CasADi took it
+    assert np.array_equal(column, native.predict(x, 0.1, 0.95, history, sea))
+
+
+@needs_cc
+def test_a_bound_input_of_the_wrong_kind_is_refused() -> None:
+    x = ca.SX.sym("x", 3)
+    _, fast, _ = compile_native_function(ca.Function("twice", [x], [2 * x]))
+    assert fast is not None
+    for wrong in (np.zeros(2), np.zeros(3, np.float32), np.zeros(3, int)):
+        with pytest.raises(ValueError, match="input 0"):
+            fast.bind(wrong)
+    with pytest.raises(ValueError, match="2 inputs bound"):
+        fast.bind(np.zeros(3), np.zeros(3))
+    given = np.array([1.0, -2.0, 3.5])
+    fast.bind(given)
+    assert fast.call()[0].tolist() == [2.0, -4.0, 7.0]
+
+
+class _Fixed:
+    """A wave source answering whatever estimate it is given."""
+
+    name = "fixed"
+
+    def __init__(self) -> None:
+        self.answer: WaveEstimate | None = None
+
+    def observe(self, sample: object) -> None:
+        """Nothing to learn."""
+
+    def estimate(self, t_s: float) -> WaveEstimate | None:
+        return self.answer
+
+
+class _Nmpc:
+    def __init__(self) -> None:
+        self.waves: list[object] = []
+
+    def set_wave(self, waves: object) -> None:
+        self.waves.append(waves)
+
+    def set_sea_spread(self, covariance: object) -> None:
+        """Not looked at here."""
+
+
+def test_the_gate_reuses_its_field_only_for_the_very_same_wave() -> None:
+    source, nmpc = _Fixed(), _Nmpc()
+    gate = WaveGate(source, log=lambda line: None)
+    wave = WaveEstimate(1.75, 6.0, 35.0, 0.0, 0.0, confidence=0.8)
+    changes = [wave, WaveEstimate(1.75, 6.0, 35.0, 0.0, 0.0, confidence=0.95),  # confidence: same field
+               WaveEstimate(1.75, 6.0, 35.0, 0.0, 1e-9, confidence=0.95),  # phase moved
+               WaveEstimate(1.75, 6.0, 35.0, -0.0, 1e-9, confidence=0.95),  # −0.0: other bits
+               WaveEstimate(1.75, 6.0, 35.0, -0.0, 1e-9, confidence=0.95, roll_sign=-1.0)]  # sign
+    for t, est in enumerate(changes):
+        source.answer = est
+        gate.step(nmpc, float(t))
+    fields = nmpc.waves
+    assert fields[1] is fields[0]
+    assert len({id(f) for f in fields}) == 4
+    assert fields[2].phase_rad == 1e-9 and fields[4].paper_roll_sign is False
+
+
+def test_an_imu_field_that_is_no_number_makes_the_sample_unusable() -> None:
+    good = SimpleNamespace(time_boot_ms=1000, xacc=10, yacc=-5, zacc=-1000)
+    assert imu_specific_force(good)[0] == 1000
+    for bad in (None, "x", float("nan")):
+        assert imu_specific_force(SimpleNamespace(time_boot_ms=1000, xacc=bad, yacc=0, zacc=-1000)) is None
