@@ -13,7 +13,7 @@ import pytest
 from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.companion.state import imu_specific_force
 from mavbridge.companion.wave_gate import WaveGate
-from mavbridge.nmpc import compile_native_function
+from mavbridge.nmpc import NmpcConfig, RollAwareNmpc, compile_native_function
 from mavbridge.nmpc.solvers.codegen import compiler
 from mavbridge.waves.source import WaveEstimate
 from vessel import OceanCurrent, RegularWaves, otter_parameters
@@ -106,3 +106,29 @@ def test_an_imu_field_that_is_no_number_makes_the_sample_unusable() -> None:
     assert imu_specific_force(good)[0] == 1000
     for bad in (None, "x", float("nan")):
         assert imu_specific_force(SimpleNamespace(time_boot_ms=1000, xacc=bad, yacc=0, zacc=-1000)) is None
+
+
+@pytest.mark.parametrize("solver", ["asrti", "nrti"])
+def test_a_deferred_preparation_plans_as_an_immediate_one(solver: str) -> None:
+    """The companion starts the next period's preparation after sending the command (defer_advance, then
+    advance): the same plans as starting it inside solve; a forgotten advance is started by the next solve."""
+    sea = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2, phase_rad=0.3)
+    cfg = NmpcConfig(horizon=8, solver=solver, rti_codegen="off" if solver == "asrti" else "auto")
+    taus: dict[str, list[np.ndarray]] = {}
+    for mode in ("inside", "deferred", "forgotten"):
+        with RollAwareNmpc(cfg, otter_parameters(), sea) as nmpc:
+            x = np.zeros(12)
+            x[5], x[6] = math.pi / 2, 1.0
+            nmpc.prepare(x, 0.0, (85.0, 75.0))
+            taus[mode] = []
+            for k in range(8):
+                result = nmpc.solve(x, 0.1 * k, (85.0, 75.0), defer_advance=mode != "inside")
+                if mode == "deferred":
+                    nmpc.advance()
+                assert result.success
+                taus[mode].append(result.tau)
+                x = result.states[1]
+            if k and solver == "asrti":
+                assert result.stats["background"] == "used"
+    assert np.array_equal(np.array(taus["inside"]), np.array(taus["deferred"]))
+    assert np.array_equal(np.array(taus["inside"]), np.array(taus["forgotten"]))
