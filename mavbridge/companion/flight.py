@@ -305,8 +305,11 @@ class Companion:
                 self.commands.stand_down(link, self.state)
             self._write_logs()
             link.close()
-            for s, handler in previous.items():
-                signal.signal(s, handler)
+            for s, handler in previous.items():  # once a signal asked to stop, a later one (a second Ctrl-C, a
+                # repeated SIGTERM that comes late on a busy machine) is ignored until the process ends: the default
+                # action would kill it with -15 (systemd restarts a service that ends so). SIG_IGN, not a Python
+                # handler: the interpreter's shutdown puts Python handlers back to the default action
+                signal.signal(s, handler if self._stop_reason is None else signal.SIG_IGN)
         return 1 if self._failure else code
 
     def _service_link(self, link: Link) -> bool:

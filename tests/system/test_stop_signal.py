@@ -34,3 +34,22 @@ def test_sigterm_while_waiting_for_the_autopilot_stops_cleanly(tmp_path: Path, s
     assert code == 0, text
     assert "stopped by signal SIGTERM before flying" in text and "no autopilot heartbeat" not in text, text
     assert json.loads((out / "metrics.json").read_text())["phase"] is not None
+
+
+def test_a_second_sigterm_after_the_logs_are_written_is_only_noted(tmp_path: Path) -> None:
+    """A repeated SIGTERM that comes late (a busy machine delays the sender; a second Ctrl-C): once the first
+    has stopped the run, the next one is noted, not the default action (death by -15, which systemd restarts)."""
+    out = tmp_path / "run"
+    port = free_port(socket.SOCK_DGRAM)
+    argv = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{port}", "--waypoint",
+            "10,10", "--out", str(out)]
+    with collecting(argv) as (proc, lines):
+        wait_for_line(proc, lines, "waves:", timeout_s=60)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGTERM)
+        wait_for_line(proc, lines, "no control step", timeout_s=15)  # the last line: the logs are written
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=15)
+    assert code == 0, "".join(lines)
+    assert (out / "metrics.json").exists()
