@@ -7,7 +7,10 @@ closed loops on the chosen executor:
 
 1. *direct*: Q × S on a small grid with R = 0; the fastest arrival is the direct tuning (Q₀, S₀) and
    the reference every reduction is measured against;
-2. *roll weight*: R over a geometric ladder with (Q₀, S₀);
+2. *roll weight*: R over a geometric ladder with (Q₀, S₀), extended upwards (× 2, 4, 8, 16, again from the new
+   top, up to ``R_MAX``) while no rung meets the roll target and the top one still arrives: in a gentle sea the
+   roll is small and so is R·φ², and the paper's ladder would stop before the roll term acts ("raise R until the
+   wanted behaviour appears or the boat stops aiming for the waypoint");
 3. *repair*: for each R that meets the roll target but does not arrive, Q raised; for each that arrives
    but is slower than the time target (or than the best so far), S raised;
 4. *refine*: R ± 10 %, ± 20 % around the best candidate, with its Q and S.
@@ -32,6 +35,10 @@ from mavbridge.sweep.spec import Case, SweepSpec, case_id
 DIRECT_Q = (3.0, 5.0, 8.0)
 DIRECT_S = (1.0, 2.0, 4.0)
 R_LADDER = (250.0, 500.0, 750.0, 1000.0, 1250.0, 1550.0, 2000.0, 2500.0, 3200.0, 4000.0)
+# Beyond the ladder (a gentle sea: the roll term R·φ² is small where φ is, so the paper's R barely acts): while
+# no rung meets the roll target and the top one still arrives, R is raised by these factors of the top rung
+EXTEND = (2.0, 4.0, 8.0, 16.0)
+R_MAX = 1e6  # the ladder's extension stops here (R·φ² then outweighs the distance term a thousandfold)
 RAISE = (1.5, 2.0)
 REFINE = (0.8, 0.9, 1.1, 1.2)
 ROBUST_HEADINGS_DEG = (90.0, 60.0, 120.0, 30.0, 150.0)
@@ -146,6 +153,21 @@ def _repair_weights(trials: Sequence[Trial], target: Target, best_time: float | 
     return list(dict.fromkeys(out))
 
 
+def _extend_ladder(proc: Procedure, ladder: list[Trial], target: Target, q0: float, s0: float) -> list[Trial]:
+    """Step 2 continued: higher R (``EXTEND`` × the top rung, repeatedly) while no rung meets the roll target, the
+    top one arrived and R stays within ``R_MAX``; the trials added."""
+    added: list[Trial] = []
+    rungs = ladder
+    while target.min_reduction is not None and rungs and not any(_meets(t, target) for t in ladder + added):
+        top = max(rungs, key=lambda t: t.r)
+        higher = [top.r * k for k in EXTEND if top.r * k <= R_MAX]
+        if top.arrival_s is None or not higher:
+            break
+        rungs = proc.batch("roll weight, higher", [(q0, r, s0) for r in higher])
+        added += rungs
+    return added
+
+
 def _choose(trials: Sequence[Trial], target: Target) -> Trial | None:
     ok = [t for t in trials if _meets(t, target)]
     return min(ok, key=lambda t: (t.arrival_s, -(t.reduction or 0))) if ok else None
@@ -158,6 +180,7 @@ def tune(base: Scenario, target: Target, executor: Executor, out: Path,
     direct = _direct_step(proc)
     q0, s0 = direct.q, direct.s
     ladder = proc.batch("roll weight", [(q0, r, s0) for r in R_LADDER])
+    ladder += _extend_ladder(proc, ladder, target, q0, s0)
     best = _choose(proc.trials, target)
     repairs = _repair_weights(ladder, target, best.arrival_s if best else None)
     if repairs:
