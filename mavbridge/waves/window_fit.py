@@ -1,7 +1,7 @@
 """One regular wave fitted to a window of the boat's motion in the earth frame: the fit behind ``WindowEstimator``.
 
-The model (``window_model``) is linear in the wave's (α, β) and the channels' offsets for fixed (ω, k, χ); all
-of them are found together by damped Gauss–Newton on the residuals, each channel divided by its noise (its own
+The model (``window_model``) is linear in the wave's (α, β) and in each channel's nuisance terms (an offset and
+a second harmonic, ``_stack``) for fixed (ω, k, χ); all of them are found together by damped Gauss–Newton on the residuals, each channel divided by its noise (its own
 residual RMS, floored). ``initial_guess`` starts it from the window alone: the slope's dominant encounter
 frequency (an FFT of the slope along its principal axis), the channels' phasors at it, and the pitch–roll-buoy
 algebra of ``solve`` (k = |slope|/|heave|, the direction from their quadrature). Standard errors come from the
@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TypeVar
 
 import numpy as np
 
 from mavbridge.waves.solve import solve_with_heave
-from mavbridge.waves.window_model import CHANNELS, HullResponse, WaveParams, Window, channel_models
+from mavbridge.waves.window_model import CHANNELS, HullResponse, WaveParams, Window, channel_models, phase_geometry
 
 T = TypeVar("T")
 Stages = Generator[None, None, T]  # a computation in stages: next() does one, StopIteration.value is the result
@@ -133,37 +133,55 @@ def initial_guess(w: Window, omega_min: float, omega_max: float, omega_e: float 
                       sol.amplitude_m * math.sin(eps))
 
 
-def _stack(w: Window, p: WaveParams, hull: HullResponse, offsets: np.ndarray,
+NUISANCE = 3  # per channel: its offset, then the second harmonic's sin 2Φ and cos 2Φ amplitudes
+
+
+def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray,
            noise: dict[str, float]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """Weighted residuals (measured − model)/σ, their Jacobian (five wave columns, then one offset column per
-    channel the window uses, in ``CHANNELS`` order) and the raw residuals per channel."""
+    """Weighted residuals (measured − model)/σ, their Jacobian (five wave columns, then per channel the window uses,
+    in ``CHANNELS`` order, its ``NUISANCE`` columns) and the raw residuals per channel.
+
+    Each channel has, besides the wave, an offset and a second harmonic of the wave's phase at the boat (a hull
+    under way heaves and pitches with one: its speed, and so its encounter frequency, swing within each wave; in a
+    head sea at 1.6 m/s it is most of what the heave's acceleration leaves unexplained). Fitted, it is no longer
+    counted as noise, and the wave's own standard errors shrink to what the data say of it."""
     models = channel_models(w, p, hull)
     active = list(models)
     sizes = [int(np.count_nonzero(w.valid[name])) for name in active]
     res = np.empty(sum(sizes))
-    jac = np.zeros((res.size, 5 + len(active)))
+    jac = np.zeros((res.size, 5 + NUISANCE * len(active)))
+    s_along, s_perp, phi, _ = phase_geometry(w, p)
+    sin2, cos2 = np.sin(2 * phi), np.cos(2 * phi)
     raw, row = {}, 0
     for column, (name, size) in enumerate(zip(active, sizes, strict=True)):
         model, jacobian = models[name]
         ok = w.valid[name]
         rows = slice(row, row + size)
-        raw[name] = getattr(w, name)[ok] - model[ok] - offsets[CHANNELS.index(name)]
+        offset, h_sin, h_cos = extras[CHANNELS.index(name)]
+        harmonic = h_sin * sin2 + h_cos * cos2
+        d_harmonic = 2.0 * (h_sin * cos2 - h_cos * sin2)  # d/dΦ; Φ's own derivatives: t, −s, −k s⊥
+        jacobian = jacobian + np.column_stack([d_harmonic * w.t, -d_harmonic * s_along, -d_harmonic * p.k * s_perp,
+                                               np.zeros_like(phi), np.zeros_like(phi)])
+        raw[name] = getattr(w, name)[ok] - model[ok] - harmonic[ok] - offset
         res[rows] = raw[name] / noise[name]
         jac[rows, 0:5] = jacobian[ok] / noise[name]
-        jac[rows, 5 + column] = 1.0 / noise[name]
+        first = 5 + NUISANCE * column
+        jac[rows, first] = 1.0 / noise[name]
+        jac[rows, first + 1] = sin2[ok] / noise[name]
+        jac[rows, first + 2] = cos2[ok] / noise[name]
         row += size
     return res, jac, raw
 
 
-def _apply(p: WaveParams, offsets: np.ndarray, step: np.ndarray, active: list[str]) -> tuple[WaveParams, np.ndarray]:
-    """Parameters after a step (offsets of the ``active`` channels); a negative k is the same wave travelling the
-    other way."""
+def _apply(p: WaveParams, extras: np.ndarray, step: np.ndarray, active: list[str]) -> tuple[WaveParams, np.ndarray]:
+    """Parameters after a step (the ``active`` channels' nuisance terms too); a negative k is the same wave
+    travelling the other way (k·s, and so Φ, unchanged)."""
     omega, k, chi, alpha, beta = p.vector() + step[0:5]
+    moved = extras.copy()
+    for column, name in enumerate(active):
+        moved[CHANNELS.index(name)] += step[5 + NUISANCE * column:5 + NUISANCE * (column + 1)]
     if k < 0:
         k, chi = -k, chi + math.pi
-    moved = offsets.copy()
-    for column, name in enumerate(active):
-        moved[CHANNELS.index(name)] += step[5 + column]
     return WaveParams(float(omega), float(k), float(math.remainder(chi, 2 * math.pi)), float(alpha),
                       float(beta)), moved
 
@@ -210,8 +228,9 @@ def refine_stages(w: Window, start: WaveParams, hull: HullResponse, max_iteratio
     converged residuals do; None when it leaves the physical range. A generator of stages (each about one
     evaluation of the model over the window), so that a caller can spread a fit over several control steps;
     ``refine`` runs it whole."""
-    offsets = np.zeros(4)
+    offsets = np.zeros((len(CHANNELS), NUISANCE))
     done_before = 0
+    w = with_encounter_smoothing(w, start)
     if noise is None:
         _, _, raw = _stack(w, start, hull, offsets, NOISE_FLOOR)
         yield
@@ -228,6 +247,16 @@ def refine_stages(w: Window, start: WaveParams, hull: HullResponse, max_iteratio
     res, jac, raw = _stack(w, p, hull, offsets, noise)
     yield
     return _fit_result(w, p, hull, res, jac, raw, done_before + done, _noise(raw))
+
+
+def with_encounter_smoothing(w: Window, wave: WaveParams) -> Window:
+    """The window with its heave's local velocity averaged over one encounter period of ``wave`` (at the window's
+    mean velocity), so that a boat speeding up or slowing down within the window heaves as fast as it then
+    meets the waves."""
+    v_n, v_e = w.mean_velocity
+    omega_e = abs(wave.omega - wave.k * (v_n * math.cos(wave.chi) + v_e * math.sin(wave.chi)))
+    period = 2 * math.pi / omega_e if omega_e > 1e-3 else 0.0
+    return replace(w, velocity_smoothing_s=min(period, w.span_s))
 
 
 def run_stages(stages: Stages[T]) -> T:

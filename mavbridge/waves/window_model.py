@@ -8,10 +8,12 @@ break the fit) through four channels (``CHANNELS``), each with its own offset in
 * ``along``  = pitch            ≈ G_p · slope·h(ψ) at phase Φ − φ_p   (slope = ∇ζ = −k d ζ'(Φ), d = (cos χ, sin χ))
 * ``across`` = roll · roll_sign ≈ G_r · slope·h⊥(ψ) at phase Φ − φ_r  (h = (cos ψ, sin ψ), h⊥ = (−sin ψ, cos ψ))
 * ``accel``  = the hull's down acceleration a_D (IMU) ≈ ω̄_e² ζ, ω̄_e = ω − k d·v̄ the encounter frequency at the
-  window's mean velocity v̄. Not the instantaneous one: a hull surging in head seas (the paper's hull swings
-  between 1.3 and 2.9 m/s within a wave) does not heave as the kinematic ω_e(t)² would scale it, and modelling
-  that modulation biased the period by +3 % and the wavelength by −7 % (with exact sensors); at the mean
-  the bias is gone
+  velocity v̄ averaged over one encounter period around each sample (``Window.local_velocity``). Not the
+  instantaneous one: a hull surging in head seas (the paper's hull swings between 1.3 and 2.9 m/s within a
+  wave) does not heave as the kinematic ω_e(t)² would scale it, and modelling that modulation biased the period
+  by +3 % and the wavelength by −7 % (with exact sensors). Not the whole window's mean either: a boat speeding up
+  from drifting as the window fills heaved at another encounter frequency early on, which made its first
+  confident answer late (16.5 s) and short (wavelength −10 %) in a following sea
 * ``down``   = the GPS down position ≈ −ζ at phase Φ − ω_e·lag
 
 G, φ are the hull's roll/pitch response to the slope (``calibration``). ``channel_models`` gives each channel's
@@ -48,6 +50,7 @@ class Window:
     across: np.ndarray
     accel: np.ndarray
     down: np.ndarray
+    velocity_smoothing_s: float = 0.0  # the encounter period the heave's local ω_e is averaged over (0: the mean)
 
     @property
     def span_s(self) -> float:
@@ -80,6 +83,25 @@ class Window:
     def mean_velocity(self) -> tuple[float, float]:
         """The window's mean NED velocity (m/s)."""
         return float(np.mean(self.v_north)), float(np.mean(self.v_east))
+
+    @cached_property
+    def local_velocity(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample the NED velocity (m/s) averaged over ``velocity_smoothing_s`` centred on it (fewer seconds at
+        the window's ends); every sample the window's mean while that is 0. A whole encounter period's average
+        has none of the surge a wave itself drives, but follows the boat speeding up or slowing down."""
+        if self.velocity_smoothing_s <= 0 or self.t.size < 2:
+            v_n, v_e = self.mean_velocity
+            return np.full(self.t.size, v_n), np.full(self.t.size, v_e)
+        half = 0.5 * self.velocity_smoothing_s
+        lo = np.searchsorted(self.t, self.t - half, side="left")
+        hi = np.searchsorted(self.t, self.t + half, side="right")
+        count = hi - lo
+
+        def boxed(values: np.ndarray) -> np.ndarray:
+            sums = np.concatenate(([0.0], np.cumsum(values)))
+            return (sums[hi] - sums[lo]) / count
+
+        return boxed(self.v_north), boxed(self.v_east)
 
 
 @dataclass(frozen=True)
@@ -118,7 +140,7 @@ class WaveParams:
         return WaveParams(self.omega, self.k, self.chi, self.alpha * c - self.beta * s, self.alpha * s + self.beta * c)
 
 
-def _geometry(w: Window, p: WaveParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def phase_geometry(w: Window, p: WaveParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(s = p·d, s⊥ = p·d⊥, Φ = ω t − k s, (sin Φ, cos Φ)) per sample."""
     d_n, d_e = math.cos(p.chi), math.sin(p.chi)
     s = w.north * d_n + w.east * d_e
@@ -157,11 +179,12 @@ def _slope_channel(w: Window, p: WaveParams, geo: tuple, gain: float, lag: float
 
 def _accel_channel(w: Window, p: WaveParams, geo: tuple) -> tuple[np.ndarray, np.ndarray]:
     """Model (ω̄_e² ζ, the hull's down acceleration) and its Jacobian (ω, k, χ, α, β); ω̄_e = ω − k d·v̄ at the
-    window's mean velocity v̄ (see the module docstring for why not the instantaneous one)."""
+    window's local velocity v̄ (``Window.local_velocity``; see the module docstring for why not the
+    instantaneous one)."""
     s, s_perp, _, trig = geo
     zeta, dzeta, sin, cos = _lagged(p, trig, 0.0)
     d_n, d_e = math.cos(p.chi), math.sin(p.chi)
-    v_n, v_e = w.mean_velocity
+    v_n, v_e = w.local_velocity
     v_d, v_perp = v_n * d_n + v_e * d_e, -v_n * d_e + v_e * d_n
     we = p.omega - p.k * v_d
     we2 = we * we
@@ -182,7 +205,7 @@ def _down_channel(w: Window, p: WaveParams, geo: tuple, lag_s: float) -> tuple[n
 def channel_models(w: Window, p: WaveParams, hull: HullResponse) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per channel the window uses (``Window.channels``): (model, Jacobian of the wave's five parameters) at
     every sample."""
-    geo = _geometry(w, p)
+    geo = phase_geometry(w, p)
     builders = {"along": lambda: _slope_channel(w, p, geo, hull.pitch_gain, hull.pitch_lag_rad, False),
                 "across": lambda: _slope_channel(w, p, geo, hull.roll_gain, hull.roll_lag_rad, True),
                 "accel": lambda: _accel_channel(w, p, geo),
