@@ -60,6 +60,12 @@ class NmpcConfig:
                                               "model adds to its regular wave (the ``bank`` parameter block, "
                                               "see nmpc.wave_bank); 0: none, the problem as without the option"))
     min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))
+    heading_limit_deg: float = structural(bounded(80.0, 0.0, 179.0, "deg", "soft limit on the heading error: beyond "
+                                                  "it the cost rises steeply (weight heading_limit_weight), so the "
+                                                  "boat may tack but never sails away from the waypoint (0: no "
+                                                  "limit, the paper's cost; see problem.heading_excess)"))
+    heading_limit_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on the heading error's "
+                                                     "excess over heading_limit_deg, per rad²"))
     solver: str = choice("ipopt", SOLVERS, "ipopt (reference), rti (Gauss–Newton SQP with HPIPM) or asrti "
                          "(rti corrected from a converged SQP solve for the predicted state, run in the background) "
                          "or nrti (asrti with a native preparation/feedback split: condensed QP in C)")

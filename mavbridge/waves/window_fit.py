@@ -1,13 +1,13 @@
 """One regular wave fitted to a window of the boat's motion in the earth frame: the fit behind ``WindowEstimator``.
 
-The model (``window_model``) is linear in the wave's (α, β) and in each channel's nuisance terms (an offset and
-a second harmonic, ``_stack``) for fixed (ω, k, χ); all of them are found together by damped Gauss–Newton on the residuals, each channel divided by its noise (its own
-residual RMS, floored). ``initial_guess`` starts it from the window alone: the slope's dominant encounter
-frequency (an FFT of the slope along its principal axis), the channels' phasors at it, and the pitch–roll-buoy
-algebra of ``solve`` (k = |slope|/|heave|, the direction from their quadrature). Standard errors come from the
-Gauss–Newton normal matrix, widened because neighbouring samples are correlated. A fit runs in stages
-(``refine_stages``, a generator) so the estimator can spread it over several control steps. Pure numpy; no
-state.
+The model (``window_model``) is linear in the wave's (α, β) and in each channel's nuisance terms (an offset and a
+second harmonic, ``_stack``) for fixed (ω, k, χ); all of them are found together by damped Gauss–Newton on the
+residuals, each channel divided by its noise (its own residual RMS, floored). ``initial_guess`` starts it from the
+window alone: the slope's dominant encounter frequency (an FFT of the slope along its principal axis), the channels'
+phasors at it, and the pitch–roll-buoy algebra of ``solve`` (k = |slope|/|heave|, the direction from their
+quadrature). Standard errors come from the Gauss–Newton normal matrix, widened because neighbouring samples are
+correlated. A fit runs in stages (``refine_stages``, a generator) so the estimator can spread it over several
+control steps. Pure numpy; no state.
 """
 
 from __future__ import annotations

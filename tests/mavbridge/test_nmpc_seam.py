@@ -128,7 +128,8 @@ def test_every_backend_closes_idempotently(solver: str) -> None:
 def test_structural_fields_are_marked_on_the_fields_and_key_the_build() -> None:
     marked = {f.name for f in dataclasses.fields(NmpcConfig) if f.metadata.get(STRUCTURAL)}
     assert marked == {"horizon", "period_s", "substeps", "integrator", "inputs", "min_speed_mps", "min_speed_fade_m",
-                      "roll_fade_m", "min_speed_weight", "wave_components"}
+                      "roll_fade_m", "min_speed_weight", "wave_components", "heading_limit_deg",
+                      "heading_limit_weight"}
     cfg = NmpcConfig(horizon=5)
     assert dict(cfg.structural()) == {name: getattr(cfg, name) for name in marked}
     built = problem_functions(otter_parameters(), WAVES, OceanCurrent(), cfg)

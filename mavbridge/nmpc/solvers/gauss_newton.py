@@ -2,7 +2,8 @@
 
 The cost is the IPOPT problem's written as squared residuals, so the Gauss–Newton Hessian 2JᵀJ is
 positive semi-definite by construction:
-    √W·ΔU_k, √Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u)
+    √W·ΔU_k, √Q·e_ψ, √R·φ, √(S·d), √w_min·smoothmax(0, u_min − u) (and √w_e·the heading error's excess over its
+    limit, where one is set)
 (the linear distance term as a square root, the min-speed kink smoothed with (z + √(z² + ε))/2).
 HPIPM wants stage-separable costs, and ΔU_k couples u_k with u_{k−1}: the state is augmented with the
 previous input, z = [x (12), u_prev (2)], u_prev,k+1 = u_k. Gaps are F(z_k, u_k) − z_{k+1}; the QP is
@@ -26,7 +27,14 @@ from mavbridge.nmpc.layout import (
     parameter_layout,
     wave_input_size,
 )
-from mavbridge.nmpc.problem import distance, expected_roll_residuals, heading_error, min_speed, roll_fade
+from mavbridge.nmpc.problem import (
+    distance,
+    expected_roll_residuals,
+    heading_error,
+    heading_excess,
+    min_speed,
+    roll_fade,
+)
 
 NZ = NX + NU
 SMOOTH_EPS = 1e-4
@@ -43,10 +51,13 @@ def _state_residuals(x: ca.SX, waypoint: ca.SX, weights: ca.SX, cfg: NmpcConfig,
     w = members("weights", weights)
     q, r, s = w["q"], w["r"], w["s"]
     fade = roll_fade(x, waypoint, cfg)
-    return ca.vertcat(ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * fade * x[3],
-                      ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
-                      np.sqrt(cfg.min_speed_weight) * _smooth_max0(min_speed(x, waypoint, cfg) - x[6]),
-                      fade * expected_roll_residuals(x, roll_spread))
+    residuals = [ca.sqrt(q) * heading_error(x, waypoint), ca.sqrt(r) * fade * x[3],
+                 ca.sqrt(s * distance(x, waypoint) + DIST_SQRT_EPS),
+                 np.sqrt(cfg.min_speed_weight) * _smooth_max0(min_speed(x, waypoint, cfg) - x[6]),
+                 fade * expected_roll_residuals(x, roll_spread)]
+    if cfg.heading_limit_deg > 0:
+        residuals.append(np.sqrt(cfg.heading_limit_weight) * heading_excess(x, waypoint, cfg))
+    return ca.vertcat(*residuals)
 
 
 def _input_change_residuals(u: ca.SX, u_before: ca.SX, weights: ca.SX,
