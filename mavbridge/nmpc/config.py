@@ -62,7 +62,7 @@ class NmpcConfig:
     min_speed_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on (min speed − u)² below it"))
     heading_limit_deg: float = structural(bounded(80.0, 0.0, 179.0, "deg", "soft limit on the heading error: beyond "
                                                   "it the cost rises steeply (weight heading_limit_weight), so the "
-                                                  "boat may tack but never sails away from the waypoint (0: no "
+                                                  "boat may tack but turns back before sailing away (0: no "
                                                   "limit, the paper's cost; see problem.heading_excess)"))
     heading_limit_weight: float = structural(bounded(1e4, 0.0, 1e9, "", "penalty weight on the heading error's "
                                                      "excess over heading_limit_deg, per rad²"))

@@ -25,6 +25,7 @@ from mavbridge.waves.window_model import CHANNELS, HullResponse, WaveParams, Win
 T = TypeVar("T")
 Stages = Generator[None, None, T]  # a computation in stages: next() does one, StopIteration.value is the result
 NOISE_FLOOR = {"along": 0.003, "across": 0.003, "accel": 0.03, "down": 0.15}  # rad, rad, m/s², m
+MAX_CONDITION = 1e12  # of the normal matrix with unit diagonal: beyond it a parameter is undetermined
 CORRELATION_S = 0.5  # residuals closer than this are not independent: standard errors widened by √(rate·this)
 
 
@@ -133,53 +134,83 @@ def initial_guess(w: Window, omega_min: float, omega_max: float, omega_e: float 
                       sol.amplitude_m * math.sin(eps))
 
 
-NUISANCE = 3  # per channel: its offset, then the second harmonic's sin 2Φ and cos 2Φ amplitudes
+NUISANCE = 3  # per channel at most: its offset, then the second harmonic's sin 2Φ and cos 2Φ amplitudes
+HARMONIC_MIN_SAMPLES = 8  # a channel's second harmonic is fitted only on this many samples or more ...
 
 
-def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray,
-           noise: dict[str, float]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+def _nuisance_columns(w: Window, name: str) -> int:
+    """How many nuisance terms channel ``name`` fits: its offset, and its second harmonic only where its samples
+    (``HARMONIC_MIN_SAMPLES`` or more) span at least one encounter period (``Window.velocity_smoothing_s``, 0:
+    never). A channel that has only just started (an IMU that comes back late in the window) would otherwise give
+    its few samples to the harmonic rather than to the wave."""
+    ok = w.valid[name]
+    count = int(np.count_nonzero(ok))
+    if count < HARMONIC_MIN_SAMPLES or w.velocity_smoothing_s <= 0:
+        return 1
+    times = w.t[ok]
+    return NUISANCE if times[-1] - times[0] >= w.velocity_smoothing_s else 1
+
+
+def _layout(w: Window, active: list[str]) -> list[int]:
+    """The first nuisance column of each active channel, then the total column count last."""
+    firsts, column = [], 5
+    for name in active:
+        firsts.append(column)
+        column += _nuisance_columns(w, name)
+    return [*firsts, column]
+
+
+def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray, noise: dict[str, float]
+           ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Weighted residuals (measured − model)/σ, their Jacobian (five wave columns, then per channel the window uses,
-    in ``CHANNELS`` order, its ``NUISANCE`` columns) and the raw residuals per channel.
+    in ``CHANNELS`` order, its nuisance columns: ``_nuisance_columns``), the raw residuals per channel and, per
+    channel, the second harmonic the fit took out of them.
 
     Each channel has, besides the wave, an offset and a second harmonic of the wave's phase at the boat (a hull
     under way heaves and pitches with one: its speed, and so its encounter frequency, swing within each wave; in a
     head sea at 1.6 m/s it is most of what the heave's acceleration leaves unexplained). Fitted, it is no longer
-    counted as noise, and the wave's own standard errors shrink to what the data say of it."""
+    counted as noise, and the wave's own standard errors shrink to what the data say of it. It is not part of the
+    wave the NMPC plans with, so what the fit reports as unexplained (``_fit_result``) keeps it."""
     models = channel_models(w, p, hull)
     active = list(models)
+    layout = _layout(w, active)
     sizes = [int(np.count_nonzero(w.valid[name])) for name in active]
     res = np.empty(sum(sizes))
-    jac = np.zeros((res.size, 5 + NUISANCE * len(active)))
+    jac = np.zeros((res.size, layout[-1]))
     s_along, s_perp, phi, _ = phase_geometry(w, p)
     sin2, cos2 = np.sin(2 * phi), np.cos(2 * phi)
-    raw, row = {}, 0
+    raw, harmonics, row = {}, {}, 0
     for column, (name, size) in enumerate(zip(active, sizes, strict=True)):
         model, jacobian = models[name]
         ok = w.valid[name]
-        rows = slice(row, row + size)
+        rows, first = slice(row, row + size), layout[column]
         offset, h_sin, h_cos = extras[CHANNELS.index(name)]
-        harmonic = h_sin * sin2 + h_cos * cos2
+        harmonic = h_sin * sin2[ok] + h_cos * cos2[ok]
         d_harmonic = 2.0 * (h_sin * cos2 - h_cos * sin2)  # d/dΦ; Φ's own derivatives: t, −s, −k s⊥
         jacobian = jacobian + np.column_stack([d_harmonic * w.t, -d_harmonic * s_along, -d_harmonic * p.k * s_perp,
                                                np.zeros_like(phi), np.zeros_like(phi)])
-        raw[name] = getattr(w, name)[ok] - model[ok] - harmonic[ok] - offset
+        raw[name] = getattr(w, name)[ok] - model[ok] - harmonic - offset
+        harmonics[name] = harmonic
         res[rows] = raw[name] / noise[name]
         jac[rows, 0:5] = jacobian[ok] / noise[name]
-        first = 5 + NUISANCE * column
         jac[rows, first] = 1.0 / noise[name]
-        jac[rows, first + 1] = sin2[ok] / noise[name]
-        jac[rows, first + 2] = cos2[ok] / noise[name]
+        if layout[column + 1] - first == NUISANCE:
+            jac[rows, first + 1] = sin2[ok] / noise[name]
+            jac[rows, first + 2] = cos2[ok] / noise[name]
         row += size
-    return res, jac, raw
+    return res, jac, raw, harmonics
 
 
-def _apply(p: WaveParams, extras: np.ndarray, step: np.ndarray, active: list[str]) -> tuple[WaveParams, np.ndarray]:
-    """Parameters after a step (the ``active`` channels' nuisance terms too); a negative k is the same wave
-    travelling the other way (k·s, and so Φ, unchanged)."""
+def _apply(w: Window, p: WaveParams, extras: np.ndarray, step: np.ndarray,
+           active: list[str]) -> tuple[WaveParams, np.ndarray]:
+    """Parameters after a step (the ``active`` channels' nuisance terms too, laid out as ``_layout`` says); a
+    negative k is the same wave travelling the other way (k·s, and so Φ, unchanged)."""
     omega, k, chi, alpha, beta = p.vector() + step[0:5]
     moved = extras.copy()
+    layout = _layout(w, active)
     for column, name in enumerate(active):
-        moved[CHANNELS.index(name)] += step[5 + NUISANCE * column:5 + NUISANCE * (column + 1)]
+        terms = step[layout[column]:layout[column + 1]]
+        moved[CHANNELS.index(name), 0:terms.size] += terms
     if k < 0:
         k, chi = -k, chi + math.pi
     return WaveParams(float(omega), float(k), float(math.remainder(chi, 2 * math.pi)), float(alpha),
@@ -198,17 +229,17 @@ def _gauss_newton(w: Window, p: WaveParams, offsets: np.ndarray, hull: HullRespo
                   max_iterations: int) -> Stages[tuple[WaveParams, np.ndarray, int] | None]:
     """Damped Gauss–Newton (Levenberg–Marquardt) steps at fixed channel weights, one stage per evaluation;
     None when it leaves the physical range."""
-    res, jac, raw = _stack(w, p, hull, offsets, noise)
+    res, jac, raw, _ = _stack(w, p, hull, offsets, noise)
     yield
     active = [name for name in CHANNELS if name in raw]
     cost, damping, done = float(res @ res), 1e-3, 0
     for done in range(1, max_iterations + 1):  # noqa: B007 (the count is reported)
         normal = jac.T @ jac
         step = np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12), jac.T @ res)
-        trial, trial_offsets = _apply(p, offsets, step, active)
+        trial, trial_offsets = _apply(w, p, offsets, step, active)
         if not (0 < trial.omega < 50 and 0 < trial.k < 50):
             return None
-        res_t, jac_t, _ = _stack(w, trial, hull, trial_offsets, noise)
+        res_t, jac_t, _, _ = _stack(w, trial, hull, trial_offsets, noise)
         yield
         cost_t = float(res_t @ res_t)
         if cost_t > cost:
@@ -232,21 +263,22 @@ def refine_stages(w: Window, start: WaveParams, hull: HullResponse, max_iteratio
     done_before = 0
     w = with_encounter_smoothing(w, start)
     if noise is None:
-        _, _, raw = _stack(w, start, hull, offsets, NOISE_FLOOR)
+        _, _, raw, _ = _stack(w, start, hull, offsets, NOISE_FLOOR)
         yield
         first = yield from _gauss_newton(w, start, offsets, hull, _noise(raw), max_iterations)
         if first is None:
             return None
-        _, _, raw = _stack(w, first[0], hull, first[1], NOISE_FLOOR)
+        _, _, raw, _ = _stack(w, first[0], hull, first[1], NOISE_FLOOR)
         yield
         start, offsets, max_iterations, done_before, noise = first[0], first[1], 2, first[2], _noise(raw)
     result = yield from _gauss_newton(w, start, offsets, hull, noise, max_iterations)
     if result is None:
         return None
     p, offsets, done = result
-    res, jac, raw = _stack(w, p, hull, offsets, noise)
+    res, jac, raw, harmonics = _stack(w, p, hull, offsets, noise)
     yield
-    return _fit_result(w, p, hull, res, jac, raw, done_before + done, _noise(raw))
+    unexplained = {name: raw[name] + harmonics[name] for name in raw}  # the NMPC's wave has no second harmonic
+    return _fit_result(w, p, hull, res, jac, unexplained, done_before + done, _noise(raw))
 
 
 def with_encounter_smoothing(w: Window, wave: WaveParams) -> Window:
@@ -280,8 +312,12 @@ def _fit_result(w: Window, p: WaveParams, hull: HullResponse, res: np.ndarray, j
     m, n_params = res.size, jac.shape[1]
     if m <= n_params:
         return None
+    normal = jac.T @ jac
+    scale_columns = 1.0 / np.sqrt(np.maximum(np.diag(normal), 1e-300))
+    if np.linalg.cond(normal * np.outer(scale_columns, scale_columns)) > MAX_CONDITION:
+        return None  # some parameter is not determined by this window: no standard errors to trust
     try:
-        cov = np.linalg.inv(jac.T @ jac)
+        cov = np.linalg.inv(normal)
     except np.linalg.LinAlgError:
         return None
     rate = w.t.size / max(w.span_s, 1e-9)

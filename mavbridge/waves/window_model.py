@@ -3,7 +3,8 @@
 The wave ζ(N, E, t) = a·sin(Φ + ε), Φ = ω t − k (N cos χ + E sin χ) (NED, t in seconds from the window's
 end), written with α = a cos ε, β = a sin ε as ζ = α sin Φ + β cos Φ, is seen by the boat at its own
 position p(t) (so the boat's speed and turns are inside Φ: no separate Doppler step, and a turn does not
-break the fit) through four channels (``CHANNELS``), each with its own offset in the fit:
+break the fit) through four channels (``CHANNELS``), each with its own nuisance terms in the fit (an offset and,
+where its samples allow, a second harmonic: ``window_fit``):
 
 * ``along``  = pitch            ≈ G_p · slope·h(ψ) at phase Φ − φ_p   (slope = ∇ζ = −k d ζ'(Φ), d = (cos χ, sin χ))
 * ``across`` = roll · roll_sign ≈ G_r · slope·h⊥(ψ) at phase Φ − φ_r  (h = (cos ψ, sin ψ), h⊥ = (−sin ψ, cos ψ))
@@ -140,7 +141,8 @@ class WaveParams:
         return WaveParams(self.omega, self.k, self.chi, self.alpha * c - self.beta * s, self.alpha * s + self.beta * c)
 
 
-def phase_geometry(w: Window, p: WaveParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def phase_geometry(w: Window, p: WaveParams) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                      tuple[np.ndarray, np.ndarray]]:
     """(s = p·d, s⊥ = p·d⊥, Φ = ω t − k s, (sin Φ, cos Φ)) per sample."""
     d_n, d_e = math.cos(p.chi), math.sin(p.chi)
     s = w.north * d_n + w.east * d_e

@@ -89,7 +89,8 @@ def test_tau_space_is_the_config_box() -> None:
 def test_tau_inputs_are_as_before(solver: str, monkeypatch: pytest.MonkeyPatch) -> None:
     expected = np.array([[float.fromhex(v) for v in row] for row in
                          json.loads(GOLDEN.read_text(encoding="utf-8"))[solver]])
-    results, _ = _run(monkeypatch, 3.0, "tau", solver=solver, roll_fade_m=0.0)  # the cost it was recorded with
+    results, _ = _run(monkeypatch, 3.0, "tau", solver=solver, roll_fade_m=0.0,
+                      heading_limit_deg=0.0)  # the cost it was recorded with
     got = np.array([[*r.tau, *r.inputs[-1]] for r in results])
     assert got.shape == expected.shape
     np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-6)
