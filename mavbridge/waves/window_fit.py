@@ -171,28 +171,31 @@ def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray, noi
     head sea at 1.6 m/s it is most of what the heave's acceleration leaves unexplained). Fitted, it is no longer
     counted as noise, and the wave's own standard errors shrink to what the data say of it. It is not part of the
     wave the NMPC plans with, so what the fit reports as unexplained (``_fit_result``) keeps it."""
-    models = channel_models(w, p, hull)
+    geo = phase_geometry(w, p)
+    models = channel_models(w, p, hull, geo)
     active = list(models)
     layout = _layout(w, active)
     sizes = [int(np.count_nonzero(w.valid[name])) for name in active]
     res = np.empty(sum(sizes))
     jac = np.zeros((res.size, layout[-1]))
-    s_along, s_perp, phi, _ = phase_geometry(w, p)
-    sin2, cos2 = np.sin(2 * phi), np.cos(2 * phi)
+    s_along, s_perp, _, (sin1, cos1) = geo
+    sin2, cos2 = 2.0 * sin1 * cos1, cos1 * cos1 - sin1 * sin1
     raw, harmonics, row = {}, {}, 0
     for column, (name, size) in enumerate(zip(active, sizes, strict=True)):
         model, jacobian = models[name]
-        ok = w.valid[name]
+        ok = w.selectors[name]
         rows, first = slice(row, row + size), layout[column]
         offset, h_sin, h_cos = extras[CHANNELS.index(name)]
         harmonic = h_sin * sin2[ok] + h_cos * cos2[ok]
-        d_harmonic = 2.0 * (h_sin * cos2 - h_cos * sin2)  # d/dΦ; Φ's own derivatives: t, −s, −k s⊥
-        jacobian = jacobian + np.column_stack([d_harmonic * w.t, -d_harmonic * s_along, -d_harmonic * p.k * s_perp,
-                                               np.zeros_like(phi), np.zeros_like(phi)])
         raw[name] = getattr(w, name)[ok] - model[ok] - harmonic - offset
         harmonics[name] = harmonic
         res[rows] = raw[name] / noise[name]
         jac[rows, 0:5] = jacobian[ok] / noise[name]
+        if h_sin != 0.0 or h_cos != 0.0:  # d/dΦ of the harmonic; Φ's own derivatives: t, −s, −k s⊥
+            d_harmonic = 2.0 * (h_sin * cos2[ok] - h_cos * sin2[ok]) / noise[name]
+            jac[rows, 0] += d_harmonic * w.t[ok]
+            jac[rows, 1] -= d_harmonic * s_along[ok]
+            jac[rows, 2] -= d_harmonic * p.k * s_perp[ok]
         jac[rows, first] = 1.0 / noise[name]
         if layout[column + 1] - first == NUISANCE:
             jac[rows, first + 1] = sin2[ok] / noise[name]

@@ -73,6 +73,12 @@ class Window:
         return {name: np.isfinite(getattr(self, name)) for name in CHANNELS}
 
     @cached_property
+    def selectors(self) -> dict[str, slice | np.ndarray]:
+        """Per channel what picks its samples out of a per-sample array: a whole slice where every sample holds a
+        value (a view, no copy: the fit's hot path), else the ``valid`` mask."""
+        return {name: slice(None) if bool(np.all(mask)) else mask for name, mask in self.valid.items()}
+
+    @cached_property
     def cos_psi(self) -> np.ndarray:
         return np.cos(self.psi)
 
@@ -204,10 +210,11 @@ def _down_channel(w: Window, p: WaveParams, geo: tuple, lag_s: float) -> tuple[n
     return -zeta, jac
 
 
-def channel_models(w: Window, p: WaveParams, hull: HullResponse) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def channel_models(w: Window, p: WaveParams, hull: HullResponse,
+                   geo: tuple | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per channel the window uses (``Window.channels``): (model, Jacobian of the wave's five parameters) at
-    every sample."""
-    geo = phase_geometry(w, p)
+    every sample; ``geo`` is ``phase_geometry(w, p)`` when the caller has it already."""
+    geo = phase_geometry(w, p) if geo is None else geo
     builders = {"along": lambda: _slope_channel(w, p, geo, hull.pitch_gain, hull.pitch_lag_rad, False),
                 "across": lambda: _slope_channel(w, p, geo, hull.roll_gain, hull.roll_lag_rad, True),
                 "accel": lambda: _accel_channel(w, p, geo),
