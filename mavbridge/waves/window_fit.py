@@ -20,7 +20,15 @@ from typing import TypeVar
 import numpy as np
 
 from mavbridge.waves.solve import solve_with_heave
-from mavbridge.waves.window_model import CHANNELS, HullResponse, WaveParams, Window, channel_models, phase_geometry
+from mavbridge.waves.window_model import (
+    CHANNELS,
+    NUISANCE,
+    HullResponse,
+    WaveParams,
+    Window,
+    channel_models,
+    phase_geometry,
+)
 
 T = TypeVar("T")
 Stages = Generator[None, None, T]  # a computation in stages: next() does one, StopIteration.value is the result
@@ -134,36 +142,10 @@ def initial_guess(w: Window, omega_min: float, omega_max: float, omega_e: float 
                       sol.amplitude_m * math.sin(eps))
 
 
-NUISANCE = 3  # per channel at most: its offset, then the second harmonic's sin 2Φ and cos 2Φ amplitudes
-HARMONIC_MIN_SAMPLES = 8  # a channel's second harmonic is fitted only on this many samples or more ...
-
-
-def _nuisance_columns(w: Window, name: str) -> int:
-    """How many nuisance terms channel ``name`` fits: its offset, and its second harmonic only where its samples
-    (``HARMONIC_MIN_SAMPLES`` or more) span at least one encounter period (``Window.velocity_smoothing_s``, 0:
-    never). A channel that has only just started (an IMU that comes back late in the window) would otherwise give
-    its few samples to the harmonic rather than to the wave."""
-    ok = w.valid[name]
-    count = int(np.count_nonzero(ok))
-    if count < HARMONIC_MIN_SAMPLES or w.velocity_smoothing_s <= 0:
-        return 1
-    times = w.t[ok]
-    return NUISANCE if times[-1] - times[0] >= w.velocity_smoothing_s else 1
-
-
-def _layout(w: Window, active: list[str]) -> list[int]:
-    """The first nuisance column of each active channel, then the total column count last."""
-    firsts, column = [], 5
-    for name in active:
-        firsts.append(column)
-        column += _nuisance_columns(w, name)
-    return [*firsts, column]
-
-
 def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray, noise: dict[str, float]
            ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Weighted residuals (measured − model)/σ, their Jacobian (five wave columns, then per channel the window uses,
-    in ``CHANNELS`` order, its nuisance columns: ``_nuisance_columns``), the raw residuals per channel and, per
+    in ``CHANNELS`` order, its nuisance columns: ``Window.nuisance_layout``), the raw residuals per channel and, per
     channel, the second harmonic the fit took out of them.
 
     Each channel has, besides the wave, an offset and a second harmonic of the wave's phase at the boat (a hull
@@ -174,8 +156,8 @@ def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray, noi
     geo = phase_geometry(w, p)
     models = channel_models(w, p, hull, geo)
     active = list(models)
-    layout = _layout(w, active)
-    sizes = [int(np.count_nonzero(w.valid[name])) for name in active]
+    layout = w.nuisance_layout
+    sizes = [w.counts[name] for name in active]
     res = np.empty(sum(sizes))
     jac = np.zeros((res.size, layout[-1]))
     s_along, s_perp, _, (sin1, cos1) = geo
@@ -206,11 +188,11 @@ def _stack(w: Window, p: WaveParams, hull: HullResponse, extras: np.ndarray, noi
 
 def _apply(w: Window, p: WaveParams, extras: np.ndarray, step: np.ndarray,
            active: list[str]) -> tuple[WaveParams, np.ndarray]:
-    """Parameters after a step (the ``active`` channels' nuisance terms too, laid out as ``_layout`` says); a
+    """Parameters after a step (the ``active`` channels' nuisance terms too, as ``Window.nuisance_layout``); a
     negative k is the same wave travelling the other way (k·s, and so Φ, unchanged)."""
     omega, k, chi, alpha, beta = p.vector() + step[0:5]
     moved = extras.copy()
-    layout = _layout(w, active)
+    layout = w.nuisance_layout
     for column, name in enumerate(active):
         terms = step[layout[column]:layout[column + 1]]
         moved[CHANNELS.index(name), 0:terms.size] += terms

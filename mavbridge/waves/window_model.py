@@ -30,6 +30,8 @@ from functools import cached_property
 import numpy as np
 
 CHANNELS = ("along", "across", "accel", "down")
+NUISANCE = 3  # per channel at most, in the fit: its offset, then the second harmonic's sin 2Φ and cos 2Φ amplitudes
+HARMONIC_MIN_SAMPLES = 8  # a channel's second harmonic is fitted only on this many samples or more
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,31 @@ class Window:
     def valid(self) -> dict[str, np.ndarray]:
         """Per channel, which samples hold a value."""
         return {name: np.isfinite(getattr(self, name)) for name in CHANNELS}
+
+    @cached_property
+    def counts(self) -> dict[str, int]:
+        """Per channel, how many samples hold a value."""
+        return {name: int(np.count_nonzero(mask)) for name, mask in self.valid.items()}
+
+    def nuisance_columns(self, name: str) -> int:
+        """How many nuisance terms the fit gives channel ``name``: its offset, and its second harmonic only where
+        its samples (``HARMONIC_MIN_SAMPLES`` or more) span at least one encounter period (``velocity_smoothing_s``;
+        0: never). A channel that has only just started (an IMU that comes back late in the window) would
+        otherwise give its few samples to the harmonic rather than to the wave."""
+        if self.counts[name] < HARMONIC_MIN_SAMPLES or self.velocity_smoothing_s <= 0:
+            return 1
+        times = self.t[self.valid[name]]
+        return NUISANCE if times[-1] - times[0] >= self.velocity_smoothing_s else 1
+
+    @cached_property
+    def nuisance_layout(self) -> tuple[int, ...]:
+        """The fit's first nuisance column of each channel in ``channels`` (after the wave's five), then the total
+        column count."""
+        firsts, column = [], 5
+        for name in self.channels:
+            firsts.append(column)
+            column += self.nuisance_columns(name)
+        return (*firsts, column)
 
     @cached_property
     def selectors(self) -> dict[str, slice | np.ndarray]:

@@ -21,7 +21,6 @@ from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_sam
 from mavbridge.waves.window_buffer import _last_in_blocks
 from mavbridge.waves.window_fit import (
     _apply,
-    _nuisance_columns,
     _stack,
     refine,
     refine_stages,
@@ -266,7 +265,7 @@ def test_a_channel_with_few_samples_fits_its_offset_only_and_the_wave_is_still_f
         accel = np.full_like(full.t, np.nan)
         accel[-count:] = full.accel[-count:]
         window = dataclasses.replace(full, accel=accel, down=without_down(full, wave))
-        assert _nuisance_columns(with_encounter_smoothing(window, wave), "accel") == 1
+        assert with_encounter_smoothing(window, wave).nuisance_columns("accel") == 1
         fit = refine(window, wave, hull)
         assert fit is not None, count
         assert fit.rel_sigma_k <= 1.05 * without.rel_sigma_k + 1e-9, (count, fit.rel_sigma_k, without.rel_sigma_k)
