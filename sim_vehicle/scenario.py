@@ -74,15 +74,17 @@ def parse_sea_state(number: int, base: SeaState) -> SeaState:
 
 def seeded_waves(waves: WaveField, seed: int) -> WaveField:
     """The sea with its phase origin drawn from ``seed``: a phase (regular) or a time origin (irregular)."""
-    rng = np.random.default_rng(seed)
     if isinstance(waves, RegularWaves):
-        return dataclasses.replace(waves, phase_rad=float(rng.uniform(0.0, 2 * math.pi)))
+        return dataclasses.replace(waves, phase_rad=float(np.random.default_rng(seed).uniform(0.0, 2 * math.pi)))
     if isinstance(waves, IrregularWaves):
-        t0 = float(rng.uniform(0.0, TIME_ORIGIN_MAX_S))
-        phase = np.mod(waves.phase_rad + waves.frequency_rad_s * t0, 2 * math.pi)
-        return IrregularWaves(waves.amplitude_m, waves.frequency_rad_s, waves.wavenumber_rad_m,
-                              waves.direction_rad, phase, waves.roll_sign)
+        return waves.advanced(hidden_time_origin_s(seed))
     return waves
+
+
+def hidden_time_origin_s(seed: int) -> float:
+    """The irregular sea's own clock at boot under ``seed`` (s): the simulator's t meets the sea's t + this.
+    An in-process twin of a simulator run flies the same stretch with ``IrregularSea.start_s`` = this + t."""
+    return float(np.random.default_rng(seed).uniform(0.0, TIME_ORIGIN_MAX_S))
 
 
 def parse_current(text: str, base: SeaState) -> SeaState:

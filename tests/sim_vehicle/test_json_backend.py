@@ -183,6 +183,20 @@ def test_the_seed_sets_the_regular_seas_phase_and_nothing_else() -> None:
     assert seeded_waves(calm, 7) is calm
 
 
+def test_the_seed_hides_an_irregular_seas_time_origin_that_a_twin_can_meet() -> None:
+    """Under a seed the simulator's t meets the sea's t + ``hidden_time_origin_s(seed)``: what an in-process
+    twin sets as ``IrregularSea.start_s`` to fly the very stretch of sea a simulator run met."""
+    from sim_vehicle.scenario import TIME_ORIGIN_MAX_S, hidden_time_origin_s
+
+    sea = IrregularSea(hs_m=1.75, tp_s=6.0, seed=4)
+    seeded = seeded_waves(sea.wave_field(otter_parameters()), 7)
+    origin = hidden_time_origin_s(7)
+    assert 0.0 <= origin < TIME_ORIGIN_MAX_S and origin != hidden_time_origin_s(8)
+    twin = dataclasses.replace(sea, start_s=origin + 40.0).wave_field(otter_parameters())
+    t = np.linspace(0.0, 30.0, 61)
+    np.testing.assert_allclose(seeded.elevation(3.0, -2.0, 40.0 + t), twin.elevation(3.0, -2.0, t), atol=1e-9)
+
+
 @dataclasses.dataclass(frozen=True)
 class _ArrayField:
     """A wave field description holding arrays, as an irregular sea does."""

@@ -126,3 +126,20 @@ def test_plant_runs_in_an_irregular_sea_with_surface_heave() -> None:
     z, zeta = np.array(zs[500:]), np.array(zetas[500:])
     assert np.corrcoef(-z, zeta)[0, 1] > 0.98
     assert np.std(z) == pytest.approx(np.std(zeta), rel=0.1)
+
+
+@pytest.mark.parametrize("sea", [LONG, SHORT], ids=["long-crested", "short-crested"])
+def test_a_later_start_meets_the_waves_the_sea_shows_later(sea: IrregularSea) -> None:
+    """``start_s`` (and ``advanced``) move the sea's clock: at t the moved sea shows what the first shows at
+    t + start_s, everywhere, in elevation and slope; a zero shift is the same sea."""
+    import dataclasses
+
+    first, later = sea.wave_field(otter_parameters()), dataclasses.replace(sea, start_s=1234.5).wave_field(
+        otter_parameters())
+    points = np.random.default_rng(9).uniform([-200, -200, -50], [200, 200, 300], (100, 3))
+    n, e, t = points.T
+    assert np.max(np.abs(later.elevation(n, e, t) - first.elevation(n, e, t))) > 0.1  # really another stretch
+    np.testing.assert_allclose(later.elevation(n, e, t), first.elevation(n, e, t + 1234.5), atol=1e-9)
+    np.testing.assert_allclose(np.array(later.slope_angles(n, e, t)), np.array(first.slope_angles(n, e, t + 1234.5)),
+                               atol=1e-9)
+    assert first.advanced(0.0) is first

@@ -51,6 +51,8 @@ def test_pierson_moskowitz_ignores_gamma() -> None:
     ({"seed": True}, ["seed", "integer"]),
     ({"n_components": 5}, ["n_components", "[10, 5000]"]),
     ({"depth_m": 0.1}, ["depth_m", "[0.5, 10000] m"]),
+    ({"start_s": 1e6}, ["start_s", "[-86400, 86400] s"]),
+    ({"start_s": math.inf}, ["start_s", "[-86400, 86400] s"]),
     ({"hs_m": math.nan}, ["hs_m", "(0, 30] m"]),
     ({"spectrum": "bretschneider"}, ["spectrum", "jonswap, pm"]),
     ({"hs_m": 9.0, "tp_s": 2.0}, ["hs_m", "breaks"]),

@@ -77,6 +77,13 @@ class IrregularWaves:
         return IrregularWaves(self.amplitude_m * np.asarray(factor, float), self.frequency_rad_s,
                               self.wavenumber_rad_m, self.direction_rad, self.phase_rad, self.roll_sign)
 
+    def advanced(self, seconds: float) -> IrregularWaves:
+        """The same sea ``seconds`` later: at time t it shows what this one shows at t + ``seconds``."""
+        if seconds == 0.0:
+            return self
+        return IrregularWaves(self.amplitude_m, self.frequency_rad_s, self.wavenumber_rad_m, self.direction_rad,
+                              np.mod(self.phase_rad + self.frequency_rad_s * seconds, 2 * math.pi), self.roll_sign)
+
     # --- the WaveField interface -------------------------------------------------------------------
 
     def elevation(self, north: Any, east: Any, t: Any) -> Any:

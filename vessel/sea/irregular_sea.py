@@ -42,6 +42,8 @@ class IrregularSea:
     then holds less than one component). The plant compiles either size
     (``vessel.jit``). ``paper_roll_sign`` False (default) is the geometric surface-relative roll; True
     the paper's literal sign, as in ``RegularWaves``. ``travel_dir_deg`` −90 is the paper's West.
+    ``start_s`` moves the sea's clock: the run's t = 0 meets the waves of the sea's t = ``start_s``, so an
+    in-process run can fly the very stretch of sea a simulator run met later (its engage time over MAVLink).
     """
 
     spectrum: str = _choice("jonswap", SPECTRA, "jonswap or pm (Pierson–Moskowitz, γ = 1)")
@@ -55,6 +57,7 @@ class IrregularSea:
     n_components: int = bounded(200, 10, 5000, "", "number of wave components N")
     seed: int = bounded(7, 0, MAX_SEED, "", "random seed of frequencies, phases and directions")
     depth_m: float | None = bounded(None, 0.5, 1e4, "m", "water depth for dispersion (default: deep water)")
+    start_s: float = bounded(0.0, -86400.0, 86400.0, "s", "the sea's own clock at the run's t = 0")
     paper_roll_sign: bool = False
 
     def __post_init__(self) -> None:
@@ -107,7 +110,7 @@ class IrregularSea:
         """The sea at a point (what a wave staff measures), no hull averaging."""
         return synthesise(self.spectrum, self.significant_height_m, self.peak_period_s, self.effective_gamma,
                           math.radians(self.travel_dir_deg), self.spreading_s, self.n_components, self.seed,
-                          self.depth_m, roll_sign=1.0 if self.paper_roll_sign else -1.0)
+                          self.depth_m, roll_sign=1.0 if self.paper_roll_sign else -1.0).advanced(self.start_s)
 
     def wave_field(self, params: OtterParameters | None = None) -> IrregularWaves | CalmWater:
         """The wave field a hull with ``params`` rides on (averaged over its waterplane); calm for sea state 0.
