@@ -106,14 +106,15 @@ class SensedTauPlant:
             t = (i - steps - settle) * period_s
             if i >= settle:
                 self.sense(t)
-            self.advance(t, np.zeros(2), (0.0, 0.0))
+            self.advance(t, np.zeros(2), (0.0, 0.0), sensed=i >= settle)
 
-    def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float]) -> None:
-        """One control period from ``t`` with τ held, sensing at each half period inside it."""
+    def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float], sensed: bool = True) -> None:
+        """One control period from ``t`` with τ held, sensing at each half period inside it (``sensed``;
+        not while the hull settles unwatched)."""
         self._tau = np.asarray(tau, float)
         for i in range(SAMPLES_PER_PERIOD):
             t0 = t + i * self.half_s
-            if i > 0:
+            if i > 0 and sensed:
                 self.sense(t0)
             times = ca.DM(t0 + self.dt * np.arange(self.substeps)).T
             out = np.asarray(self._half(self.x, ca.repmat(ca.DM(self._tau), 1, self.substeps), times))

@@ -44,6 +44,30 @@ def test_hidden_phase_depends_on_the_seed_only() -> None:
     assert -math.pi <= a.phase_rad <= math.pi and dataclasses.replace(a, phase_rad=0.0) == waves
 
 
+def test_the_watch_senses_only_its_own_seconds_not_the_unwatched_settling() -> None:
+    """The hull floats ``SETTLE_S`` unwatched before a watch (as a simulator runs before the companion connects):
+    the wave source gets its first sample at −watch_s and then one every half period up to 0, none before."""
+    import numpy as np
+
+    from mavbridge.waves.inloop import SETTLE_S, SensedTauPlant, sensor_model
+    from vessel.sea.state import Start
+
+    class Times:
+        def __init__(self) -> None:
+            self.t: list[float] = []
+
+        def observe(self, sample: object) -> None:
+            self.t.append(sample.t_s)
+
+    scenario = scenario_from_mapping({}, "x")
+    source = Times()
+    plant = SensedTauPlant(scenario.params(), scenario.sea.waves(), scenario.sea.current(), Start().state(), 0.1,
+                           0.05, True, sensor_model("ideal", 1), source)
+    plant.watch(3.0, 0.1)
+    assert SETTLE_S > 1.0 and len(source.t) == 60
+    np.testing.assert_allclose(source.t, -3.0 + 0.05 * np.arange(60), atol=1e-9)
+
+
 @pytest.mark.parametrize(("section", "field"), [({"waves": "guess"}, "estimation.waves"),
                                                 ({"sensors": "perfect"}, "estimation.sensors"),
                                                 ({"roll_sign": 0.5}, "estimation.roll_sign"),
