@@ -28,7 +28,8 @@ calibrated once (``mavbridge.waves.calibration``, heading 45°, another phase) u
 ``--closed-loop``: the roll reduction of Balanced against Direct, both flown on the estimate, in the
 in-process runner (``scenarios/estimated.yaml``: heave, hidden phase from each seed, default sensors),
 beside the same runs on the truth (the true regular wave: it is a single component, so fit = field).
-``--closed-loop --sea jonswap|ss3|ss4``: the same in irregular long-crested seas
+``--closed-loop --sea jonswap|ss3|ss4|short``: the same in irregular long-crested seas, or (``short``) the
+JONSWAP sea short-crested (cos-2s spreading, s = 10)
 (``scenarios/jonswap_estimated.yaml``: JONSWAP Hs 1.75 m, Tp 6 s, γ 3.3, or NATO sea state 3 / 4 with
 Table I's values), each seed drawing its own sea; the truth is then the full 200-component field built
 into the NMPC's model, the estimate a regular wave when confident plus the sea's slope statistics.
@@ -216,7 +217,8 @@ def cost(seconds: float = 120.0) -> tuple[float, float]:
 
 
 SEAS = {"paper": "estimated.yaml", "jonswap": "jonswap_estimated.yaml", "ss3": "jonswap_estimated.yaml",
-        "ss4": "jonswap_estimated.yaml"}
+        "ss4": "jonswap_estimated.yaml", "short": "jonswap_estimated.yaml"}
+SHORT_CRESTED_S = 10.0  # --sea short: the JONSWAP sea with cos-2s spreading, s = 10 (issue 33)
 
 
 def _sea_runs(sea: str, seed: int, runs: dict) -> dict:
@@ -231,6 +233,8 @@ def _sea_runs(sea: str, seed: int, runs: dict) -> dict:
             changes: dict = {"seed": seed}
             if state is not None:
                 changes.update(sea_state=state, hs_m=None, tp_s=None)
+            if sea == "short":
+                changes.update(spreading_s=SHORT_CRESTED_S)
             world = dataclasses.replace(sc.world, sea=dataclasses.replace(
                 sc.world.sea, spectrum=dataclasses.replace(spectrum, **changes)))
             sc = dataclasses.replace(sc, world=world)
