@@ -8,9 +8,11 @@ An irregular sea never repeats, so a MAVLink run and an in-process run compare o
 companion engages some seconds after it connects; a run starting at t = 0 in-process meets other waves, and a
 30 s look at an irregular sea varies by tens of percent from one stretch to the next (and the expected-roll
 term with its square). So each MAVLink run gets a twin: the experiment runner on the same scenario with
-``sea.spectrum.start_s`` = the hidden origin + the autopilot time the companion engaged at, and a watch as long
-as the companion's (from its connection to engaging); the twin's hull floats unwatched before, as the
-simulator's did before the companion connected.
+``sea.spectrum.start_s`` = the scenario's own + the hidden origin + the autopilot time the companion engaged at,
+and a watch as long as the companion's (from its connection to engaging); the twin's hull floats unwatched for
+``SETTLE_S`` (10 s) before, as the simulator's did for its first 9-11 s before the companion connected (the one
+second either way, and the 0.2 s from connecting to the estimator's first sample, are not matched). Each twin
+is written beside its MAVLink run (``...-twin``).
 
 The MAVLink runs are `mavbridge demo` with every flag at its default (paced, speedup 5, nrti, waves estimated,
 the GUIDED path in its default form, engaged 30 s after connecting); only `--scenario`, `--output`, `--seed`,
@@ -50,17 +52,20 @@ def single_scenario_file(sea_seed: int, folder: Path) -> Path:
     return path
 
 
-def twin(scenario_file: Path, sim_seed: int, metrics: dict[str, Any], direct: bool) -> dict[str, Any]:
-    """The in-process run on the stretch of sea the MAVLink run met (see the module docstring)."""
+def twin(scenario_file: Path, sim_seed: int, metrics: dict[str, Any], direct: bool,
+         out: Path | None = None) -> dict[str, Any]:
+    """The in-process run on the stretch of sea the MAVLink run met (see the module docstring); the simulator adds
+    its hidden origin to the scenario's own ``start_s``, and so does the twin. Written to ``out`` when given."""
     scenario = load_scenarios(scenario_file)[0]
     engaged, connected = metrics["engaged_at_s"], metrics["connected_at_s"]
-    spectrum = dataclasses.replace(scenario.sea.spectrum, start_s=hidden_time_origin_s(sim_seed) + engaged)
+    start_s = scenario.sea.spectrum.start_s + hidden_time_origin_s(sim_seed) + engaged
+    spectrum = dataclasses.replace(scenario.sea.spectrum, start_s=start_s)
     controller = scenario.controller.replace(r=0.0) if direct else scenario.controller
     world = dataclasses.replace(scenario.world, sea=dataclasses.replace(scenario.sea, spectrum=spectrum))
     scenario = dataclasses.replace(scenario, world=world, controller=controller,
                                    estimation=dataclasses.replace(scenario.estimation,
                                                                   watch_s=round(engaged - connected, 1)))
-    return run_scenario(scenario, None, plots=False).metrics
+    return run_scenario(scenario, out, plots=False).metrics
 
 
 def cut(balanced: dict[str, Any], direct: dict[str, Any]) -> float:
@@ -78,9 +83,10 @@ def pair(path: str, scenario_file: Path, sim_seed: int, root: Path) -> tuple[str
     """One Balanced/Direct pair over MAVLink and their twins: the table line and the cuts' difference."""
     runs: dict[str, dict[str, Any]] = {}
     for name, direct in (("balanced", False), ("direct", True)):
-        flown = fly(scenario_file, path, sim_seed, direct, root / f"{path}-{scenario_file.stem}-seed{sim_seed}-{name}")
-        runs[name] = flown
-        runs[name + "_twin"] = twin(scenario_file, sim_seed, flown, direct)
+        folder = root / f"{path}-{scenario_file.stem}-seed{sim_seed}-{name}"
+        runs[name] = fly(scenario_file, path, sim_seed, direct, folder)
+        runs[name + "_twin"] = twin(scenario_file, sim_seed, runs[name], direct,
+                                    folder.with_name(folder.name + "-twin"))
     over, inproc = cut(runs["balanced"], runs["direct"]), cut(runs["balanced_twin"], runs["direct_twin"])
     line = (f"{path:>15} {scenario_file.stem:>13} {sim_seed:>4} | {cell(runs['direct'])} {cell(runs['balanced'])} "
             f"{over:6.1f} | {cell(runs['direct_twin'])} {cell(runs['balanced_twin'])} {inproc:6.1f} | "

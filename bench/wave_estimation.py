@@ -28,9 +28,8 @@ calibrated once (``mavbridge.waves.calibration``, heading 45°, another phase) u
 ``--closed-loop``: the roll reduction of Balanced against Direct, both flown on the estimate, in the
 in-process runner (``scenarios/estimated.yaml``: heave, hidden phase from each seed, default sensors),
 beside the same runs on the truth (the true regular wave: it is a single component, so fit = field).
-``--closed-loop --sea jonswap|ss3|ss4|short``: the same in irregular long-crested seas, or (``short``) the
-JONSWAP sea short-crested (cos-2s spreading, s = 10)
-(``scenarios/jonswap_estimated.yaml``: JONSWAP Hs 1.75 m, Tp 6 s, γ 3.3, or NATO sea state 3 / 4 with
+``--closed-loop --sea jonswap|ss3|ss4|short``: the same in irregular long-crested seas, or short-crested
+(cos-2s, s = 10) (``scenarios/jonswap_estimated.yaml``: JONSWAP Hs 1.75 m, Tp 6 s, γ 3.3, or NATO sea state 3 / 4 with
 Table I's values), each seed drawing its own sea; the truth is then the full 200-component field built
 into the NMPC's model, the estimate a regular wave when confident plus the sea's slope statistics.
 Cost: ``observe`` twice (20 Hz) plus ``estimate`` once (10 Hz) per 0.1 s control step, median and p99.

@@ -82,8 +82,9 @@ def seeded_waves(waves: WaveField, seed: int) -> WaveField:
 
 
 def hidden_time_origin_s(seed: int) -> float:
-    """The irregular sea's own clock at boot under ``seed`` (s): the simulator's t meets the sea's t + this.
-    An in-process twin of a simulator run flies the same stretch with ``IrregularSea.start_s`` = this + t."""
+    """The time origin ``seed`` hides (s), added to the sea's own ``start_s``: the simulator's t meets the
+    scenario sea's t + this. An in-process twin of a simulator run engaged at t flies the same stretch with
+    ``IrregularSea.start_s`` = the scenario's ``start_s`` + this + t."""
     return float(np.random.default_rng(seed).uniform(0.0, TIME_ORIGIN_MAX_S))
 
 

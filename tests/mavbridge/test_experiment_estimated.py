@@ -55,17 +55,21 @@ def test_the_watch_senses_only_its_own_seconds_not_the_unwatched_settling() -> N
     class Times:
         def __init__(self) -> None:
             self.t: list[float] = []
+            self.first: object = None
 
         def observe(self, sample: object) -> None:
             self.t.append(sample.t_s)
+            self.first = self.first or sample
 
     scenario = scenario_from_mapping({}, "x")
     source = Times()
     plant = SensedTauPlant(scenario.params(), scenario.sea.waves(), scenario.sea.current(), Start().state(), 0.1,
                            0.05, True, sensor_model("ideal", 1), source)
     plant.watch(3.0, 0.1)
-    assert SETTLE_S > 1.0 and len(source.t) == 60
+    assert len(source.t) == 60
     np.testing.assert_allclose(source.t, -3.0 + 0.05 * np.arange(60), atol=1e-9)
+    first = source.first  # the hull has been in the waves for SETTLE_S: no longer on its calm start
+    assert SETTLE_S > 1.0 and abs(first.position_ned[2]) + abs(first.attitude[1]) > 1e-3
 
 
 @pytest.mark.parametrize(("section", "field"), [({"waves": "guess"}, "estimation.waves"),

@@ -197,6 +197,21 @@ def test_the_seed_hides_an_irregular_seas_time_origin_that_a_twin_can_meet() -> 
     np.testing.assert_allclose(seeded.elevation(3.0, -2.0, 40.0 + t), twin.elevation(3.0, -2.0, t), atol=1e-9)
 
 
+def test_the_simulator_adds_its_hidden_origin_to_the_scenarios_own_start() -> None:
+    """A scenario's ``start_s`` and the seed's hidden origin add up in the simulator's plant (no double shift, none
+    lost): its sea at t is the scenario's sea, unshifted, at t + start_s + the origin."""
+    from sim_vehicle.scenario import hidden_time_origin_s
+
+    sea = IrregularSea(hs_m=1.75, tp_s=6.0, seed=4)
+    world = World(sea=SeaState(spectrum=dataclasses.replace(sea, start_s=100.0)))
+    physics = Physics.create(world, seed=3)
+    plain = sea.wave_field(world.params())
+    t = np.linspace(0.0, 20.0, 41)
+    shift = 100.0 + hidden_time_origin_s(3)
+    np.testing.assert_allclose(physics.plant.waves.elevation(1.0, 2.0, t), plain.elevation(1.0, 2.0, t + shift),
+                               atol=1e-9)
+
+
 @dataclasses.dataclass(frozen=True)
 class _ArrayField:
     """A wave field description holding arrays, as an irregular sea does."""

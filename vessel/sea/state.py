@@ -91,7 +91,8 @@ def describe_irregular(sea: IrregularSea) -> str:
     crests = "long-crested" if sea.spreading_s == 0 else f"short-crested (s {sea.spreading_s:g})"
     state = f"sea state {sea.sea_state}: " if sea.sea_state is not None else ""
     return (f"{state}{sea.spectrum} Hs {sea.significant_height_m:g} m, Tp {sea.peak_period_s:g} s{gamma}, "
-            f"{crests} to {sea.travel_dir_deg:g}°, N {sea.n_components}, seed {sea.seed}")
+            f"{crests} to {sea.travel_dir_deg:g}°, N {sea.n_components}, seed {sea.seed}"
+            + (f", from the sea's t = {sea.start_s:g} s" if sea.start_s else ""))
 
 
 @dataclass(frozen=True)
