@@ -10,7 +10,8 @@ requests in a small buffer and drops what does not fit), so a burst never loses 
 
 A request is a group of names that mean the same (``SYSID_MYGCS`` or ArduPilot 4.7's ``MAV_GCS_SYSID``): the
 first that answers with a value settles it, and the others are no longer asked. A required group is asked
-until it is settled or the budget is spent; an optional one ``OPTIONAL_TRIES`` times, or for as long as a
+until it is settled or the budget is spent; an optional one ``OPTIONAL_TRIES`` times on a clean link, more on a
+lossy one (``optional_tries``: the answer rate measured on the names answered so far), or for as long as a
 required one is still being asked. Which parameters are which is the companion's business
 (``mavbridge.companion.parameters``); this module only asks, listens and counts.
 """
@@ -27,6 +28,8 @@ from typing import Any
 from mavbridge.link.retry import OPTIONAL_TRIES, count_retry  # (an optional name: asked this often at least)
 
 WINDOW = 8  # requests outstanding at once
+OPTIONAL_MISS = 0.001  # an optional name the firmware has may go unread with at most this chance ...
+OPTIONAL_MAX_TRIES = 25  # ... asked at most this often (50 % loss each way: p ≈ 0.25, 25 tries)
 DOES_NOT_EXIST = 1  # MAV_PARAM_ERROR_DOES_NOT_EXIST
 ERROR_NAMES = {1: "does not exist", 2: "value out of range", 3: "permission denied", 4: "component not found",
                5: "read only", 6: "type unsupported", 7: "type mismatch", 8: "read failed"}
@@ -90,10 +93,26 @@ class ParamAnswers:
             self.refused[name] = ERROR_NAMES.get(int(msg.error), f"error {int(msg.error)}")
 
 
+def optional_tries(answers: ParamAnswers) -> int:
+    """How often to ask for an optional name before taking its silence as "the firmware has none": on a clean
+    link ``OPTIONAL_TRIES``; on a lossy one enough that a name the firmware has stays unanswered with a chance
+    below ``OPTIONAL_MISS`` (at most ``OPTIONAL_MAX_TRIES``). The chance a try is answered is measured on the
+    names answered so far: each took 1/p tries on average (40 % loss each way: p ≈ 0.36, 16 tries)."""
+    answered = [answers.tries[n] for n in (*answers.values, *answers.refused) if answers.tries[n] > 0]
+    if not answered:
+        return OPTIONAL_TRIES
+    p = min(1.0, len(answered) / sum(answered))
+    if p >= 1.0:
+        return OPTIONAL_TRIES
+    needed = math.ceil(math.log(OPTIONAL_MISS) / math.log(1.0 - p))
+    return max(OPTIONAL_TRIES, min(OPTIONAL_MAX_TRIES, needed))
+
+
 def _wanted(requests: list[ParamRequest], answers: ParamAnswers) -> list[str]:
     """The names to (keep) ask(ing), in order: those of unsettled groups not refused; an optional group's only
-    while it has had fewer than OPTIONAL_TRIES tries, or a required group is still unsettled."""
+    while it has had fewer than ``optional_tries`` tries, or a required group is still unsettled."""
     required_open = any(r.required and not answers.settled(r) for r in requests)
+    tries_optional = optional_tries(answers)
     names: list[str] = []
     for request in requests:
         if answers.settled(request):
@@ -101,7 +120,7 @@ def _wanted(requests: list[ParamRequest], answers: ParamAnswers) -> list[str]:
         for name in request.names:
             if name in answers.refused or name in names:
                 continue
-            if request.required or required_open or answers.tries[name] < OPTIONAL_TRIES:
+            if request.required or required_open or answers.tries[name] < tries_optional:
                 names.append(name)
     return names
 

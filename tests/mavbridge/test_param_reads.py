@@ -1,0 +1,51 @@
+"""How often an optional parameter is asked for before its silence is taken as "the firmware has none": as before
+on a clean link, more on a lossy one, from the answer rate the reads so far measured."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+from mavbridge.link.param_reads import (
+    OPTIONAL_MAX_TRIES,
+    OPTIONAL_MISS,
+    ParamAnswers,
+    ParamRequest,
+    _wanted,
+    optional_tries,
+)
+from mavbridge.link.retry import OPTIONAL_TRIES
+
+
+def _answers(tries_of_answered: list[int], refused: int = 0) -> ParamAnswers:
+    """Names P0.. answered with a value after the given numbers of tries, and ``refused`` names refused at once."""
+    values = {f"P{i}": 1.0 for i in range(len(tries_of_answered))}
+    tries = Counter({f"P{i}": n for i, n in enumerate(tries_of_answered)})
+    refusals = {f"R{i}": "does not exist" for i in range(refused)}
+    tries.update({name: 1 for name in refusals})
+    return ParamAnswers(values=values, refused=refusals, tries=tries)
+
+
+def test_a_clean_link_asks_an_optional_name_as_often_as_before() -> None:
+    assert optional_tries(ParamAnswers()) == OPTIONAL_TRIES  # nothing measured yet
+    assert optional_tries(_answers([1] * 12, refused=2)) == OPTIONAL_TRIES  # every try answered
+
+
+def test_a_lossy_link_asks_until_a_lost_answer_is_unlikely() -> None:
+    """At 40 % loss each way a try is answered with p = 0.36: the reads so far took 1/p tries each, and an
+    optional name is asked until (1 − p)^n is below OPTIONAL_MISS."""
+    lossy = _answers([2, 3, 4, 2, 3, 3, 2, 3, 3, 2, 3, 3])  # 33 tries for 12 answers: p = 0.364
+    n = optional_tries(lossy)
+    assert OPTIONAL_TRIES < n < OPTIONAL_MAX_TRIES
+    assert (1 - 12 / 33) ** n <= OPTIONAL_MISS < (1 - 12 / 33) ** (n - 1)
+    assert optional_tries(_answers([50] * 4)) == OPTIONAL_MAX_TRIES  # a nearly dead link: capped
+
+
+def test_the_optional_name_stays_wanted_until_its_tries_are_spent() -> None:
+    """With every required name settled, the optional one is asked again on a lossy link after OPTIONAL_TRIES
+    unanswered tries (it would have been given up before), and given up after ``optional_tries``."""
+    answers = _answers([2, 3, 4, 2, 3, 3, 2, 3, 3, 2, 3, 3])
+    requests = [ParamRequest(("P0",)), ParamRequest(("RC_OPTIONS",), required=False)]
+    answers.tries["RC_OPTIONS"] = OPTIONAL_TRIES
+    assert _wanted(requests, answers) == ["RC_OPTIONS"]
+    answers.tries["RC_OPTIONS"] = optional_tries(answers)
+    assert _wanted(requests, answers) == []
