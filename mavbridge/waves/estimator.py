@@ -97,7 +97,7 @@ class WaveEstimator:
         if self._watch.manoeuvring(att[2], dt):  # a turn or a jump changes ω_e
             self._quiet_since = t
         roll, pitch, slope_n, slope_e = self._slopes(att, dt)
-        self._spread.update(roll / self.s.roll_gain, pitch / self.s.pitch_gain, att[2], dt)
+        self._spread.update(att[0] * self.s.roll_sign / self.s.roll_gain, att[1] / self.s.pitch_gain, att[2], dt)
         self._osc.advance(slope_n, slope_e, dt, self._fit_quality())
         prev = (self._fit["sn"].X, self._fit["se"].X)
         rotor = cmath.exp(1j * self._osc.theta)
