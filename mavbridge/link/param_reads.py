@@ -29,7 +29,7 @@ from mavbridge.link.retry import OPTIONAL_TRIES, count_retry  # (an optional nam
 
 WINDOW = 8  # requests outstanding at once
 OPTIONAL_MISS = 0.001  # an optional name the firmware has may go unread with at most this chance ...
-OPTIONAL_MAX_TRIES = 25  # ... asked at most this often (50 % loss each way: p ≈ 0.25, 25 tries)
+OPTIONAL_MAX_TRIES = 25  # ... asked at most this often (50 % loss each way, p ≈ 0.25: the cap)
 DOES_NOT_EXIST = 1  # MAV_PARAM_ERROR_DOES_NOT_EXIST
 ERROR_NAMES = {1: "does not exist", 2: "value out of range", 3: "permission denied", 4: "component not found",
                5: "read only", 6: "type unsupported", 7: "type mismatch", 8: "read failed"}
@@ -61,7 +61,8 @@ class ParamBudget:
 @dataclass(frozen=True)
 class ParamRequest:
     """Names that mean the same parameter (the first to answer with a value settles it), and whether it is
-    required (asked until settled or the budget is spent) or optional (asked briefly)."""
+    required (asked until settled or the budget is spent) or optional (while a required one is open, then
+    ``optional_tries`` times)."""
 
     names: tuple[str, ...]
     required: bool = True
@@ -94,18 +95,23 @@ class ParamAnswers:
 
 
 def optional_tries(answers: ParamAnswers) -> int:
-    """How often to ask for an optional name before taking its silence as "the firmware has none": on a clean
-    link ``OPTIONAL_TRIES``; on a lossy one enough that a name the firmware has stays unanswered with a chance
-    below ``OPTIONAL_MISS`` (at most ``OPTIONAL_MAX_TRIES``). The chance a try is answered is measured on the
-    names answered so far: each took 1/p tries on average (40 % loss each way: p ≈ 0.36, 16 tries)."""
+    """How often to ask for an optional name before taking its silence as "the firmware has none": ``OPTIONAL_TRIES``
+    on a clean link; on a lossy one until a name the firmware has would stay unanswered with a chance below
+    ``OPTIONAL_MISS`` (at most ``OPTIONAL_MAX_TRIES``). That chance is (1 − p)ⁿ for a try answered with chance p,
+    averaged over what the names answered so far say of p (k names in S tries: a Beta(k + 1, S − k + 1) belief
+    from a uniform prior), E[(1 − p)ⁿ] = ∏ᵢ₌₀ⁿ⁻¹ (S − k + 1 + i) / (S + 2 + i): a few lucky answers do not
+    shorten the asking as a single estimate of p would (40 % loss each way, p ≈ 0.36: about 18 tries)."""
     answered = [answers.tries[n] for n in (*answers.values, *answers.refused) if answers.tries[n] > 0]
     if not answered:
         return OPTIONAL_TRIES
-    p = min(1.0, len(answered) / sum(answered))
-    if p >= 1.0:
-        return OPTIONAL_TRIES
-    needed = math.ceil(math.log(OPTIONAL_MISS) / math.log(1.0 - p))
-    return max(OPTIONAL_TRIES, min(OPTIONAL_MAX_TRIES, needed))
+    k, total = len(answered), sum(answered)
+    miss, tries = 1.0, 0
+    while tries < OPTIONAL_MAX_TRIES:
+        miss *= (total - k + 1 + tries) / (total + 2 + tries)
+        tries += 1
+        if tries >= OPTIONAL_TRIES and miss <= OPTIONAL_MISS:
+            break
+    return tries
 
 
 def _wanted(requests: list[ParamRequest], answers: ParamAnswers) -> list[str]:
@@ -166,10 +172,10 @@ Follow = Callable[[ParamAnswers], Iterable[ParamRequest]]
 def read_parameters(link: Any, requests: Iterable[ParamRequest], budget: ParamBudget, timeout_s: float,
                     answers: ParamAnswers | None = None, follow: Follow | None = None,
                     window: int = WINDOW) -> ParamAnswers:
-    """Ask for every request's names until each is settled (optional ones briefly) or ``budget`` is spent;
-    ``timeout_s``: the wait for one answer before a name is asked again. ``follow(answers)``: requests that the
-    answers so far call for (the RC calibration of the channels RCMAP names), asked as soon as they appear. Adds
-    to ``answers`` when given. Link handlers keep running while it waits."""
+    """Ask for every request's names until each is settled (optional ones ``optional_tries`` times) or ``budget``
+    is spent; ``timeout_s``: the wait for one answer before a name is asked again. ``follow(answers)``: requests
+    that the answers so far call for (the RC calibration of the channels RCMAP names), asked as soon as they
+    appear. Adds to ``answers`` when given. Link handlers keep running while it waits."""
     assert link.target is not None, "wait_autopilot() first"
     requests = list(requests)
     every = {name for request in requests for name in request.names}
