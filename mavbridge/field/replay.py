@@ -99,7 +99,10 @@ class Flight:
         from mavbridge.companion.flight import schedule
 
         due, self.next_tick_ms, _ = schedule(round(t * 1000), self.next_tick_ms, self.period_ms)
-        if not due or not self.window[0] <= t <= self.window[1] or self.arrived_s is not None:
+        if not self.window[0] <= t <= self.window[1] or self.arrived_s is not None:
+            return
+        if not due:
+            self._arrival_between_steps(t)
             return
         x = self.state.vector()
         target = self.tracker.target(float(x[0]), float(x[1]))
@@ -113,6 +116,15 @@ class Flight:
         result = self.nmpc.solve(x, t, target)
         self.solve_ms.append(result.wall_time_s * 1e3)
         self.rows.append(self._row(t, x, result, wave))
+
+    def _arrival_between_steps(self, t: float) -> None:
+        """An attitude between the replay's steps: the boat may be inside the acceptance radius there. The
+        companion steps at the attitudes its own ticks fell on, which a skipped tick moves off the replay's grid;
+        its arrival can be at one of these, with a state the next step's no longer shows (a GPS fix later)."""
+        if self.rows:
+            x = self.state.vector()
+            if self.tracker.target(float(x[0]), float(x[1])) is None:
+                self.arrived_s = t
 
     def finish(self) -> None:
         """The state the log ends with: a log that stops at the waypoint arrives at its last step. A companion's
@@ -231,7 +243,7 @@ def summary_lines(flight: Flight, trial: Trial, req: ReplayRequest, solver: str)
              f"replay: the boat was armed in {mode_name(flight.output.required_mode)} (where the companion commands) "
              f"for {would} of them"]
     if flight.arrived_s is not None:
-        lines.append(f"replay: the last waypoint reached at t = {flight.arrived_s:.1f} s of the log")
+        lines.append(f"replay: the last waypoint reached at t = {flight.arrived_s:.2f} s of the log")
     for what in ("throttle", "steering"):
         cmd = np.array([r.get(f"cmd_{what}", math.nan) for r in rows], float)
         boat = np.array([r.get(f"boat_{what}", math.nan) for r in rows], float)

@@ -222,3 +222,22 @@ def test_a_log_without_a_parameter_the_commands_need_is_refused_naming_it(
     code = main(["replay", str(log), "--out", str(tmp_path / "replay")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "RCMAP_ROLL" in err and len(err.splitlines()) == 1, err
+
+
+def test_the_replay_arrives_at_the_attitude_the_boat_enters_the_radius_between_its_steps(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A companion that skipped a tick steps on attitudes off the replay's 0.1 s grid and may arrive at one of
+    them: the replay sees the boat inside the acceptance radius (2 m) at that attitude, not only at its own next
+    step. Here the boat (North at 1.5 m/s) is 2.04 m short at the step at 31.0 s of the log (the log's clock is
+    the motion's + 1 s) and 1.965 m at the attitude 50 ms later; the step after would be at 31.1 s."""
+    log = tmp_path / "trial.bin"
+    params = {"SYSID_MYGCS": 255.0, "RCMAP_ROLL": 1.0, "RCMAP_THROTTLE": 3.0, "PILOT_STEER_TYPE": 0.0,
+              "FRAME_CLASS": 2.0, "SERVO1_FUNCTION": 73.0, "SERVO3_FUNCTION": 74.0,
+              **{f"RC{ch}_{k}": v for ch in (1, 3) for k, v in (("MIN", 1100.0), ("TRIM", 1500.0), ("MAX", 1900.0),
+                                                                ("DZ", 30.0), ("REVERSED", 0.0))}}
+    write_dataflash(log, sine_motion(32.0, speed_m_s=1.5, heading_deg=0.0), modes=[(0.0, 0)], armed_at=2.0,
+                    waypoints_ne=[(47.04, 0.0)], params=params)
+    assert main(["replay", str(log), "--from", "25", "--out", str(tmp_path / "replay")]) == 0
+    found = re.search(r"^replay: the last waypoint reached at t = ([0-9.]+) s of the log$", capsys.readouterr().out,
+                      re.M)
+    assert found and float(found.group(1)) == pytest.approx(31.05, abs=0.001), found
