@@ -118,12 +118,16 @@ class Flight:
         self.rows.append(self._row(t, x, result, wave))
 
     def _arrival_between_steps(self, t: float) -> None:
-        """An attitude between the replay's steps: the boat may be inside the acceptance radius there. The
-        companion steps at the attitudes its own ticks fell on, which a skipped tick moves off the replay's grid;
-        its arrival can be at one of these, with a state the next step's no longer shows (a GPS fix later)."""
-        if self.rows:
+        """An attitude between the replay's steps: the boat may be inside the last waypoint's acceptance radius
+        there. The companion steps at the attitudes its own ticks fell on, which a skipped tick moves off the
+        replay's grid; its arrival can be at one of these, with a state the next step's no longer shows (a GPS
+        fix later). Only the last waypoint, and the tracker left alone: an intermediate one is reached (dropped)
+        at a step, as the companion does, so the replay's commands stay the companion's. The replay may so
+        arrive an attitude or more before a companion that skipped nothing (a grazing pass it never saw)."""
+        waypoints = self.tracker.waypoints
+        if self.rows and len(waypoints) == 1:
             x = self.state.vector()
-            if self.tracker.target(float(x[0]), float(x[1])) is None:
+            if math.hypot(waypoints[0][0] - float(x[0]), waypoints[0][1] - float(x[1])) <= self.tracker.acceptance_m:
                 self.arrived_s = t
 
     def finish(self) -> None:
@@ -243,7 +247,7 @@ def summary_lines(flight: Flight, trial: Trial, req: ReplayRequest, solver: str)
              f"replay: the boat was armed in {mode_name(flight.output.required_mode)} (where the companion commands) "
              f"for {would} of them"]
     if flight.arrived_s is not None:
-        lines.append(f"replay: the last waypoint reached at t = {flight.arrived_s:.2f} s of the log")
+        lines.append(f"replay: the last waypoint reached at t = {flight.arrived_s:.3f} s of the log")
     for what in ("throttle", "steering"):
         cmd = np.array([r.get(f"cmd_{what}", math.nan) for r in rows], float)
         boat = np.array([r.get(f"boat_{what}", math.nan) for r in rows], float)

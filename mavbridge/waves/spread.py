@@ -27,7 +27,7 @@ from mavbridge.waves.filters import lpf_gain
 SPREAD_TAU_S = 60.0  # time constant of the running covariance: several wave groups
 SPREAD_MIN_S = 30.0  # valid observation needed before the covariance is offered (5 periods of a 6 s sea)
 TRIM_TAU_S = 30.0  # time constant of the hull-frame means taken off first: many wave periods (a change of speed
-# leaves a transient of about a fifth of the trim step squared, fading over a minute or two)
+# leaves a transient of about a sixth of the trim step squared, fading over a minute or two)
 # an RMS slope below this is no sea: the default 0.2° attitude noise on roll and pitch alone gives 0.005 rad
 NOISE_FLOOR_RAD = 0.01
 

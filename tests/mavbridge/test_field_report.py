@@ -241,3 +241,20 @@ def test_the_replay_arrives_at_the_attitude_the_boat_enters_the_radius_between_i
     found = re.search(r"^replay: the last waypoint reached at t = ([0-9.]+) s of the log$", capsys.readouterr().out,
                       re.M)
     assert found and float(found.group(1)) == pytest.approx(31.05, abs=0.001), found
+
+
+def test_an_intermediate_waypoint_is_reached_at_a_step_not_between_steps(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Only the last waypoint counts between steps: an intermediate one the boat is inside only at an attitude
+    between two steps (1.975 m at 21.05 s, 2.026 m at the steps at 21.0 and 21.1 s) is not dropped there, as the
+    companion, which looks at its steps, would not; the replay keeps flying to it and never arrives."""
+    log = tmp_path / "trial.bin"
+    params = {"SYSID_MYGCS": 255.0, "RCMAP_ROLL": 1.0, "RCMAP_THROTTLE": 3.0, "PILOT_STEER_TYPE": 0.0,
+              "FRAME_CLASS": 2.0, "SERVO1_FUNCTION": 73.0, "SERVO3_FUNCTION": 74.0,
+              **{f"RC{ch}_{k}": v for ch in (1, 3) for k, v in (("MIN", 1100.0), ("TRIM", 1500.0), ("MAX", 1900.0),
+                                                                ("DZ", 30.0), ("REVERSED", 0.0))}}
+    write_dataflash(log, sine_motion(40.0, speed_m_s=9.0, heading_deg=0.0), modes=[(0.0, 0)], armed_at=2.0,
+                    waypoints_ne=[(180.45, 1.975), (300.0, 0.0)], params=params)
+    assert main(["replay", str(log), "--from", "15", "--out", str(tmp_path / "replay")]) == 0
+    out = capsys.readouterr().out
+    assert "nothing was sent" in out and "last waypoint reached" not in out, out[-600:]
