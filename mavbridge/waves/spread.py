@@ -32,6 +32,11 @@ TRIM_TAU_S = 30.0  # time constant of the hull-frame means taken off first: many
 NOISE_FLOOR_RAD = 0.01
 
 
+def _young_gain(dt: float, tau_s: float, age_s: float) -> float:
+    """A running mean's blend factor over ``tau_s`` that is about a plain mean while it is younger than that."""
+    return lpf_gain(dt, min(tau_s, max(age_s, dt)))
+
+
 class SlopeSpread:
     """Running NED covariance of the slope the hull follows; ``covariance`` answers None until known."""
 
@@ -53,7 +58,7 @@ class SlopeSpread:
         (its trim and list are taken off here, nowhere before), the heading ψ (rad); ``dt`` s after the previous
         sample."""
         self._trim_s += dt
-        g_trim = lpf_gain(dt, min(TRIM_TAU_S, max(self._trim_s, dt)))
+        g_trim = _young_gain(dt, TRIM_TAU_S, self._trim_s)
         trim = self._trim
         trim[0] += g_trim * (across - trim[0])
         trim[1] += g_trim * (along - trim[1])
@@ -61,7 +66,7 @@ class SlopeSpread:
         c_psi, s_psi = math.cos(psi), math.sin(psi)
         slope_n, slope_e = along * c_psi - across * s_psi, along * s_psi + across * c_psi
         self.observed_s += dt
-        g = lpf_gain(dt, min(self.tau_s, max(self.observed_s, dt)))  # a plain mean while young
+        g = _young_gain(dt, self.tau_s, self.observed_s)
         c = self._c
         c[0] += g * (slope_n * slope_n - c[0])
         c[1] += g * (slope_e * slope_n - c[1])
