@@ -193,13 +193,9 @@ class Link:
         """COMMAND_LONG, resent until its COMMAND_ACK (``link_requests.command_long``); the result or None."""
         return link_requests.command_long(self, command, params, policy)
 
-    def read_optional_parameter(self, name: str) -> float | None:
-        """A parameter that older firmware (or a simulator) may not have: asked briefly, silent if absent."""
-        return self.read_parameter(name, self.retry.for_optional(), quiet=True)
-
-    def read_parameter(self, name: str, policy: RetryPolicy | None = None, quiet: bool = False) -> float | None:
+    def read_parameter(self, name: str, policy: RetryPolicy | None = None) -> float | None:
         """PARAM_REQUEST_READ by name, resent on each timeout (``link_requests.read_parameter``); value or None."""
-        return link_requests.read_parameter(self, name, policy, quiet)
+        return link_requests.read_parameter(self, name, policy)
 
     def set_mode(self, custom_mode: int) -> int | None:
         """MAV_CMD_DO_SET_MODE with the custom-mode flag; returns the ACK result."""

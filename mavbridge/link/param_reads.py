@@ -25,8 +25,9 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from mavbridge.link.retry import OPTIONAL_TRIES, count_retry  # (an optional name: asked this often at least)
+from mavbridge.link.retry import count_retry
 
+OPTIONAL_TRIES = 3  # an optional name (older firmware lacking it sends nothing): asked this often at least
 WINDOW = 8  # requests outstanding at once
 OPTIONAL_MISS = 0.001  # an optional name the firmware has may go unread with at most this chance ...
 OPTIONAL_MAX_TRIES = 25  # ... asked at most this often (50 % loss each way, p ≈ 0.25: the cap)

@@ -81,20 +81,16 @@ def command_long(link: RequestLink, command: int, params: tuple[float, ...],
     return int(ack.result)
 
 
-def read_parameter(link: RequestLink, name: str, policy: RetryPolicy | None = None,
-                   quiet: bool = False) -> float | None:
-    """PARAM_REQUEST_READ by name, resent on each timeout; the value, or None when no answer came.
-
-    ``quiet``: no give-up line and no retries counted (an optional parameter that is absent is the normal case).
-    """
+def read_parameter(link: RequestLink, name: str, policy: RetryPolicy | None = None) -> float | None:
+    """PARAM_REQUEST_READ by name, resent on each timeout; the value, or None (with a give-up line) when no answer
+    came."""
     assert link.target is not None, "wait_autopilot() first"
     policy = policy or link.retry
     target = link.target
     reply, tries = ask(lambda _attempt: link.send("param_request_read", target[0], target[1], name.encode(), -1),
                        link.wait_for, lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == name, policy,
-                       (lambda: None) if quiet else _count_retry(link, "param"))
+                       _count_retry(link, "param"))
     if reply is None:
-        if not quiet:
-            link.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))
+        link.log(give_up_line(f"PARAM_REQUEST_READ {name}", "PARAM_VALUE", tries, policy.timeout_s))
         return None
     return float(reply.param_value)

@@ -26,8 +26,6 @@ from vessel.config import bounded
 IN_PROGRESS_FACTOR = 10.0  # after IN_PROGRESS, wait this many timeouts for the final ACK (no resend)
 MISSION_TIMEOUT_S = 1.5  # the mission protocol's default timeout per request
 MISSION_MIN_RETRIES = 5  # ... and its retry count (a larger --command-retries raises it)
-OPTIONAL_TRIES = 3  # a parameter the firmware may not have at all: ArduPilot then sends nothing
-OPTIONAL_TIMEOUT_S = 0.3
 
 
 @dataclass(frozen=True)
@@ -51,10 +49,6 @@ class RetryPolicy:
     def for_mission(self) -> RetryPolicy:
         """The mission protocol's timeout, with at least its 5 retries."""
         return RetryPolicy(max(self.timeout_s, MISSION_TIMEOUT_S), max(self.retries, MISSION_MIN_RETRIES))
-
-    def for_optional(self) -> RetryPolicy:
-        """A short look for a parameter that may not exist (no answer is then the normal outcome)."""
-        return RetryPolicy(min(self.timeout_s, OPTIONAL_TIMEOUT_S), min(self.retries, OPTIONAL_TRIES - 1))
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from mavbridge.preflight.rules import RULES, Context, fmt_value, parameter_findi
 from vessel.geo import DEFAULT_MAX_RANGE_M, ned_from_latlon
 
 POSITION_NEED_HZ = 5.0
+REQUESTED_WAIT_S = 0.5  # an accepted REQUEST_MESSAGE's message: waited for this long (or the link's timeout)
 RATE_WINDOW_S = 3.0  # rates are counted over this much autopilot time (time_boot_ms)
 STREAM_OF = {"ATTITUDE": "EXTRA1", "GLOBAL_POSITION_INT": "POSITION", "LOCAL_POSITION_NED": "POSITION"}
 STREAM_GROUPS = ("EXTRA1", "POSITION", "RAW_SENS")
@@ -253,13 +254,22 @@ class Probe:
             self.report.add(PASS if rate >= need else WARN, "IMU stream after request", expected,
                             f"{name} {rate:.1f} Hz", fix)
 
+    def requested(self, link: Any, msg_id: int, name: str) -> Any | None:
+        """Message ``name`` (once seen, or asked for with MAV_CMD_REQUEST_MESSAGE): asked again, as often as the
+        link's retry policy allows, while the autopilot accepts the request but the message does not arrive (lost
+        on the way); an autopilot that does not accept it (or never answers) is not asked again. None: not had."""
+        for _ in range(link.retry.tries):
+            if name in self.seen:
+                break
+            if link.command_long(mavlink.MAV_CMD_REQUEST_MESSAGE, (float(msg_id),)) != mavlink.MAV_RESULT_ACCEPTED:
+                break
+            link.wait_for(lambda m: m.get_type() == name, max(link.retry.timeout_s, REQUESTED_WAIT_S))
+        return self.seen.get(name)
+
     def gps_and_home(self, link: Any) -> None:
-        """GPS_RAW_INT fix type and HOME_POSITION, each asked for with MAV_CMD_REQUEST_MESSAGE."""
-        for msg_id, name in ((mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, "GPS_RAW_INT"),
-                             (mavlink.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION")):
-            if name not in self.seen:
-                link.command_long(mavlink.MAV_CMD_REQUEST_MESSAGE, (float(msg_id),))
-                link.wait_for(lambda m, n=name: m.get_type() == n, 2.0)
+        """GPS_RAW_INT fix type and HOME_POSITION (``requested``)."""
+        self.requested(link, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, "GPS_RAW_INT")
+        self.requested(link, mavlink.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION")
         gps = self.seen.get("GPS_RAW_INT")
         if gps is None:
             self.report.add(FAIL, "GPS fix", ">= 3 (3D)", "no GPS_RAW_INT", "check the GPS and GPS_TYPE")

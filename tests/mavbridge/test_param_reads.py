@@ -11,12 +11,12 @@ import numpy as np
 from mavbridge.link.param_reads import (
     OPTIONAL_MAX_TRIES,
     OPTIONAL_MISS,
+    OPTIONAL_TRIES,
     ParamAnswers,
     ParamRequest,
     _wanted,
     optional_tries,
 )
-from mavbridge.link.retry import OPTIONAL_TRIES
 
 
 def _answers(tries_of_answered: list[int], refused: int = 0) -> ParamAnswers:

@@ -43,13 +43,18 @@ def _check(tmp_path: Path, extra_parm: str = "", *args: str, waypoint: tuple[flo
             code = main(["check", "--config", str(ROOT / "deploy" / "companion-sim.yaml"),
                          "--connect", f"udpin:127.0.0.1:{sim.udp_ports[1]}", "--timeout", "10", *args])
     text = out.getvalue()
+    return code, text, check_rows(text)
+
+
+def check_rows(text: str) -> dict[str, tuple[str, str, str, str]]:
+    """The check's printed table: {item: (result, expected, actual, fix)}."""
     rows = {}
     for line in text.splitlines():
         status, _, rest = line.partition("  ")
         if status in (PASS, WARN, FAIL):
             cells = [c.strip() for c in rest.strip().split("  ") if c.strip()]
             rows[cells[0]] = (status, *cells[1:], "", "")[:4]
-    return code, text, rows
+    return rows
 
 
 def test_check_passes_on_the_deployed_configuration(tmp_path: Path) -> None:
