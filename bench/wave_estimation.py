@@ -244,7 +244,7 @@ def _sea_runs(sea: str, seed: int, runs: dict) -> dict:
 def _configured(sc: object, seed: int, source: str, watch: float, options: dict) -> object:
     """The run flown on ``source`` with this seed; ``predicted`` (and ``oracle``: its bank from the true sea) with
     the bank of ``options["components"]``, its spread mode, fade and lead; every source on ``options["solver"]``
-    when given."""
+    when given; ``options["weights"]`` (Q, R, S): Balanced's, and Direct's Q and S (its R stays 0)."""
     import dataclasses
 
     oracle, true_slope = source == "oracle", source == "trueslope"
@@ -256,6 +256,9 @@ def _configured(sc: object, seed: int, source: str, watch: float, options: dict)
     changes = {"wave_components": options.get("components", 12)} if source == "predicted" else {}
     if options.get("solver"):
         changes["solver"] = options["solver"]
+    if options.get("weights"):
+        q, r, s = options["weights"]
+        changes.update(q=q, s=s, r=r if sc.controller.r > 0 else 0.0)
     return dataclasses.replace(sc, estimation=est, controller=sc.controller.replace(**changes))
 
 
@@ -295,8 +298,10 @@ def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "pape
     base = {sc.name: sc for sc in load_scenarios(path)}
     watch = base["balanced"].estimation.watch_s if watch_s is None else watch_s
     solver = options.get("solver") or base["balanced"].controller.solver
+    q, r, s = options.get("weights") or (base["balanced"].controller.q, base["balanced"].controller.r,
+                                          base["balanced"].controller.s)
     print(f"# closed loop, {sea} sea, heave, hidden phase, default sensors, {seeds} seeds (scenarios/{SEAS[sea]}), "
-          f"estimator watching {watch:g} s before the run, solver {solver}, "
+          f"estimator watching {watch:g} s before the run, solver {solver}, Balanced's Q, R, S {q:g}, {r:g}, {s:g}, "
           f"bank K = {options.get('components', 12)}, spread with the bank: {options.get('bank_spread', 'full')}, "
           f"bank faded: {options.get('bank_fade', True)}, used when confident {options.get('bank_lead_s', 1.0):g} s "
           f"ahead, {options.get('bank_select', 'compressed')} components")
@@ -348,6 +353,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
                         help="with --sources predicted: use the bank while confident this far ahead, 0..4 s")
     parser.add_argument("--solver", choices=("ipopt", "rti", "asrti", "nrti"), default=None,
                         help="with --closed-loop: the NMPC solver of every run (default: the scenario's)")
+    parser.add_argument("--weights", default=None, metavar="Q,R,S",
+                        help="with --closed-loop: Balanced's weights (e.g. those `mavbridge tune` chose), and Direct's "
+                             "Q and S with R 0 (default: the scenario's)")
     parser.add_argument("--watch", type=float, default=None, metavar="S",
                         help="with --closed-loop: seconds the estimator watches the drifting boat first (default: "
                              "the scenario's, 60; 0: a cold start)")
@@ -371,7 +379,21 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         parser.exit(2, f"--components: {args.components} is outside the allowed range [1, 256]\n")
     if args.watch is not None and not 0 <= args.watch <= 3600:
         parser.exit(2, f"--watch: {args.watch:g} is outside the allowed range [0, 3600] s\n")
+    args.weights = _weights(parser, args.weights)
     return args
+
+
+def _weights(parser: argparse.ArgumentParser, text: str | None) -> tuple[float, float, float] | None:
+    """--weights Q,R,S as three finite numbers, each >= 0 (R > 0: Balanced has a roll term); else exit 2."""
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) and v >= 0 for v in values) or values[1] <= 0:
+        parser.exit(2, f"--weights: {text!r} is not Q,R,S: three numbers >= 0, R > 0\n")
+    return values
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -384,7 +406,7 @@ def main(argv: list[str] | None = None) -> int:
         closed_loop_table(args.seeds, args.watch, args.sea, args.sources,
                           {"components": args.components, "bank_spread": args.bank_spread, "solver": args.solver,
                            "bank_fade": args.bank_fade == "on", "bank_lead_s": args.bank_lead,
-                           "bank_select": args.bank_select})
+                           "bank_select": args.bank_select, "weights": args.weights})
         return 0
     if args.plant and not args.cost_only:
         plant_table(args)
