@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from mavbridge.cli.args import positive
-from mavbridge.lab.scenario import load_scenarios
+from mavbridge.lab.scenario import Scenario, load_scenarios
 from mavbridge.nmpc.config import SOLVERS
 from mavbridge.sweep.executors import open_executor, parse_executor
 from mavbridge.sweep.runner import SweepOutcome, run_sweep
@@ -19,6 +19,7 @@ from mavbridge.sweep.summary import case_rows, markdown_table, plot_heatmap, plo
 from mavbridge.sweep.tune import ROBUST_HEADINGS_DEG, Target, report, tune
 from vessel import ConfigError
 from vessel.argtypes import check_output_folder
+from vessel.sea.irregular_sea import MAX_SEED
 
 
 def _executor_flag(text: str) -> str:
@@ -61,6 +62,25 @@ def add_tune_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--headings", default=None, help="start headings for the robustness re-runs, deg "
                                                      "(default 90,60,120,30,150)")
     p.add_argument("--solver", choices=SOLVERS, default=None, help="override the scenario's controller.solver")
+    p.add_argument("--sea-seeds", default=None, metavar="N,...",
+                   help="an irregular sea: fly every trial on each of these draws of its spectrum (sea.spectrum.seed) "
+                        "and tune on the mean, so the weights fit the sea state rather than one draw of it "
+                        "(default: the scenario's own)")
+
+
+def _seed_list(text: str | None, scenario: Scenario) -> list[int]:
+    """--sea-seeds as distinct integers in the sea's seed range; only for an irregular sea; else ConfigError."""
+    if text is None:
+        return []
+    try:
+        values = [int(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if not values or len(set(values)) != len(values) or not all(0 <= v <= MAX_SEED for v in values):
+        raise ConfigError(f"--sea-seeds: expected distinct comma-separated integers in [0, {MAX_SEED}], got {text!r}")
+    if scenario.world.sea.spectrum is None:
+        raise ConfigError("--sea-seeds: the scenario's sea is a regular wave (no sea.spectrum): it has no draws")
+    return values
 
 
 def _float_list(text: str, flag: str) -> list[float]:
@@ -93,13 +113,14 @@ def tune_command(args: argparse.Namespace) -> int:
         raise ConfigError(f"{args.scenario}: {len(scenarios)} runs; give a single scenario")
     if args.solver:
         scenarios = [dataclasses.replace(scenarios[0], controller=scenarios[0].controller.replace(solver=args.solver))]
+    sea_seeds = _seed_list(args.sea_seeds, scenarios[0])
     out = Path(args.out) if args.out else Path("runs") / f"tune-{Path(args.scenario).stem}"
     check_output_folder(out, "--out")
     previous = signal.signal(signal.SIGTERM, _terminate_as_interrupt)
     try:
         with open_executor(args.executor, args.jobs) as executor:
             result = tune(scenarios[0], target, executor, out, say=lambda line: print(line, file=sys.stderr),
-                          headings_deg=headings)
+                          headings_deg=headings, sea_seeds=sea_seeds)
     except KeyboardInterrupt:
         print("tune: interrupted; rerun the same command to resume (finished runs are kept)", file=sys.stderr)
         return 130
