@@ -301,7 +301,8 @@ def closed_loop_table(seeds: int, watch_s: float | None = None, sea: str = "pape
     q, r, s = options.get("weights") or (base["balanced"].controller.q, base["balanced"].controller.r,
                                           base["balanced"].controller.s)
     print(f"# closed loop, {sea} sea, heave, hidden phase, default sensors, {seeds} seeds (scenarios/{SEAS[sea]}), "
-          f"estimator watching {watch:g} s before the run, solver {solver}, Balanced's Q, R, S {q:g}, {r:g}, {s:g}, "
+          f"estimator watching {watch:g} s before the run, solver {solver}, "
+          f"Q, S {q:g}, {s:g} (both), Balanced's R {r:g}, "
           f"bank K = {options.get('components', 12)}, spread with the bank: {options.get('bank_spread', 'full')}, "
           f"bank faded: {options.get('bank_fade', True)}, used when confident {options.get('bank_lead_s', 1.0):g} s "
           f"ahead, {options.get('bank_select', 'compressed')} components")
@@ -355,7 +356,7 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
                         help="with --closed-loop: the NMPC solver of every run (default: the scenario's)")
     parser.add_argument("--weights", default=None, metavar="Q,R,S",
                         help="with --closed-loop: Balanced's weights (e.g. those `mavbridge tune` chose), and Direct's "
-                             "Q and S with R 0 (default: the scenario's)")
+                             "Q and S with R 0 (default: the scenario's); the NATO tunes fly nrti: add --solver nrti")
     parser.add_argument("--watch", type=float, default=None, metavar="S",
                         help="with --closed-loop: seconds the estimator watches the drifting boat first (default: "
                              "the scenario's, 60; 0: a cold start)")
@@ -393,6 +394,13 @@ def _weights(parser: argparse.ArgumentParser, text: str | None) -> tuple[float, 
         values = ()
     if len(values) != 3 or not all(math.isfinite(v) and v >= 0 for v in values) or values[1] <= 0:
         parser.exit(2, f"--weights: {text!r} is not Q,R,S: three numbers >= 0, R > 0\n")
+    from mavbridge.nmpc.config import NmpcConfig
+    from vessel.config import ConfigError
+
+    try:
+        NmpcConfig().replace(q=values[0], r=values[1], s=values[2])
+    except ConfigError as exc:
+        parser.exit(2, f"--weights: {exc}\n")
     return values
 
 
