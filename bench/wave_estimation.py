@@ -247,9 +247,9 @@ def _configured(sc: object, seed: int, source: str, watch: float, options: dict)
     when given; ``options["weights"]`` (Q, R, S): Balanced's, and Direct's Q and S (its R stays 0)."""
     import dataclasses
 
-    oracle, true_slope = source == "oracle", source == "trueslope"
-    source = "predicted" if source in ("oracle", "trueslope") else source
-    est = dataclasses.replace(sc.estimation, seed=seed, waves=source, watch_s=watch,
+    oracle, true_slope, true_spread = source == "oracle", source == "trueslope", source == "truestats"
+    source = {"oracle": "predicted", "trueslope": "predicted", "truestats": "estimated"}.get(source, source)
+    est = dataclasses.replace(sc.estimation, seed=seed, waves=source, watch_s=watch, spread_truth=true_spread,
                               bank_spread=options.get("bank_spread", "full"), bank_fade=options.get("bank_fade", True),
                               bank_lead_s=options.get("bank_lead_s", 1.0), bank_oracle=oracle,
                               bank_select=options.get("bank_select", "compressed"), bank_true_slope=true_slope)
@@ -341,7 +341,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
                         help="with --closed-loop: comma-separated wave sources to fly on: estimated, predicted "
                              "(the estimator and the phase predictor's bank), oracle (the bank made of the true sea's "
                              "K strongest components: simulation only, a bound on the bank), trueslope (the predictor "
-                             "fed the true slope instead of the attitude: simulation only), truth")
+                             "fed the true slope instead of the attitude: simulation only), truestats (the estimator "
+                             "with the sea's true slope covariance in place of its own: simulation only), truth")
     parser.add_argument("--components", type=int, default=12, help="with --sources predicted: K of the bank, 1..32")
     parser.add_argument("--bank-spread", choices=("full", "residual", "none"), default="full",
                         help="with --sources predicted: the statistics term while the bank is in use")
@@ -371,9 +372,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         parser.exit(2, f"--duration: {args.duration:g} is outside the allowed range [10, 3600] s\n")
     if not all(0 <= v <= 5 for v in args.speeds):
         parser.exit(2, f"--speeds: {args.speeds} has a value outside the allowed range [0, 5] m/s\n")
-    if not set(args.sources.split(",")) <= {"estimated", "predicted", "oracle", "trueslope", "truth"}:
+    if not set(args.sources.split(",")) <= {"estimated", "predicted", "oracle", "trueslope", "truestats", "truth"}:
         parser.exit(2, f"--sources: {args.sources!r} is not a comma-separated list of estimated, predicted, oracle, "
-                    "trueslope, truth\n")
+                    "trueslope, truestats, truth\n")
     if not 0 <= args.bank_lead <= 4:
         parser.exit(2, f"--bank-lead: {args.bank_lead:g} is outside the allowed range [0, 4] s\n")
     if not 1 <= args.components <= 256:

@@ -37,7 +37,7 @@ from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
 from mavbridge.waves.phase.bank_source import BankFeed, PredictedSource
-from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth
+from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth, TrueSpread
 from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
 from vessel.sea.irregular import IrregularWaves
@@ -135,6 +135,11 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
         settings = (calibrated_settings(params, est.surface_heave, est.roll_sign) if est.calibrate
                     else EstimatorSettings(roll_sign=est.roll_sign))
         source: Any = make_estimator(settings)
+        if est.spread_truth:
+            if not isinstance(truth, IrregularWaves):
+                raise ConfigError("estimation.spread_truth: needs an irregular sea (sea.spectrum): its slope "
+                                  "covariance is what replaces the estimator's")
+            source = TrueSpread(source, truth.slope_covariance())
         if est.waves == "predicted":
             if cfg.wave_components < 1:
                 raise ConfigError("estimation.waves: predicted needs controller.wave_components >= 1 (the bank's "

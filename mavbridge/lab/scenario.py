@@ -81,6 +81,10 @@ class Estimation:
                                           "made of the true sea's components (a bound on what a predictor gives)"})
     bank_true_slope: bool = dataclasses.field(default=False, metadata={"doc": "predicted, simulation only: the "
                                               "predictor is fed the true slope at its track instead of the attitude"})
+    spread_truth: bool = dataclasses.field(default=False, metadata={"doc": "estimated, irregular sea, simulation "
+                                           "only: the statistics term gets the sea's true slope covariance in place "
+                                           "of the estimator's, whenever the estimator gives one (a bound on what "
+                                           "the estimated statistics can give)"})
     bank_select: str = choice("compressed", ("compressed", "strongest"), "predicted: the K components handed to the "
                               "NMPC: the fit compressed over its horizon, or the fit's K of most slope energy")
     bank_fade: bool = dataclasses.field(default=True, metadata={"doc": "predicted: fade the bank out of the NMPC's "

@@ -24,7 +24,15 @@ from mavbridge.waves.calibration import hull_response, record_plant, settings_fo
 from mavbridge.waves.kinematic import estimate_errors, paper_sea
 from mavbridge.waves.phase.bank_source import BankFeed
 from mavbridge.waves.settings import EstimatorSettings
-from mavbridge.waves.source import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
+from mavbridge.waves.source import (
+    EstimateHold,
+    MotionSample,
+    TrueSpread,
+    WaveEstimate,
+    WaveSource,
+    sea_spread,
+    spread_line,
+)
 from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
 from vessel.dynamics import OceanCurrent, rigid_body_ode
@@ -240,7 +248,8 @@ class WaveFeed:
     def metrics(self, t_end: float, x_end: np.ndarray) -> dict[str, Any]:
         """Time to a confident estimate, final errors against the truth, the estimator's cost per step."""
         regular = isinstance(self.truth, RegularWaves)  # an irregular sea has one phase per component
-        names = {"estimated": "estimated", "predicted": getattr(self.source, "name", "estimated+phase-bank")}
+        names = {"estimated": self.source.name if isinstance(self.source, TrueSpread) else "estimated",
+                 "predicted": getattr(self.source, "name", "estimated+phase-bank")}
         out: dict[str, Any] = {"wave_source": names.get(self.mode, "scenario-truth"),
                                "sea_phase_rad": float(self.truth.phase_rad) if regular else None}
         ms = np.asarray(self.estimator_ms, float)

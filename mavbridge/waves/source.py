@@ -136,3 +136,33 @@ class ScenarioTruth:
             return None
         return WaveEstimate(w.height_m, w.period_s, w.length_m, w.travel_dir_rad, w.phase_rad, 1.0,
                             roll_sign=w.roll_sign)
+
+
+class TrueSpread:
+    """An estimator whose slope statistics are replaced by the sea's true ones: simulation only, never on a real
+    boat. Wherever the estimator gives a slope covariance (``spread``), this gives ``covariance_ned`` (2×2 NED,
+    rad², e.g. ``IrregularWaves.slope_covariance``), so a closed loop on it bounds what the estimated statistics
+    can give; everything else (samples, the regular wave, the log) is the estimator's."""
+
+    def __init__(self, estimator: object, covariance_ned: np.ndarray) -> None:
+        self.estimator = estimator
+        self.covariance_ned = np.array(covariance_ned, float)
+        self.name = f"{getattr(estimator, 'name', 'estimated')}, true slope statistics (simulation)"
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self.estimator, name)  # (only reached for what this class does not define)
+
+    def observe(self, sample: MotionSample) -> None:
+        """The estimator watches the sample."""
+        self.estimator.observe(sample)  # type: ignore[attr-defined]
+
+    def estimate(self, t_s: float) -> WaveEstimate | None:
+        """The estimator's regular wave."""
+        return self.estimator.estimate(t_s)  # type: ignore[attr-defined]
+
+    def spread(self, explained: bool) -> np.ndarray | None:
+        """The true covariance whenever the estimator has one of its own (None while it has none: a blind or
+        young estimator flies Direct as before)."""
+        if sea_spread(self.estimator, explained) is None:
+            return None
+        return self.covariance_ned.copy()

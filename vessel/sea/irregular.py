@@ -84,6 +84,15 @@ class IrregularWaves:
         return IrregularWaves(self.amplitude_m, self.frequency_rad_s, self.wavenumber_rad_m, self.direction_rad,
                               np.mod(self.phase_rad + self.frequency_rad_s * seconds, 2 * math.pi), self.roll_sign)
 
+    def slope_covariance(self) -> np.ndarray:
+        """The surface slope's covariance at a fixed point, 2×2 NED (rad², small slopes): Σ ½ (aᵢ kᵢ)² dᵢ dᵢᵀ with
+        dᵢ = (cos μᵢ, sin μᵢ), the sea's slope statistics that a boat's own motion estimates (the time average
+        of the gradient's outer product over a long record, the components' frequencies being distinct)."""
+        energy = 0.5 * (self.amplitude_m * self.wavenumber_rad_m) ** 2
+        c, s = np.cos(self.direction_rad), np.sin(self.direction_rad)
+        cross = float(np.sum(energy * c * s))
+        return np.array([[float(np.sum(energy * c * c)), cross], [cross, float(np.sum(energy * s * s))]])
+
     # --- the WaveField interface -------------------------------------------------------------------
 
     def elevation(self, north: Any, east: Any, t: Any) -> Any:
