@@ -23,6 +23,9 @@ the step's. ``asrti-setwave`` feeds the scenario's true wave (the closed loop mu
 ``asrti-setwave-noisy`` the truth with seeded noise on phase and height (an estimator's jitter).
 The ``*-estimated`` rows fly on the wave estimator in the realistic loop (``ESTIMATED``); their step time
 is the solve plus the estimator's work for that step. Compare ``asrti-estimated`` with ``asrti`` of the same run.
+``nrti-predicted`` adds the phase predictor's bank (K = 12) to the estimator (``PREDICTED``): issue 33's budget
+for it, in an irregular sea (``--scenario scenarios/jonswap_estimated.yaml --run balanced``). In the in-process
+loop the wave source's time includes simulating the sensors that feed it.
 """
 
 from __future__ import annotations
@@ -73,12 +76,16 @@ CONFIGS: dict[str, dict] = {
     "asrti-estimated": {"solver": "asrti"},  # the wave estimator in the loop (see ESTIMATED)
     "rti-estimated": {"solver": "rti"},
     "nrti-estimated": {"solver": "nrti"},
+    # The estimator and the phase predictor's bank of 12 components (issue 33's step budget: an irregular-sea
+    # scenario, e.g. --scenario scenarios/jonswap_estimated.yaml --run balanced).
+    "nrti-predicted": {"solver": "nrti", "wave_components": 12},
 }
 # Configurations flown on the wave estimator: the realistic in-process loop (hull heaving with the sea, hidden
 # phase, default sensors at 20 Hz); the step time is the solve plus the estimator's share of that step
 # (two observe at 20 Hz, one estimate, set_wave).
 ESTIMATED = {"waves": "estimated", "surface_heave": True, "hidden_phase": True, "seed": 1, "hold_s": 30.0,
              "watch_s": 60.0}  # as scenarios/estimated.yaml: the estimator has watched the boat, the roll term is on
+PREDICTED = {**ESTIMATED, "waves": "predicted"}  # the *-predicted rows: ESTIMATED with the predictor's bank
 # name -> (phase noise σ rad, relative height noise σ) of the wave handed to set_wave every step
 WAVE_FEEDS: dict[str, tuple[float, float]] = {"asrti-setwave": (0.0, 0.0), "asrti-setwave-noisy": (0.05, 0.03)}
 
@@ -129,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default=str(root / "scenarios" / "balanced.yaml"))
     parser.add_argument("--configs", default="ipopt,rti,asrti,nrti", help=f"comma-separated, from {', '.join(CONFIGS)}")
+    parser.add_argument("--run", default=None, help="the scenario file's run to time (default its first)")
     parser.add_argument("--t-max", type=float, default=None, help="override the scenario's t_max_s")
     parser.add_argument("--plant", choices=("tau", "propellers"), default=None, help="override the scenario's plant")
     args = parser.parse_args(argv)
@@ -136,7 +144,11 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [n for n in names if n not in CONFIGS]
     if unknown:
         parser.error(f"unknown configuration {unknown[0]!r} (choose from {', '.join(CONFIGS)})")
-    base = load_scenarios(args.scenario)[0]
+    runs = load_scenarios(args.scenario)
+    named = [sc for sc in runs if args.run is None or sc.name == args.run]
+    if not named:
+        parser.error(f"--run: {args.run!r} is not a run of {args.scenario} ({', '.join(sc.name for sc in runs)})")
+    base = named[0]
     if args.t_max is not None:
         base = dataclasses.replace(base, t_max_s=args.t_max)
     if args.plant is not None:
@@ -145,8 +157,9 @@ def main(argv: list[str] | None = None) -> int:
     notes = []
     for name in names:
         scenario = dataclasses.replace(base, controller=base.controller.replace(**CONFIGS[name]))
-        if name.endswith("-estimated"):
-            scenario = dataclasses.replace(scenario, estimation=dataclasses.replace(scenario.estimation, **ESTIMATED))
+        if name.endswith(("-estimated", "-predicted")):
+            loop = ESTIMATED if name.endswith("-estimated") else PREDICTED
+            scenario = dataclasses.replace(scenario, estimation=dataclasses.replace(scenario.estimation, **loop))
         start = time.perf_counter()
         feed = wave_fed(WAVE_FEEDS[name]) if name in WAVE_FEEDS else contextlib.nullcontext()
         with feed as fed:

@@ -24,12 +24,14 @@ ATTITUDE for (a datagram lost while recording: "gaps", printed apart). Condition
 quiet; two spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two
 spinners with the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where
 the system has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten
-minutes. The load average (1 min) is printed before and after each.
+minutes. The load average (1 min) is printed before and after each, and the cyclic garbage collector's runs
+during the replay (the watch included): how many, and the longest (ms).
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import os
 import subprocess
@@ -231,6 +233,25 @@ def load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
 
+@contextmanager
+def collections_timed() -> Iterator[list[float]]:
+    """The wall ms of every cyclic garbage collection while inside (is the collector in the step's tail?)."""
+    spans: list[float] = []
+    started = [0.0]
+
+    def timed(phase: str, _info: dict) -> None:
+        if phase == "start":
+            started[0] = time.perf_counter()
+        else:
+            spans.append((time.perf_counter() - started[0]) * 1e3)
+
+    gc.callbacks.append(timed)
+    try:
+        yield spans
+    finally:
+        gc.callbacks.remove(timed)
+
+
 def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: argparse.Namespace,
                   scenario: Any) -> dict[str, Any]:
     """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not)."""
@@ -238,10 +259,11 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
     with build_nmpc(scenario, waves) as nmpc, around():
         before = load()
         step = CompanionStep(nmpc, waves, scenario)
-        timings = replay(rec, step, args.watch, args.duration)
+        with collections_timed() as gc_ms:
+            timings = replay(rec, step, args.watch, args.duration)
         after = load()
     return {"name": name, "timings": timings, "solve_ms": step.solve_ms, "load": f"{before} -> {after}",
-            "roll_term": step.roll_term / max(1, len(step.solve_ms))}
+            "roll_term": step.roll_term / max(1, len(step.solve_ms)), "gc_ms": gc_ms}
 
 
 def figures(row: dict[str, Any]) -> str:
@@ -253,7 +275,8 @@ def figures(row: dict[str, Any]) -> str:
             f"{np.median(command):>8.3f} {np.percentile(command, 99):>8.3f} "
             f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
             f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
-            f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5}")
+            f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5} {len(row['gc_ms']):>5} "
+            f"{max(row['gc_ms'], default=0.0):>7.2f}")
 
 
 def main() -> None:
@@ -290,9 +313,10 @@ def main() -> None:
                                   args, scenario))
     print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'command':>8} {'command':>8} {'max':>8} "
           f"{'missed':>7} {'solve':>8} {'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} "
-          f"{'load 1 min':>12} {'gaps':>5}")
+          f"{'load 1 min':>12} {'gaps':>5} {'gc':>5} {'gc max':>7}")
     print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'median':>8} {'p99':>8} {'':>8} {'ticks':>7} "
-          f"{'median':>8} {'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5}")
+          f"{'median':>8} {'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5} "
+          f"{'runs':>5} {'ms':>7}")
     for row in rows:
         print(figures(row))
 
