@@ -19,7 +19,7 @@ from mavbridge.sweep.summary import case_rows, markdown_table, plot_heatmap, plo
 from mavbridge.sweep.tune import ROBUST_HEADINGS_DEG, Target, report, tune
 from vessel import ConfigError
 from vessel.argtypes import check_output_folder
-from vessel.sea.irregular_sea import MAX_SEED
+from vessel.sea.waves import CalmWater
 
 
 def _executor_flag(text: str) -> str:
@@ -68,18 +68,24 @@ def add_tune_parser(sub: argparse._SubParsersAction) -> None:
                         "(default: the scenario's own)")
 
 
+SEED_MAX = 2**31 - 1  # estimation.seed's range (the sea's own reaches 2³² − 1)
+
+
 def _seed_list(text: str | None, scenario: Scenario) -> list[int]:
-    """--sea-seeds as distinct integers in the sea's seed range; only for an irregular sea; else ConfigError."""
+    """--sea-seeds as distinct plain integers in [0, 2³¹ − 1] (a draw's sea and sensor-noise seed); only for a sea
+    with waves drawn from a spectrum; else ConfigError."""
     if text is None:
         return []
-    try:
-        values = [int(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if not values or len(set(values)) != len(values) or not all(0 <= v <= MAX_SEED for v in values):
-        raise ConfigError(f"--sea-seeds: expected distinct comma-separated integers in [0, {MAX_SEED}], got {text!r}")
-    if scenario.world.sea.spectrum is None:
-        raise ConfigError("--sea-seeds: the scenario's sea is a regular wave (no sea.spectrum): it has no draws")
+    items = [v.strip() for v in text.split(",")]
+    values = [int(v) for v in items if v.isdigit() and v.isascii()]
+    if len(values) != len(items) or len(set(values)) != len(values) or not all(v <= SEED_MAX for v in values):
+        raise ConfigError(f"--sea-seeds: expected distinct comma-separated integers in [0, {SEED_MAX}], got {text!r}")
+    spectrum = scenario.world.sea.spectrum
+    if spectrum is None:
+        raise ConfigError("--sea-seeds: the scenario's sea is a regular wave or calm (no sea.spectrum): it has no "
+                          "draws")
+    if isinstance(spectrum.wave_field(), CalmWater):
+        raise ConfigError("--sea-seeds: the scenario's sea.spectrum is calm water (sea state 0): it has no draws")
     return values
 
 

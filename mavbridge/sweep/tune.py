@@ -20,10 +20,11 @@ with every run that led there; then the chosen weights are re-run from several s
 against its own direct reference) and the mean and worst case are reported.
 
 An irregular sea is one draw of its spectrum: weights tuned on one (its ``sea.spectrum.seed``) fit that draw's
-waves. With ``sea_seeds`` every trial is flown on each of those draws: its roll is the mean over them, its
-reduction the mean of each draw's reduction against the direct tuning on the same draw, and it arrives only if it
-arrives on every draw (its arrival is the latest). Tuned on sea seed 1 alone, NATO sea state 4's weights cut
-29 % there and 21 % on average over seeds 1–10 (``bench/wave_estimation.py --weights``).
+waves. With ``sea_seeds`` every trial is flown on each of those draws, a draw being the sea's components and the
+sensor noise (``estimation.seed``), both from the seed, as ``bench/wave_estimation.py`` draws them: its roll is the
+mean over them, its reduction the mean of each draw's reduction against the direct tuning on the same draw, and
+it arrives only if it arrives on every draw (its arrival is the latest). Tuned on sea seed 1 alone, NATO sea state
+4's weights cut 29 % there and 21 % on average over seeds 1–10 (``bench/wave_estimation.py --weights``).
 """
 
 from __future__ import annotations
@@ -90,8 +91,9 @@ def _with(base: Scenario, q: float, r: float, s: float, heading_deg: float | Non
     data["controller"].update(q=q, r=r, s=s)
     if heading_deg is not None:
         data["start"]["heading_deg"] = heading_deg
-    if sea_seed is not None:
+    if sea_seed is not None:  # a draw: the sea's components and the sensor noise
         data["sea"]["spectrum"]["seed"] = sea_seed
+        data["estimation"]["seed"] = sea_seed
     return scenario_from_mapping(data, "tune", f"q{q:g}-r{r:g}-s{s:g}")
 
 
@@ -130,8 +132,10 @@ class Procedure:
         self.direct_rolls: tuple[float, ...] = ()  # the direct tuning's roll on each sea seed, once chosen
 
     def batch(self, step: str, weights: Sequence[tuple[float, float, float]],
-              heading_deg: float | None = None) -> list[Trial]:
-        """Run every (Q, R, S) of a batch on every sea seed; a trial per weight set, in order."""
+              heading_deg: float | None = None, record: bool = True) -> list[Trial]:
+        """Run every (Q, R, S) of a batch on every sea seed; a trial per weight set, in order (kept among the
+        procedure's trials unless ``record`` is False: the robustness re-runs, measured against their own
+        heading's Direct, are reported apart)."""
         runs = [[_with(self.base, q, r, s, heading_deg, seed) for seed in self.sea_seeds] for q, r, s in weights]
         spec = SweepSpec(f"tune:{step}", {}, [Case({}, sc) for group in runs for sc in group])
         outcome = run_sweep(spec, self.executor, self.out, say=self.say)
@@ -143,8 +147,9 @@ class Procedure:
             if any(record is None for record in records):
                 continue  # a run failed: reported by the runner, left out of the choice
             trials.append(_trial(step, w, [record["metrics"] for record in records], self.direct_rolls))
-        self.trials.extend(trials)
-        self.say(f"tune: {step}: {len(trials)} runs, " + _best_line(trials))
+        if record:
+            self.trials.extend(trials)
+        self.say(f"tune: {step}: {len(trials)} trials of {len(self.sea_seeds)} run(s) each, " + _best_line(trials))
         return trials
 
 
@@ -230,7 +235,7 @@ def _robustness(proc: Procedure, direct: Trial, best: Trial, headings_deg: Seque
     rows = []
     for heading in headings_deg:
         pair = proc.batch(f"robustness {heading:g}°", [(direct.q, 0.0, direct.s), (best.q, best.r, best.s)],
-                          heading_deg=heading)
+                          heading_deg=heading, record=False)
         if len(pair) != 2:
             continue  # a run failed (reported by the runner)
         ref, chosen = pair
@@ -254,7 +259,7 @@ def report(result: TuneResult, target: Target) -> str:
         lines.append(f"\nEvery trial flown on sea seeds {', '.join(map(str, result.sea_seeds))}: its roll is the mean, "
                      "its reduction the mean of each seed's against the direct tuning on that seed, its arrival the "
                      "latest (it arrives only if it arrives on every seed).")
-        if b is not None and len(b.rolls) == len(d.rolls):
+        if b is not None and len(b.rolls) == len(d.rolls) and all(d.rolls):
             cuts = ", ".join(f"{seed}: {100 * (1 - roll / ref):.0f} %"
                              for seed, roll, ref in zip(result.sea_seeds, b.rolls, d.rolls, strict=True))
             lines.append(f"The chosen weights by sea seed: {cuts}.")

@@ -142,7 +142,9 @@ class TrueSpread:
     """An estimator whose slope statistics are replaced by the sea's true ones: simulation only, never on a real
     boat. Wherever the estimator gives a slope covariance (``spread``), this gives ``covariance_ned`` (2×2 NED,
     rad², e.g. ``IrregularWaves.slope_covariance``), so a closed loop on it bounds what the estimated statistics
-    can give; everything else (samples, the regular wave, the log) is the estimator's."""
+    can give; while the estimator's own wave is in use, only the share of it that the estimator leaves unexplained
+    (its own unexplained-to-whole ratio of slope variance), so that the wave is not counted twice. Everything else
+    (samples, the regular wave, the log) is the estimator's."""
 
     def __init__(self, estimator: object, covariance_ned: np.ndarray) -> None:
         self.estimator = estimator
@@ -150,7 +152,10 @@ class TrueSpread:
         self.name = f"{getattr(estimator, 'name', 'estimated')}, true slope statistics (simulation)"
 
     def __getattr__(self, name: str) -> object:
-        return getattr(self.estimator, name)  # (only reached for what this class does not define)
+        """What this class does not define is the estimator's (never for dunders, or before ``__init__``)."""
+        if name.startswith("__") or "estimator" not in self.__dict__:
+            raise AttributeError(name)
+        return getattr(self.__dict__["estimator"], name)
 
     def observe(self, sample: MotionSample) -> None:
         """The estimator watches the sample."""
@@ -161,8 +166,13 @@ class TrueSpread:
         return self.estimator.estimate(t_s)  # type: ignore[attr-defined]
 
     def spread(self, explained: bool) -> np.ndarray | None:
-        """The true covariance whenever the estimator has one of its own (None while it has none: a blind or
-        young estimator flies Direct as before)."""
-        if sea_spread(self.estimator, explained) is None:
+        """The true covariance (its unexplained share while the estimator's wave is in use) whenever the
+        estimator has one of its own; None while it has none (a blind or young estimator flies Direct as before)."""
+        own = sea_spread(self.estimator, explained)
+        if own is None:
             return None
-        return self.covariance_ned.copy()
+        if not explained:
+            return self.covariance_ned.copy()
+        whole = sea_spread(self.estimator, False)
+        share = float(np.trace(own)) / float(np.trace(whole)) if whole is not None and np.trace(whole) > 0 else 1.0
+        return self.covariance_ned * min(max(share, 0.0), 1.0)

@@ -194,6 +194,7 @@ def test_tune_finds_weights_that_meet_the_target_and_reruns_them(tmp_path: Path,
     reduction = float(chosen.split("(")[1].split(" %")[0])
     assert reduction >= 15, chosen
     assert "| 90 |" in text and "| 60 |" in text  # the robustness re-runs
+    assert "| robustness" not in text  # ... in their own table, not among the trials (each has its own Direct)
     assert (out / "tune.md").read_text(encoding="utf-8") == text
 
 

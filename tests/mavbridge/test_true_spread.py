@@ -3,6 +3,7 @@ sea's true slope covariance wherever the estimator would give its own, and says 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from pathlib import Path
 
@@ -18,11 +19,23 @@ from vessel import ConfigError
 ROOT = Path(__file__).resolve().parents[2]
 
 
+class _Locked:
+    """An estimator locked on a wave that explains three quarters of the slope variance it measures."""
+
+    def spread(self, explained: bool) -> np.ndarray:
+        whole = np.diag([4e-3, 2e-3])
+        return whole / 4 if explained else whole
+
+
 def test_the_true_covariance_stands_in_only_where_the_estimator_has_one() -> None:
     truth = np.array([[1e-3, 2e-4], [2e-4, 4e-3]])
     source = TrueSpread(make_estimator(EstimatorSettings()), truth)
     assert source.spread(False) is None and source.estimate(0.0) is None  # nothing watched yet: Direct, as before
     assert "simulation" in source.name
+    locked = TrueSpread(_Locked(), truth)
+    assert np.array_equal(locked.spread(False), truth)
+    assert np.allclose(locked.spread(True), truth / 4)  # the wave in use is not counted twice
+    assert copy.deepcopy(source).covariance_ned is not None  # (no endless delegation while copying)
 
 
 def _balanced(**estimation: object) -> object:
@@ -48,5 +61,5 @@ def test_true_statistics_need_an_irregular_sea() -> None:
     scenario = load_scenarios(ROOT / "scenarios" / "estimated.yaml")[0]
     scenario = dataclasses.replace(scenario, estimation=dataclasses.replace(scenario.estimation, spread_truth=True),
                                    t_max_s=1.0)
-    with pytest.raises(ConfigError, match="spread_truth: needs an irregular sea"):
+    with pytest.raises(ConfigError, match="spread_truth: needs waves: estimated and an irregular sea"):
         run_scenario(scenario, None, plots=False)

@@ -43,7 +43,7 @@ def test_a_trial_is_the_mean_over_draws_and_arrives_only_on_every_draw() -> None
 def test_the_sea_seed_is_the_draw_and_nothing_else_changes() -> None:
     base = scenario_from_mapping(WAVY_IRREGULAR, "test")
     drawn = _with(base, 5.0, 100.0, 2.0, sea_seed=9)
-    assert drawn.world.sea.spectrum.seed == 9 and drawn.controller.r == 100.0
+    assert drawn.world.sea.spectrum.seed == 9 and drawn.estimation.seed == 9 and drawn.controller.r == 100.0
     assert _with(base, 5.0, 100.0, 2.0).world.sea.spectrum.seed == 1
     assert drawn.world.sea.spectrum.hs_m == base.world.sea.spectrum.hs_m
 
@@ -58,6 +58,10 @@ def test_a_batch_flies_each_weight_set_on_every_draw(tmp_path: Path) -> None:
         proc.direct_rolls = direct.rolls
         (balanced,) = proc.batch("roll weight", [(5.0, 4000.0, 2.0)])
     assert len(direct.rolls) == 2 and direct.rolls[0] != direct.rolls[1], direct  # two seas, two runs
+    with open_executor("local", 1) as pool:  # the second draw alone: the same run, so the rolls are in seed order
+        (alone,) = Procedure(base, pool, tmp_path / "tune", say=lambda line: None, sea_seeds=(2,)).batch(
+            "direct", [(5.0, 0.0, 2.0)])
+    assert alone.rolls == (direct.rolls[1],)
     assert direct.avg_roll_deg == pytest.approx(sum(direct.rolls) / 2)
     expected = sum(1 - b / d for b, d in zip(balanced.rolls, direct.rolls, strict=True)) / 2
     assert balanced.reduction is not None and math.isclose(balanced.reduction, expected)
@@ -70,3 +74,11 @@ def test_sea_seeds_on_a_regular_wave_are_refused(tmp_path: Path, capsys: pytest.
     err = capsys.readouterr().err.strip()
     assert code == 2 and "--sea-seeds" in err and "regular" in err and len(err.splitlines()) == 1, err
     assert not (tmp_path / "o").exists()
+
+
+def test_sea_seeds_on_sea_state_zero_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("sea: {spectrum: {kind: jonswap, sea_state: 0}}\n", encoding="utf-8")
+    code = main(["tune", str(scenario), "--max-time", "60", "--sea-seeds", "1,2", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "--sea-seeds" in err and "calm water" in err and len(err.splitlines()) == 1, err

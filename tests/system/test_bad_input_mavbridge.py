@@ -146,6 +146,7 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge tune --solver": [(f"{TUNE} --solver fast", CHOICE)],
     "mavbridge tune --sea-seeds": [(f"{TUNE} --sea-seeds a", "distinct comma-separated integers"),
                                    (f"{TUNE} --sea-seeds 1,1", "distinct"), (f"{TUNE} --sea-seeds -1", "[0, "),
+                                   (f"{TUNE} --sea-seeds 1_0", "[0, "), (f"{TUNE} --sea-seeds 2147483648", "[0, "),
                                    (f"{TUNE} --sea-seeds 1,2", "regular wave")],
     "mavbridge signing setup --config": [(f"{SIGN} --config no/such.yaml", "no/such.yaml"),
                                          (f"{SIGN} --config broken.yaml", "broken.yaml")],

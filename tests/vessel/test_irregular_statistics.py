@@ -84,18 +84,23 @@ def test_record_does_not_repeat_at_two_pi_over_the_bin_width(records: list[np.nd
     assert np.abs(mean_acf[window]).max() < 0.15
 
 
-@pytest.mark.parametrize("spreading_s", [0.0, 10.0], ids=["long-crested", "short-crested"])
-def test_the_slope_covariance_is_what_a_long_record_of_the_gradient_shows(spreading_s: float) -> None:
+@pytest.mark.parametrize(("spreading_s", "travel_deg"), [(0.0, -90.0), (10.0, -90.0), (10.0, 30.0)],
+                         ids=["long-crested-west", "short-crested-west", "short-crested-oblique"])
+def test_the_slope_covariance_is_what_a_long_record_of_the_gradient_shows(spreading_s: float,
+                                                                          travel_deg: float) -> None:
     """``slope_covariance`` against the gradient sampled at a fixed point for an hour (its time average): every
-    entry within 5 % of the larger variance; long-crested it is rank one along the travel direction (West)."""
-    sea = synthesise("jonswap", 1.75, 6.0, 3.3, -math.pi / 2, spreading_s, 200, seed=3)
+    entry within 5 % of the larger variance (the oblique sea's cross term is a third of it); long-crested it is
+    rank one along the travel direction (West)."""
+    sea = synthesise("jonswap", 1.75, 6.0, 3.3, math.radians(travel_deg), spreading_s, 200, seed=3)
     t = np.arange(0.0, 3600.0, 0.25)
     g_n, g_e = sea.gradient(12.0, -7.0, t)
     sampled = np.cov(np.stack([g_n, g_e]), bias=True)
     expected = sea.slope_covariance()
     assert np.max(np.abs(sampled - expected)) < 0.05 * expected.max(), (sampled, expected)
     minor, major = np.linalg.eigvalsh(expected)
-    if spreading_s == 0.0:
+    if travel_deg == 30.0:
+        assert expected[0, 1] > 0.3 * expected.max()  # slope along 30°: N and E move together
+    elif spreading_s == 0.0:
         assert minor < 1e-9 * major and expected[1, 1] == pytest.approx(major)  # all of it East-West
     else:
         assert 0.05 < minor / major < 0.4, minor / major  # a ±24° fan: some slope across the mean direction
