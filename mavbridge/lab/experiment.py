@@ -136,9 +136,9 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
                     else EstimatorSettings(roll_sign=est.roll_sign))
         source: Any = make_estimator(settings)
         if est.spread_truth:
-            if not isinstance(truth, IrregularWaves) or est.waves != "estimated":
-                raise ConfigError("estimation.spread_truth: needs waves: estimated and an irregular sea "
-                                  "(sea.spectrum): its slope covariance is what replaces the estimator's")
+            if not isinstance(truth, IrregularWaves):
+                raise ConfigError("estimation.spread_truth: needs an irregular sea (sea.spectrum): its slope "
+                                  "covariance is what replaces the estimator's")
             source = TrueSpread(source, truth.slope_covariance())
         if est.waves == "predicted":
             if cfg.wave_components < 1:

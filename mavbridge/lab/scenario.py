@@ -108,6 +108,9 @@ class Estimation:
                               ("bank_select", ("compressed", "strongest"))):
             if getattr(self, name) not in allowed:
                 raise ConfigError(f"estimation.{name}: {getattr(self, name)!r} is not one of {', '.join(allowed)}")
+        if self.spread_truth and self.waves != "estimated":
+            raise ConfigError(f"estimation.spread_truth: needs waves: estimated (it replaces the estimator's "
+                              f"statistics), not {self.waves!r}")
         if self.roll_sign not in (-1.0, 1.0):
             raise ConfigError(f"estimation.roll_sign: {self.roll_sign!r} is not one of -1, 1")
 

@@ -63,9 +63,9 @@ def add_tune_parser(sub: argparse._SubParsersAction) -> None:
                                                      "(default 90,60,120,30,150)")
     p.add_argument("--solver", choices=SOLVERS, default=None, help="override the scenario's controller.solver")
     p.add_argument("--sea-seeds", default=None, metavar="N,...",
-                   help="an irregular sea: fly every trial on each of these draws of its spectrum (sea.spectrum.seed) "
-                        "and tune on the mean, so the weights fit the sea state rather than one draw of it "
-                        "(default: the scenario's own)")
+                   help="an irregular sea: fly every trial on each of these draws (a draw's seed sets both "
+                        "sea.spectrum.seed and estimation.seed, the sensor noise; 0..2147483647) and tune on the mean, "
+                        "so the weights fit the sea state rather than one draw of it (default: the scenario's own)")
 
 
 SEED_MAX = 2**31 - 1  # estimation.seed's range (the sea's own reaches 2³² − 1)

@@ -94,7 +94,8 @@ def _with(base: Scenario, q: float, r: float, s: float, heading_deg: float | Non
     if sea_seed is not None:  # a draw: the sea's components and the sensor noise
         data["sea"]["spectrum"]["seed"] = sea_seed
         data["estimation"]["seed"] = sea_seed
-    return scenario_from_mapping(data, "tune", f"q{q:g}-r{r:g}-s{s:g}")
+    draw = "" if sea_seed is None else f"-seed{sea_seed}"
+    return scenario_from_mapping(data, "tune", f"q{q:g}-r{r:g}-s{s:g}{draw}")
 
 
 def reduction_against(rolls: Sequence[float], reference: Sequence[float]) -> float | None:
@@ -132,9 +133,9 @@ class Procedure:
         self.direct_rolls: tuple[float, ...] = ()  # the direct tuning's roll on each sea seed, once chosen
 
     def batch(self, step: str, weights: Sequence[tuple[float, float, float]],
-              heading_deg: float | None = None, record: bool = True) -> list[Trial]:
+              heading_deg: float | None = None, keep: bool = True) -> list[Trial]:
         """Run every (Q, R, S) of a batch on every sea seed; a trial per weight set, in order (kept among the
-        procedure's trials unless ``record`` is False: the robustness re-runs, measured against their own
+        procedure's trials unless ``keep`` is False: the robustness re-runs, measured against their own
         heading's Direct, are reported apart)."""
         runs = [[_with(self.base, q, r, s, heading_deg, seed) for seed in self.sea_seeds] for q, r, s in weights]
         spec = SweepSpec(f"tune:{step}", {}, [Case({}, sc) for group in runs for sc in group])
@@ -147,7 +148,7 @@ class Procedure:
             if any(record is None for record in records):
                 continue  # a run failed: reported by the runner, left out of the choice
             trials.append(_trial(step, w, [record["metrics"] for record in records], self.direct_rolls))
-        if record:
+        if keep:
             self.trials.extend(trials)
         self.say(f"tune: {step}: {len(trials)} trials of {len(self.sea_seeds)} run(s) each, " + _best_line(trials))
         return trials
@@ -235,7 +236,7 @@ def _robustness(proc: Procedure, direct: Trial, best: Trial, headings_deg: Seque
     rows = []
     for heading in headings_deg:
         pair = proc.batch(f"robustness {heading:g}°", [(direct.q, 0.0, direct.s), (best.q, best.r, best.s)],
-                          heading_deg=heading, record=False)
+                          heading_deg=heading, keep=False)
         if len(pair) != 2:
             continue  # a run failed (reported by the runner)
         ref, chosen = pair

@@ -2,11 +2,14 @@
 
 A real boat is told nothing about the waves. The control loop therefore sees the sea only through a
 ``WaveSource``: it feeds the source every motion sample the autopilot streams (``observe``) and asks it,
-once per control step, for the dominant wave it should plan against (``estimate``). Two sources exist:
+once per control step, for the dominant wave it should plan against (``estimate``). Two sources fly:
 
 * ``ScenarioTruth`` — the scenario's sea, *simulation truth*, named as such in every log; it never
   looks at the motion and always answers with full confidence;
-* an estimator (``mavbridge.waves``) that fits the dominant wave to the boat's own motion.
+* an estimator (``mavbridge.waves``) that fits the dominant wave to the boat's own motion;
+
+and, for simulation only, ``TrueSpread``: an estimator whose slope statistics are the sea's true ones (a bound
+on what the estimated statistics can give; named as simulation truth in the run's metrics).
 
 A ``WaveEstimate`` is one regular component on the autopilot's clock, NED frame, positions relative to
 home: ζ(N, E, t) = (H/2)·sin(ω t − k (N cos χ + E sin χ) + ε), t in autopilot seconds (time_boot_ms/1000).

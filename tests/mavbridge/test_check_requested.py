@@ -76,3 +76,27 @@ def test_a_message_already_seen_is_not_asked_for() -> None:
     link = _RuleLink(probe, ACCEPTED, None)
     assert probe.requested(link, mavlink.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION")[1] == 0
     assert link.requests == 0 and link.waits == 0
+
+
+class _WithTheAck(_RuleLink):
+    """The message arrives with the ACK (handlers record it while the command waits for its answer)."""
+
+    def command_long(self, command: int, params: tuple[float, ...]) -> int | None:
+        self.probe._remember(_Message("HOME_POSITION"))
+        return super().command_long(command, params)
+
+
+def test_a_message_that_came_with_the_ack_is_not_waited_for() -> None:
+    probe = _probe()
+    link = _WithTheAck(probe, ACCEPTED, None)
+    message, accepted = probe.requested(link, mavlink.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION")
+    assert message is not None and accepted == 1 and link.waits == 0
+
+
+def test_the_fail_says_how_often_the_request_was_accepted() -> None:
+    """A lossy link or no home yet: the operator reads which from the count."""
+    probe = _probe()
+    probe.seen["GPS_RAW_INT"] = SimpleNamespace(fix_type=3, satellites_visible=10, get_type=lambda: "GPS_RAW_INT")
+    probe.gps_and_home(_RuleLink(probe, ACCEPTED, None))
+    home = next(f for f in probe.report.findings if f.item == "home position")
+    assert home.status == "FAIL" and f"requested {REQUEST_ROUNDS}×, accepted, nothing came" in home.actual

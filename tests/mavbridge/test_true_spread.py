@@ -61,5 +61,14 @@ def test_true_statistics_need_an_irregular_sea() -> None:
     scenario = load_scenarios(ROOT / "scenarios" / "estimated.yaml")[0]
     scenario = dataclasses.replace(scenario, estimation=dataclasses.replace(scenario.estimation, spread_truth=True),
                                    t_max_s=1.0)
-    with pytest.raises(ConfigError, match="spread_truth: needs waves: estimated and an irregular sea"):
+    with pytest.raises(ConfigError, match="spread_truth: needs an irregular sea"):
         run_scenario(scenario, None, plots=False)
+
+
+@pytest.mark.parametrize("waves", ["truth", "predicted"])
+def test_true_statistics_need_the_estimator(waves: str) -> None:
+    """With the truth (or the predictor's bank) flying there is no estimator's statistics to replace: refused."""
+    from mavbridge.lab.scenario import Estimation
+
+    with pytest.raises(ConfigError, match="spread_truth: needs waves: estimated"):
+        Estimation(waves=waves, spread_truth=True)
