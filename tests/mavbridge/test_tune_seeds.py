@@ -67,18 +67,14 @@ def test_a_batch_flies_each_weight_set_on_every_draw(tmp_path: Path) -> None:
     assert balanced.reduction is not None and math.isclose(balanced.reduction, expected)
 
 
-def test_sea_seeds_on_a_regular_wave_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+@pytest.mark.parametrize(("sea", "named"), [("{height_m: 1.75, length_m: 35.0, period_s: 6.0}", "regular"),
+                                            ("{spectrum: {kind: jonswap, sea_state: 0}}", "calm water")],
+                         ids=["regular-wave", "sea-state-0"])
+def test_sea_seeds_on_a_sea_without_draws_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture, sea: str,
+                                                      named: str) -> None:
     scenario = tmp_path / "s.yaml"
-    scenario.write_text("sea: {height_m: 1.75, length_m: 35.0, period_s: 6.0}\n", encoding="utf-8")
+    scenario.write_text(f"sea: {sea}\n", encoding="utf-8")
     code = main(["tune", str(scenario), "--max-time", "60", "--sea-seeds", "1,2", "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
-    assert code == 2 and "--sea-seeds" in err and "regular" in err and len(err.splitlines()) == 1, err
+    assert code == 2 and "--sea-seeds" in err and named in err and len(err.splitlines()) == 1, err
     assert not (tmp_path / "o").exists()
-
-
-def test_sea_seeds_on_sea_state_zero_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    scenario = tmp_path / "s.yaml"
-    scenario.write_text("sea: {spectrum: {kind: jonswap, sea_state: 0}}\n", encoding="utf-8")
-    code = main(["tune", str(scenario), "--max-time", "60", "--sea-seeds", "1,2", "--out", str(tmp_path / "o")])
-    err = capsys.readouterr().err.strip()
-    assert code == 2 and "--sea-seeds" in err and "calm water" in err and len(err.splitlines()) == 1, err
