@@ -262,27 +262,42 @@ class Probe:
             self.report.add(PASS if rate >= need else WARN, "IMU stream after request", expected,
                             f"{name} {rate:.1f} Hz", fix)
 
-    def requested(self, link: Any, msg_id: int, name: str) -> tuple[Any | None, int]:
-        """Message ``name`` (once seen, or asked for with MAV_CMD_REQUEST_MESSAGE) and how many requests the
-        autopilot accepted. Asked again (a counted command retry) while the autopilot accepts the request but the
-        message does not arrive, lost on the way, at most ``REQUEST_ROUNDS`` times: ArduPilot accepts the request
-        for HOME_POSITION also while it has no home, and then sends nothing, so only the count ends the asking. An
-        autopilot that does not accept it (or never answers) is not asked again. None: not had."""
-        accepted = 0
+    def requested(self, link: Any, name: str, command: int, params: tuple[float, ...]) -> tuple[Any | None, int, Any]:
+        """Message ``name`` (once seen, or asked for with ``command``), how many requests the autopilot accepted,
+        and its last answer (None: none asked, or no ACK). Asked again (a counted command retry) while the
+        autopilot accepts the request but the message does not arrive, lost on the way, at most
+        ``REQUEST_ROUNDS`` times; an answer other than ACCEPTED ends the asking."""
+        accepted, result = 0, None
         while name not in self.seen and accepted < REQUEST_ROUNDS:
             if accepted:
                 count_retry(link.counts, "command")
-            if link.command_long(mavlink.MAV_CMD_REQUEST_MESSAGE, (float(msg_id),)) != mavlink.MAV_RESULT_ACCEPTED:
+            result = link.command_long(command, params)
+            if result != mavlink.MAV_RESULT_ACCEPTED:
                 break
             accepted += 1
             if name not in self.seen:  # (it may have come with the ACK)
                 link.wait_for(lambda m: m.get_type() == name, max(link.retry.timeout_s, REQUESTED_WAIT_S))
-        return self.seen.get(name), accepted
+        return self.seen.get(name), accepted, result
+
+    def home(self, link: Any) -> tuple[Any | None, str]:
+        """HOME_POSITION and, when not had, why: MAV_CMD_GET_HOME_POSITION first, which ArduPilot answers FAILED
+        while it has no home (so a boat without one is told at once); REQUEST_MESSAGE where that command is
+        unsupported, which ArduPilot accepts with or without a home (then only the count of rounds ends it)."""
+        home, accepted, result = self.requested(link, "HOME_POSITION", mavlink.MAV_CMD_GET_HOME_POSITION, ())
+        if home is None and result == mavlink.MAV_RESULT_UNSUPPORTED:
+            home, accepted, result = self.requested(link, "HOME_POSITION", mavlink.MAV_CMD_REQUEST_MESSAGE,
+                                                    (float(mavlink.MAVLINK_MSG_ID_HOME_POSITION),))
+        if home is not None:
+            return home, ""
+        if result == mavlink.MAV_RESULT_FAILED:
+            return None, "no home: GET_HOME_POSITION answered FAILED"
+        return None, f"no HOME_POSITION{_asked(accepted)}"
 
     def gps_and_home(self, link: Any) -> None:
-        """GPS_RAW_INT fix type and HOME_POSITION (``requested``)."""
-        gps, gps_asked = self.requested(link, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT, "GPS_RAW_INT")
-        home, home_asked = self.requested(link, mavlink.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION")
+        """GPS_RAW_INT fix type (asked for with REQUEST_MESSAGE, ``requested``) and HOME_POSITION (``home``)."""
+        gps, gps_asked, _ = self.requested(link, "GPS_RAW_INT", mavlink.MAV_CMD_REQUEST_MESSAGE,
+                                           (float(mavlink.MAVLINK_MSG_ID_GPS_RAW_INT),))
+        home, why = self.home(link)
         if gps is None:
             self.report.add(FAIL, "GPS fix", ">= 3 (3D)", f"no GPS_RAW_INT{_asked(gps_asked)}",
                             "check the GPS and GPS_TYPE")
@@ -291,7 +306,7 @@ class Probe:
                             f"{gps.fix_type} ({gps.satellites_visible} satellites)",
                             "wait for a 3D fix in open sky before arming")
         if home is None:
-            self.report.add(FAIL, "home position", "set", f"no HOME_POSITION{_asked(home_asked)}",
+            self.report.add(FAIL, "home position", "set", why,
                             "home is set at the first GPS fix (or arming); wait for GPS")
         else:
             self.report.add(PASS, "home position", "set", f"{home.latitude / 1e7:.7f}, {home.longitude / 1e7:.7f}")
