@@ -121,6 +121,40 @@ def _asked(accepted: int) -> str:
     return f" (requested {accepted}×, accepted, nothing came)" if accepted else ""
 
 
+def requested(link: Any, seen: dict[str, Any], name: str, command: int,
+              params: tuple[float, ...]) -> tuple[Any | None, int, Any]:
+    """Message ``name`` (in ``seen``, the newest message of each type the link's handlers recorded, or asked for
+    with ``command``), how many requests the autopilot accepted, and its last answer (None: none asked, or no ACK).
+    Asked again (a counted command retry) while the autopilot accepts the request but the message does not
+    arrive, lost on the way, at most ``REQUEST_ROUNDS`` times; an answer other than ACCEPTED ends the asking."""
+    accepted, result = 0, None
+    while name not in seen and accepted < REQUEST_ROUNDS:
+        if accepted:
+            count_retry(link.counts, "command")
+        result = link.command_long(command, params)
+        if result != mavlink.MAV_RESULT_ACCEPTED:
+            break
+        accepted += 1
+        if name not in seen:  # (it may have come with the ACK)
+            link.wait_for(lambda m: m.get_type() == name, max(link.retry.timeout_s, REQUESTED_WAIT_S))
+    return seen.get(name), accepted, result
+
+
+def home_position(link: Any, seen: dict[str, Any]) -> tuple[Any | None, str]:
+    """HOME_POSITION and, when not had, why: MAV_CMD_GET_HOME_POSITION first, which ArduPilot answers FAILED
+    while it has no home (so a boat without one is told at once); REQUEST_MESSAGE where that command is
+    unsupported, which ArduPilot accepts with or without a home (then only the count of rounds ends it)."""
+    home, accepted, result = requested(link, seen, "HOME_POSITION", mavlink.MAV_CMD_GET_HOME_POSITION, ())
+    if home is None and result == mavlink.MAV_RESULT_UNSUPPORTED:
+        home, accepted, result = requested(link, seen, "HOME_POSITION", mavlink.MAV_CMD_REQUEST_MESSAGE,
+                                           (float(mavlink.MAVLINK_MSG_ID_HOME_POSITION),))
+    if home is not None:
+        return home, ""
+    if result == mavlink.MAV_RESULT_FAILED:
+        return None, "no home: GET_HOME_POSITION answered FAILED"
+    return None, f"no HOME_POSITION{_asked(accepted)}"
+
+
 class Probe:
     """Every vehicle-side check over one Link, into one report."""
 
@@ -262,42 +296,12 @@ class Probe:
             self.report.add(PASS if rate >= need else WARN, "IMU stream after request", expected,
                             f"{name} {rate:.1f} Hz", fix)
 
-    def requested(self, link: Any, name: str, command: int, params: tuple[float, ...]) -> tuple[Any | None, int, Any]:
-        """Message ``name`` (once seen, or asked for with ``command``), how many requests the autopilot accepted,
-        and its last answer (None: none asked, or no ACK). Asked again (a counted command retry) while the
-        autopilot accepts the request but the message does not arrive, lost on the way, at most
-        ``REQUEST_ROUNDS`` times; an answer other than ACCEPTED ends the asking."""
-        accepted, result = 0, None
-        while name not in self.seen and accepted < REQUEST_ROUNDS:
-            if accepted:
-                count_retry(link.counts, "command")
-            result = link.command_long(command, params)
-            if result != mavlink.MAV_RESULT_ACCEPTED:
-                break
-            accepted += 1
-            if name not in self.seen:  # (it may have come with the ACK)
-                link.wait_for(lambda m: m.get_type() == name, max(link.retry.timeout_s, REQUESTED_WAIT_S))
-        return self.seen.get(name), accepted, result
-
-    def home(self, link: Any) -> tuple[Any | None, str]:
-        """HOME_POSITION and, when not had, why: MAV_CMD_GET_HOME_POSITION first, which ArduPilot answers FAILED
-        while it has no home (so a boat without one is told at once); REQUEST_MESSAGE where that command is
-        unsupported, which ArduPilot accepts with or without a home (then only the count of rounds ends it)."""
-        home, accepted, result = self.requested(link, "HOME_POSITION", mavlink.MAV_CMD_GET_HOME_POSITION, ())
-        if home is None and result == mavlink.MAV_RESULT_UNSUPPORTED:
-            home, accepted, result = self.requested(link, "HOME_POSITION", mavlink.MAV_CMD_REQUEST_MESSAGE,
-                                                    (float(mavlink.MAVLINK_MSG_ID_HOME_POSITION),))
-        if home is not None:
-            return home, ""
-        if result == mavlink.MAV_RESULT_FAILED:
-            return None, "no home: GET_HOME_POSITION answered FAILED"
-        return None, f"no HOME_POSITION{_asked(accepted)}"
-
     def gps_and_home(self, link: Any) -> None:
-        """GPS_RAW_INT fix type (asked for with REQUEST_MESSAGE, ``requested``) and HOME_POSITION (``home``)."""
-        gps, gps_asked, _ = self.requested(link, "GPS_RAW_INT", mavlink.MAV_CMD_REQUEST_MESSAGE,
-                                           (float(mavlink.MAVLINK_MSG_ID_GPS_RAW_INT),))
-        home, why = self.home(link)
+        """GPS_RAW_INT fix type (asked for with REQUEST_MESSAGE, ``requested``) and HOME_POSITION
+        (``home_position``)."""
+        gps, gps_asked, _ = requested(link, self.seen, "GPS_RAW_INT", mavlink.MAV_CMD_REQUEST_MESSAGE,
+                                      (float(mavlink.MAVLINK_MSG_ID_GPS_RAW_INT),))
+        home, why = home_position(link, self.seen)
         if gps is None:
             self.report.add(FAIL, "GPS fix", ">= 3 (3D)", f"no GPS_RAW_INT{_asked(gps_asked)}",
                             "check the GPS and GPS_TYPE")

@@ -14,7 +14,7 @@ import pytest
 
 from mavbridge.link.connection import mavlink
 from mavbridge.link.retry import RetryPolicy
-from mavbridge.preflight.probe import REQUEST_ROUNDS, Probe
+from mavbridge.preflight.probe import REQUEST_ROUNDS, Probe, home_position, requested
 from mavbridge.preflight.report import Report
 
 ACCEPTED, FAILED, UNSUPPORTED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_FAILED, mavlink.MAV_RESULT_UNSUPPORTED
@@ -71,7 +71,7 @@ def test_a_requested_message_is_asked_again_only_while_accepted_and_lost(result:
                                                                           requests: int, had: bool) -> None:
     probe = _probe()
     link = _RuleLink(probe, {REQUEST: result}, delivered_on)
-    message, accepted, last = probe.requested(link, "HOME_POSITION", REQUEST, HOME_ID)
+    message, accepted, last = requested(link, probe.seen, "HOME_POSITION", REQUEST, HOME_ID)
     assert (message is not None) == had and len(link.sent) == requests and last == result
     assert accepted == (requests if result == ACCEPTED else 0)
     assert link.counts.get("retries_command", 0) == requests - 1  # every re-ask counted
@@ -81,24 +81,24 @@ def test_a_message_already_seen_or_come_with_the_ack_is_not_waited_for() -> None
     probe = _probe()
     probe._remember(_Message("HOME_POSITION"))
     link = _RuleLink(probe, {REQUEST: ACCEPTED}, None)
-    assert probe.requested(link, "HOME_POSITION", REQUEST, HOME_ID)[1] == 0 and not link.sent and link.waits == 0
+    assert requested(link, probe.seen, "HOME_POSITION", REQUEST, HOME_ID)[1] == 0 and not link.sent and link.waits == 0
     probe = _probe()
     link = _RuleLink(probe, {REQUEST: ACCEPTED}, 1, with_the_ack=True)
-    message, accepted, _ = probe.requested(link, "HOME_POSITION", REQUEST, HOME_ID)
+    message, accepted, _ = requested(link, probe.seen, "HOME_POSITION", REQUEST, HOME_ID)
     assert message is not None and accepted == 1 and link.waits == 0
 
 
 def test_no_home_is_told_at_once_where_get_home_position_is_answered() -> None:
     probe = _probe()
     link = _RuleLink(probe, {GET_HOME: FAILED, REQUEST: ACCEPTED}, None)
-    home, why = probe.home(link)
+    home, why = home_position(link, probe.seen)
     assert home is None and link.sent == [GET_HOME] and why == "no home: GET_HOME_POSITION answered FAILED"
 
 
 def test_home_falls_back_to_request_message_where_get_home_position_is_unsupported() -> None:
     probe = _probe()
     link = _RuleLink(probe, {GET_HOME: UNSUPPORTED, REQUEST: ACCEPTED}, 3)  # the second REQUEST_MESSAGE's answer
-    home, why = probe.home(link)
+    home, why = home_position(link, probe.seen)
     assert home is not None and why == "" and link.sent == [GET_HOME, REQUEST, REQUEST]
 
 
