@@ -98,11 +98,17 @@ def _with(base: Scenario, q: float, r: float, s: float, heading_deg: float | Non
     return scenario_from_mapping(data, "tune", f"q{q:g}-r{r:g}-s{s:g}{draw}")
 
 
-def reduction_against(rolls: Sequence[float], reference: Sequence[float]) -> float | None:
-    """The mean over sea seeds of 1 − roll / the reference's roll on the same seed; None without a reference."""
+def reductions_by_seed(rolls: Sequence[float], reference: Sequence[float]) -> list[float] | None:
+    """1 − roll / the reference's roll on the same sea seed, per seed; None without a reference."""
     if not reference or len(reference) != len(rolls) or not all(reference):
         return None
-    return statistics.fmean(1 - roll / ref for roll, ref in zip(rolls, reference, strict=True))
+    return [1 - roll / ref for roll, ref in zip(rolls, reference, strict=True)]
+
+
+def reduction_against(rolls: Sequence[float], reference: Sequence[float]) -> float | None:
+    """The mean over sea seeds of ``reductions_by_seed``; None without a reference."""
+    each = reductions_by_seed(rolls, reference)
+    return statistics.fmean(each) if each else None
 
 
 def _trial(step: str, weights: tuple[float, float, float], metrics: Sequence[dict],
@@ -260,9 +266,9 @@ def report(result: TuneResult, target: Target) -> str:
         lines.append(f"\nEvery trial flown on sea seeds {', '.join(map(str, result.sea_seeds))}: its roll is the mean, "
                      "its reduction the mean of each seed's against the direct tuning on that seed, its arrival the "
                      "latest (it arrives only if it arrives on every seed).")
-        if b is not None and len(b.rolls) == len(d.rolls) and all(d.rolls):
-            cuts = ", ".join(f"{seed}: {100 * (1 - roll / ref):.0f} %"
-                             for seed, roll, ref in zip(result.sea_seeds, b.rolls, d.rolls, strict=True))
+        each = reductions_by_seed(b.rolls, d.rolls) if b is not None else None
+        if each:
+            cuts = ", ".join(f"{seed}: {100 * cut:.0f} %" for seed, cut in zip(result.sea_seeds, each, strict=True))
             lines.append(f"The chosen weights by sea seed: {cuts}.")
     if result.robustness:
         reds = [t.reduction for _, t in result.robustness if t.reduction is not None]

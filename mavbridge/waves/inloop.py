@@ -27,7 +27,6 @@ from mavbridge.waves.settings import EstimatorSettings
 from mavbridge.waves.source import (
     EstimateHold,
     MotionSample,
-    TrueSpread,
     WaveEstimate,
     WaveSource,
     sea_spread,
@@ -248,7 +247,7 @@ class WaveFeed:
     def metrics(self, t_end: float, x_end: np.ndarray) -> dict[str, Any]:
         """Time to a confident estimate, final errors against the truth, the estimator's cost per step."""
         regular = isinstance(self.truth, RegularWaves)  # an irregular sea has one phase per component
-        names = {"estimated": self.source.name if isinstance(self.source, TrueSpread) else "estimated",
+        names = {"estimated": getattr(self.source, "name", "estimated"),
                  "predicted": getattr(self.source, "name", "estimated+phase-bank")}
         out: dict[str, Any] = {"wave_source": names.get(self.mode, "scenario-truth"),
                                "sea_phase_rad": float(self.truth.phase_rad) if regular else None}
