@@ -24,9 +24,8 @@ the step's. ``asrti-setwave`` feeds the scenario's true wave (the closed loop mu
 The ``*-estimated`` rows fly on the wave estimator in the realistic loop (``ESTIMATED``); their step time
 is the solve plus the estimator's work for that step. Compare ``asrti-estimated`` with ``asrti`` of the same run.
 ``nrti-predicted`` adds the phase predictor's bank (K = 12, used while confident 0.5 s ahead) to the estimator
-(``PREDICTED``): issue 33's budget
-for it, in an irregular sea (``--scenario scenarios/jonswap_estimated.yaml --run balanced``). In the in-process
-loop the wave source's time includes simulating the sensors that feed it.
+(``PREDICTED``): issue 33's budget for it, in an irregular sea (``--scenario scenarios/jonswap_estimated.yaml
+--run balanced``). In the in-process loop the wave source's time includes simulating the sensors that feed it.
 """
 
 from __future__ import annotations
@@ -89,6 +88,7 @@ ESTIMATED = {"waves": "estimated", "surface_heave": True, "hidden_phase": True, 
 # the *-predicted rows: ESTIMATED with the predictor's bank, used while it is confident 0.5 s ahead (as the
 # bank's closed-loop tables; at the default 1 s it is rarely on and the timing would miss its compression)
 PREDICTED = {**ESTIMATED, "waves": "predicted", "bank_lead_s": 0.5}
+LOOPS = {"-estimated": ESTIMATED, "-predicted": PREDICTED}  # a configuration's suffix -> its realistic loop
 # name -> (phase noise σ rad, relative height noise σ) of the wave handed to set_wave every step
 WAVE_FEEDS: dict[str, tuple[float, float]] = {"asrti-setwave": (0.0, 0.0), "asrti-setwave-noisy": (0.05, 0.03)}
 
@@ -160,8 +160,8 @@ def main(argv: list[str] | None = None) -> int:
     notes = []
     for name in names:
         scenario = dataclasses.replace(base, controller=base.controller.replace(**CONFIGS[name]))
-        if name.endswith(("-estimated", "-predicted")):
-            loop = ESTIMATED if name.endswith("-estimated") else PREDICTED
+        loop = next((fields for suffix, fields in LOOPS.items() if name.endswith(suffix)), None)
+        if loop is not None:
             scenario = dataclasses.replace(scenario, estimation=dataclasses.replace(scenario.estimation, **loop))
         start = time.perf_counter()
         feed = wave_fed(WAVE_FEEDS[name]) if name in WAVE_FEEDS else contextlib.nullcontext()
