@@ -37,8 +37,9 @@ from mavbridge.waves.motion_watch import MotionWatch
 from mavbridge.waves.settings import EstimatorSettings
 from mavbridge.waves.source import MotionSample, WaveEstimate
 from mavbridge.waves.spread import SlopeSpread
+from mavbridge.waves.staged import AheadJob, FitStages
 from mavbridge.waves.window_buffer import MotionWindow
-from mavbridge.waves.window_fit import Fit, Stages, dominant_encounter_frequency, initial_guess, refine_stages
+from mavbridge.waves.window_fit import Fit, dominant_encounter_frequency, initial_guess, refine_stages
 from mavbridge.waves.window_model import HullResponse, WaveParams
 
 STAGE_S = 0.09  # at most one stage of a fit per this much sample time (one per 0.1 s control step)
@@ -78,7 +79,7 @@ class WindowEstimator:
         self._fit_t = -math.inf  # autopilot time of the last fit attempt
         self._origin = (0.0, 0.0, 0.0)  # the last fit's origin: autopilot time, north, east (m) of its window end
         self._window_origin: tuple[float, float, float] | None = None  # the origin of the window being fitted
-        self._job: Stages[Fit | None] | None = None  # the fit in progress
+        self._job: AheadJob | None = None  # the fit in progress
         self._stage_t = -math.inf  # sample time of its last stage
         self._previous: Fit | None = None
         self._omega_e_seen: float | None = None  # the slope's dominant encounter frequency at the last cold start
@@ -133,18 +134,27 @@ class WindowEstimator:
             if t - self._fit_t < interval:
                 return
             self._fit_t = t
-            self._job = self._fit_stages(t)
+            self._job = AheadJob(self._fit_stages(t))
         elif t - self._stage_t < STAGE_S:
             return
         self._stage_t = t
-        try:
-            next(self._job)
-        except StopIteration as end:
+        finished, value = self._job.due()
+        if finished:
             self._job = None
-            self._finish(end.value)
+            self._finish(value)
+        elif value is not None:  # what the stage found out, visible from its due time (not when it was worked)
+            self._omega_e_seen = value.get("omega_e_seen", self._omega_e_seen)
+            self.cold_starts += value.get("cold_starts", 0)
 
-    def _fit_stages(self, t: float) -> Stages[Fit | None]:
-        """A new fit on the window ending at ``t``: warm from the last one, else cold (see ``refine_stages``)."""
+    def work_ahead(self) -> bool:
+        """Do the next stage of the fit in progress now, ahead of its due time (a process of its own runs the
+        estimator and calls this while no sample waits): its result is kept and takes effect only when the
+        stage falls due, so the answers are the same whenever the work was done. True while more is left."""
+        return self._job is not None and self._job.work_ahead()
+
+    def _fit_stages(self, t: float) -> FitStages:
+        """A new fit on the window ending at ``t``: warm from the last one, else cold (see ``refine_stages``). A
+        stage may yield what it found out (a dict), which ``_advance_fit`` applies when the stage falls due."""
         built = self._motion.window(t)
         self._window_origin = built[1] if built is not None else None
         yield
@@ -152,15 +162,14 @@ class WindowEstimator:
             return None
         window = built[0]
         fit = None
-        if self._fit is not None and self._slope_explained(self._fit) >= 0.5:
+        if self._fit is not None and self._fit.slope_explained >= 0.5:
             fit = yield from refine_stages(window, self._moved(self._fit.wave), self.hull, WARM_ITERATIONS,
                                            self._fit.noise)
-        if fit is None or self._slope_explained(fit) < 0.5:
-            self._omega_e_seen = dominant_encounter_frequency(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s)
-            yield
-            start = initial_guess(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s, self._omega_e_seen)
-            self.cold_starts += 1
-            yield
+        if fit is None or fit.slope_explained < 0.5:
+            seen = dominant_encounter_frequency(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s)
+            yield {"omega_e_seen": seen}
+            start = initial_guess(window, self.s.omega_min_rad_s, self.s.omega_max_rad_s, seen)
+            yield {"cold_starts": 1}
             fit = (yield from refine_stages(window, start, self.hull)) if start is not None else None
         return fit
 
@@ -178,11 +187,6 @@ class WindowEstimator:
         ds = (n1 - n0) * math.cos(wave.chi) + (e1 - e0) * math.sin(wave.chi)
         return wave.shifted(t1 - t0 - wave.k * ds / wave.omega)
 
-    @staticmethod
-    def _slope_explained(fit: Fit) -> float:
-        """The share of the slope (pitch and roll together) the fitted wave explains."""
-        return fit.slope_explained
-
     def _score(self, fit: Fit) -> float:
         """The confidence of a fit (see the module docstring)."""
         wave = fit.wave
@@ -192,7 +196,7 @@ class WindowEstimator:
         errors = (_within(fit.rel_sigma_omega, SIGMA_PERIOD) * _within(fit.rel_sigma_k, SIGMA_LENGTH)
                   * _within(float(fit.sigma[2]), SIGMA_DIRECTION_RAD)
                   * _within(fit.rel_sigma_amplitude, SIGMA_HEIGHT))
-        explained = smooth_step((self._slope_explained(fit) - 0.3) / 0.5)
+        explained = smooth_step((fit.slope_explained - 0.3) / 0.5)
         conf = cover * slope * errors * explained * self._agreement(fit)
         return max(0.0, min(1.0, conf)) if math.isfinite(conf) else 0.0
 
@@ -225,7 +229,7 @@ class WindowEstimator:
         s0 = n0 * math.cos(wave.chi) + e0 * math.sin(wave.chi)
         eps = math.remainder(math.atan2(wave.beta, wave.alpha) - wave.omega * t0 + wave.k * s0, 2 * math.pi)
         heave = HEAVE_IMU if "accel" in fit.explained else HEAVE_GPS if "down" in fit.explained else HEAVE_NONE
-        extras = {"mode": 3.0, "heave_source": heave, "fit_explained": self._slope_explained(fit),
+        extras = {"mode": 3.0, "heave_source": heave, "fit_explained": fit.slope_explained,
                   "fit_samples": float(fit.samples),
                   "fit_span_s": fit.span_s, "sigma_period_pct": 100 * fit.rel_sigma_omega,
                   "sigma_length_pct": 100 * fit.rel_sigma_k, "sigma_dir_deg": math.degrees(float(fit.sigma[2])),
@@ -268,5 +272,5 @@ class WindowEstimator:
             return {"encounter_freq_rad_s": self.encounter_frequency(), "lock": 0.0, "axis_deg": 0.0,
                     "fit_quality": 0.0, "slope_amp_rad": 0.0}
         return {"encounter_freq_rad_s": self.encounter_frequency(), "lock": self._current_confidence(),
-                "axis_deg": math.degrees(fit.wave.chi), "fit_quality": self._slope_explained(fit),
+                "axis_deg": math.degrees(fit.wave.chi), "fit_quality": fit.slope_explained,
                 "slope_amp_rad": fit.wave.amplitude * fit.wave.k}
