@@ -31,6 +31,7 @@ from vessel.geo import DEFAULT_MAX_RANGE_M
 # preparation saturate a 2-core machine (2–10 % of the ticks skipped, a fifth of the steps on the late fallback);
 # at 5 none were skipped (2026-12-05, `mavbridge demo`, both paths)
 DEMO_SPEEDUP = 5.0
+LOCKSTEP_WAIT_S = 5.0  # lockstep: the simulator waits, and so may the step for the estimator's process (paced: never)
 DEMO_ENGAGE_AFTER_S = 30.0  # the demo's pilot engages this long after the companion connects (issue 29)
 ATTITUDE_FORM_HELP = ("attitude_target: tau (default: the rate and speed targets that give the plan's steering and "
                       "throttle through Rover's loops, their gains read at start, closed on SERVO_OUTPUT_RAW), the "
@@ -152,15 +153,28 @@ def run_command(args: argparse.Namespace) -> int:
     scenario = single_scenario(args.scenario, args.solver)
     out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S"))
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
-                             scenario.params())
-    with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
-        if config.realtime:  # after the building (its compiler runs are not real-time), before the link
-            from mavbridge.cli.realtime import apply_realtime
+                             scenario.params(), process=config.estimator_process,
+                             wait_s=LOCKSTEP_WAIT_S if config.lockstep else 0.0)
+    try:
+        with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
+            if config.realtime:  # after the building (its compiler runs are not real-time), before the link
+                realtime_for(config, waves)
+            sys.setswitchinterval(GIL_SWITCH_S)  # the loop, not the background preparation, first to the interpreter
+            return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
+                             args.dry_run).run()
+    finally:
+        getattr(waves, "close", lambda: None)()  # the estimator's process, if it has one
 
-            print(apply_realtime(config.realtime_priority).line(), flush=True)
-        sys.setswitchinterval(GIL_SWITCH_S)  # the loop, not the background preparation, first to the interpreter
-        return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
-                         args.dry_run).run()
+
+def realtime_for(config: Any, waves: Any) -> None:
+    """The real-time settings for the companion and, one priority below it, the estimator's process (above every
+    normal process, never ahead of the control step); one line each."""
+    from mavbridge.cli.realtime import apply_realtime
+
+    print(apply_realtime(config.realtime_priority).line(), flush=True)
+    if hasattr(waves, "call"):
+        got = waves.call(apply_realtime, max(1, config.realtime_priority - 1))
+        print(f"wave estimator's process: {got.line() if got is not None else 'realtime: no answer'}", flush=True)
 
 
 def demo_scenario(path: str | None, solver: str | None, direct: bool) -> Any:

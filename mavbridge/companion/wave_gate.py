@@ -69,6 +69,9 @@ class WaveGate:
 
     def __post_init__(self) -> None:
         self._hold = EstimateHold(self.hold_s)
+        use_log = getattr(self.source, "use_log", None)  # a source that can fail on its own says so in our log
+        if use_log is not None:
+            use_log(self.log)
 
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the source (every ATTITUDE), timed."""
@@ -178,8 +181,9 @@ class WaveGate:
 
     def summary(self, solve_ms: list[float]) -> dict[str, Any]:
         """For metrics.json: time to the first confident wave (s of autopilot time after the first step),
-        the fraction of steps with the roll term on, the final estimate, the estimator's cost and the step
-        time with it (``solve_ms`` per step, same steps)."""
+        the fraction of steps with the roll term on, the final estimate, the estimator's cost in the step's
+        process and the step time with it (``solve_ms`` per step, same steps); for an estimator in a process of its
+        own (``wave_process``) also that process's CPU time and faults."""
         cost = np.asarray(self.cost_ms, float)
         out: dict[str, Any] = {
             "source": self.source.name,
@@ -195,6 +199,9 @@ class WaveGate:
             "estimator_ms_median": round(float(np.median(cost)), 4) if cost.size else None,
             "estimator_ms_p99": round(float(np.percentile(cost, 99)), 4) if cost.size else None,
         }
+        faults = getattr(self.source, "faults", None)  # the estimator in a process of its own: its time and faults
+        if faults is not None:
+            out["process"] = {"cpu_s": round(float(getattr(self.source, "cpu_s", 0.0)), 3), **faults}
         if cost.size and len(solve_ms) == cost.size:
             total = cost + np.asarray(solve_ms, float)
             out["step_ms_median"] = round(float(np.median(total)), 4)
@@ -203,13 +210,14 @@ class WaveGate:
 
 
 def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position_lag_s: float = 0.0,
-                     vessel_params: Any = None) -> WaveSource:
+                     vessel_params: Any = None, process: bool = False, wait_s: float | None = None) -> WaveSource:
     """``estimated``: the wave estimator (``make_estimator``: the window fit by default) fed by the autopilot's
     streams (``roll_sign`` +1 for the paper's
     plant, −1 for a real hull; ``position_lag_s`` the GPS lag it compensates), with the hull's roll/pitch
     response to the slope measured on the vessel model (``vessel_params``, riding the sea as a real hull
     does; about a second) as the in-process experiment does; ``scenario``: the scenario's sea
-    (``sea_waves``), simulation truth."""
+    (``sea_waves``), simulation truth. ``process``: the estimator in a process of its own (``wave_process``; waiting
+    ``wait_s`` at most for it, default ``WAIT_S``; 0 when paced: never); the caller closes it."""
     from dataclasses import replace
 
     from mavbridge.waves import EstimatorSettings, make_estimator
@@ -224,4 +232,8 @@ def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position
         from mavbridge.waves.inloop import calibrated_settings
 
         settings = replace(calibrated_settings(vessel_params, True, roll_sign), position_lag_s=position_lag_s)
+    if process:
+        from mavbridge.companion.wave_process import WAIT_S, EstimatorProcess
+
+        return EstimatorProcess(settings, WAIT_S if wait_s is None else wait_s)
     return make_estimator(settings)

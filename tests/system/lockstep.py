@@ -27,11 +27,14 @@ def lockstep_summary(sim: SimProcess) -> str:
 
 
 def assert_lockstep_run(metrics: dict, sim: SimProcess, start_at_s: float = START_AT_S) -> None:
-    """A lockstep run started at ``start_at_s``, no tick was skipped or timed out, and the state acted on was never
-    old (time waits for each command: the age is zero by construction, nothing is predicted)."""
+    """A lockstep run started at ``start_at_s``, no tick was skipped or timed out, the state acted on was never
+    old (time waits for each command: the age is zero by construction, nothing is predicted) and the estimator's
+    process, where it has one, gave every answer in time."""
     assert metrics["engaged_at_s"] == pytest.approx(start_at_s, abs=1e-3), metrics
     assert metrics["delay"]["state_age_s_max"] == 0.0 and metrics["delay"]["prediction_s_median"] == 0.0, metrics
     assert metrics["skipped_ticks"] == 0, metrics
+    process = metrics["waves"].get("process", {})  # the estimator in its own process: every answer waited for
+    assert not any(process.get(k) for k in ("late", "stale", "stopped", "dropped")), process
     summary = lockstep_summary(sim)
     timed_out = int(summary.split(" timed out")[0].rsplit(" ", 1)[-1])
     assert timed_out <= 1, summary  # at most the tick after the companion exited, before the sim was stopped

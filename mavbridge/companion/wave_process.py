@@ -1,0 +1,316 @@
+"""The wave estimator in a process of its own, so that its work is not the control step's (issue 32).
+
+In the companion's process every ATTITUDE used to run the estimator's per-sample work, and every 0.09 s of
+sample time a stage of its window fit (up to ≈ 0.8 ms): the larger part of the step's time and most of its tail.
+``EstimatorProcess`` is a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter:
+``python -m`` this module), on a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at
+all). ``observe`` sends the sample as one message (a few microseconds, never blocking); the child takes each
+in order and sends back its answers after it: the estimate, the latest fit and both slope spreads. Between
+samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
+still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
+
+A step asks (``answers``) for the answers as of every sample but the newest: the step's own ATTITUDE was sent
+just before it asks, and waiting for the child to wake and take it would put the wake-up (0.15 ms on an idle
+CPU here) back into the step; the sample before it came 50 ms earlier at 20 Hz and is long answered. Which
+answers a step gets therefore never depends on timing: one sample behind the estimator in the step's process.
+
+How long the companion waits for the child (``wait_s``): paced (`mavbridge run` without ``--lockstep``) never,
+so a step never waits for another process; in lockstep and in unpaced replays up to seconds, so that every
+answer is the one due. Refusing rather than guessing: answers not there in time (``late``) are replaced by the
+last ones while those are at most ``STALE_S`` of autopilot time older than the newest sample (an estimate's
+phase is on the autopilot clock, so it stays valid), else by none (``stale``: no roll term, the Direct
+behaviour); a child that has gone gives none for the rest of the run (``stopped``); a sample the child has no
+room for in time is dropped (``dropped``). Each is said once in the log and counted (``faults``).
+"""
+
+from __future__ import annotations
+
+import math
+import pickle
+import select
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mavbridge.waves import EstimatorSettings, make_estimator
+from mavbridge.waves.source import MotionSample, WaveEstimate
+
+SAMPLE = struct.Struct("<17d")  # t, attitude 3, rates 3, position 3, velocity 3, has IMU, specific force 3
+COUNT = struct.Struct("<q")  # the samples an answer is as of
+MAX_MESSAGE = 1 << 16  # bytes: an answer is about one kilobyte
+DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds ≈ 200)
+START_TIMEOUT_S = 60.0  # the child imports numpy and the estimator: seconds on a small computer
+WAIT_S = 5.0  # unpaced (lockstep, replays): how long answers and room for a sample are waited for at most
+STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot time) stand in for late ones
+
+
+@dataclass(frozen=True)
+class Answers:
+    """What the estimator says once it has taken ``samples`` samples, the last at ``t_s`` (autopilot time)."""
+
+    samples: int
+    t_s: float
+    latest: WaveEstimate | None = None
+    confident: bool = False  # ``estimate`` gives ``latest`` (else None)
+    spread_explained: tuple[float, ...] | None = None  # 2×2 NED covariance, row by row (plain floats unpickle
+    spread_alone: tuple[float, ...] | None = None  # in half the time of arrays)
+    cpu_s: float = 0.0  # the child's processor time so far
+
+
+NO_ANSWERS = Answers(0, -math.inf)
+
+
+def pack_sample(sample: MotionSample) -> bytes:
+    """A motion sample as one message (b"S" + 17 doubles), or pickled (b"P") when its arrays are not 3-vectors."""
+    try:
+        accel = sample.accel_body
+        return b"S" + SAMPLE.pack(sample.t_s, *sample.attitude, *sample.rates, *sample.position_ned,
+                                  *sample.velocity_ned, float(accel is not None),
+                                  *(accel if accel is not None else (0.0, 0.0, 0.0)))
+    except (struct.error, TypeError):
+        return b"P" + pickle.dumps(sample)
+
+
+def unpack_sample(data: bytes) -> MotionSample:
+    """The sample ``pack_sample`` made."""
+    if data[:1] == b"P":
+        return pickle.loads(data[1:])
+    v = SAMPLE.unpack(data[1:])
+    return MotionSample(v[0], np.array(v[1:4]), np.array(v[4:7]), np.array(v[7:10]), np.array(v[10:13]),
+                        np.array(v[14:17]) if v[13] else None)
+
+
+def answers_of(estimator: Any, samples: int, t_s: float) -> bytes:
+    """The estimator's answers after ``samples`` samples, the last at ``t_s``, as one message (b"A", the count,
+    the pickled ``Answers``)."""
+    spread = getattr(estimator, "spread", None)
+    latest = getattr(estimator, "latest", None)
+    got = Answers(samples, t_s, latest(t_s) if latest else estimator.estimate(t_s), estimator.estimate(t_s) is not None,
+                  _flat(spread(True)) if spread else None, _flat(spread(False)) if spread else None,
+                  time.process_time())
+    return b"A" + COUNT.pack(samples) + pickle.dumps(got)
+
+
+def _flat(covariance: np.ndarray | None) -> tuple[float, ...] | None:
+    return None if covariance is None else tuple(np.asarray(covariance, float).ravel().tolist())
+
+
+def serve(sock: socket.socket) -> None:
+    """The child: the estimator (its settings the first message); every sample taken in order and answered, the
+    fit worked ahead while none waits; returns when the companion's end closes or says so."""
+    for stop in (signal.SIGINT, signal.SIGTERM):  # Ctrl-C, systemd's stop: the companion's to handle (it stands down
+        signal.signal(stop, signal.SIG_IGN)  # first, and needs its answers until then); its socket's end stops this
+    estimator = make_estimator(pickle.loads(sock.recv(MAX_MESSAGE)))
+    ahead = getattr(estimator, "work_ahead", None)
+    sock.send(b"R" + estimator.name.encode())
+    samples = 0
+    while True:
+        if ahead is not None and not select.select([sock], [], [], 0)[0] and ahead():
+            continue
+        data = sock.recv(MAX_MESSAGE)
+        kind = data[:1]
+        if kind in (b"S", b"P"):
+            sample = unpack_sample(data)
+            estimator.observe(sample)
+            samples += 1
+            sock.send(answers_of(estimator, samples, sample.t_s))
+        elif kind == b"C":  # a call in this process (the companion's real-time settings): its result back
+            call, args = pickle.loads(data[1:])
+            sock.send(b"C" + pickle.dumps(call(*args)))
+        else:  # b"X", or b"" at the companion's end
+            return
+
+
+@dataclass
+class EstimatorProcess:
+    """A ``WaveSource`` whose estimator runs in a child process (see the module docstring); ``close`` ends it."""
+
+    settings: EstimatorSettings
+    wait_s: float = WAIT_S  # 0: paced, never wait (see the module docstring)
+    log: Callable[[str], None] = print
+    name: str = "estimated"
+    faults: dict[str, int] = field(init=False, default_factory=lambda: {"late": 0, "stale": 0, "stopped": 0,
+                                                                         "dropped": 0})
+    _said: set[str] = field(init=False, default_factory=set)
+    _answers: Answers = field(init=False, default=NO_ANSWERS)
+    _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=deque)  # answers received, not yet used
+    # (sample count, message), oldest first; unpickled only when a step asks for them
+    _sent: int = field(init=False, default=0)  # samples sent
+    _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
+    _stopped: bool = field(init=False, default=False)
+    _missed: int = field(init=False, default=-1)  # the sample count whose answers were last missed (said once)
+
+    def __post_init__(self) -> None:
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        self._sock = ours  # a fresh interpreter, not a fork of one with threads (nrti's worker):
+        self._child = subprocess.Popen([sys.executable, "-m", __name__, str(theirs.fileno())],
+                                       pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
+        theirs.close()
+        try:
+            ours.sendall(pickle.dumps(self.settings))
+            ready = self._ready(START_TIMEOUT_S, write=False) and ours.recv(MAX_MESSAGE)
+            if not ready:
+                raise EOFError
+        except (EOFError, OSError):
+            self.close()
+            raise RuntimeError(f"the wave estimator's process did not start within {START_TIMEOUT_S:g} s "
+                               f"(exit code {self._child.poll()})") from None
+        self.name = ready[1:].decode()
+        ours.setblocking(False)  # a step never waits to send
+
+    @property
+    def pid(self) -> int:
+        """The child's process id."""
+        return self._child.pid
+
+    def observe(self, sample: MotionSample) -> None:
+        """Send one motion sample to the estimator (dropped, and said, if the child has no room for it)."""
+        if self._send(pack_sample(sample), "dropped", "had no room for a sample: dropped"):
+            self._sent += 1
+            self._sent_t = sample.t_s
+        if self._sent % DRAIN_EVERY == 0:  # its answers so far, read now and then so that the socket never fills
+            self._take_waiting()
+
+    def estimate(self, t_s: float) -> WaveEstimate | None:
+        """The wave to plan against (None while not confident, or without answers); see ``answers``."""
+        answers = self.answers()
+        return answers.latest if answers.confident else None
+
+    def latest(self, t_s: float) -> WaveEstimate | None:
+        """The current fit whatever its confidence (for logs); see ``answers``."""
+        return self.answers().latest
+
+    def spread(self, explained: bool) -> np.ndarray | None:
+        """The NED slope covariance (2×2, rad²) the wave does not explain; see ``answers``."""
+        flat = self.answers().spread_explained if explained else self.answers().spread_alone
+        return None if flat is None else np.array(flat).reshape(2, 2)
+
+    def use_log(self, log: Callable[[str], None]) -> None:
+        """Say faults in ``log`` (the companion's run log) from now on."""
+        self.log = log
+
+    @property
+    def cpu_s(self) -> float:
+        """The child's processor time (s) as of its last answers."""
+        return self._current(max(self._sent - 1, 0)).cpu_s
+
+    def call(self, function: Callable[..., Any], *args: Any, timeout_s: float = 10.0) -> Any:
+        """``function(*args)`` run in the child (importable by name; e.g. the real-time settings), its result;
+        None when the child does not answer."""
+        if not self._send(b"C" + pickle.dumps((function, args)), "stale", "had no room for a call"):
+            return None
+        deadline = time.perf_counter() + timeout_s
+        while not self._stopped and self._ready(max(deadline - time.perf_counter(), 0.0), write=False):
+            result = self._take_waiting()
+            if result is not None:
+                return result
+        return None
+
+    def close(self) -> None:
+        """End the child (idempotent)."""
+        if self._child.poll() is None:
+            self._send(b"X", "stopped", "could not be told to stop")
+            try:
+                self._child.wait(2.0)
+            except subprocess.TimeoutExpired:
+                self._child.kill()
+                self._child.wait(2.0)
+        self._sock.close()
+
+    def answers(self) -> Answers:
+        """The estimator's answers as of every sample but the newest (see the module docstring), waited for at
+        most ``wait_s``; late or stale ones as the module docstring says (each counted once per step)."""
+        wanted = max(self._sent - 1, 0)
+        deadline = time.perf_counter() + (self.wait_s if wanted != self._missed else 0.0)
+        while not self._stopped:
+            self._take_waiting()
+            if self._current(wanted).samples == wanted:
+                return self._answers
+            left = deadline - time.perf_counter()
+            if left <= 0 or not self._ready(left, write=False):
+                break
+        if self._stopped:
+            return NO_ANSWERS
+        fresh = self._sent_t - self._answers.t_s <= STALE_S
+        if wanted != self._missed:
+            self._missed = wanted
+            self._fault(*(("late", "answered late; its previous answers are used") if fresh else
+                          ("stale", f"has not answered for over {STALE_S:g} s: no roll term until it does")))
+        return self._answers if fresh else NO_ANSWERS
+
+    def _current(self, wanted: int) -> Answers:
+        """The newest answers as of at most ``wanted`` samples (unpickled now if they came since); newer ones kept."""
+        found = None
+        while self._kept and self._kept[0][0] <= wanted:
+            found = self._kept.popleft()[1]
+        if found is not None:
+            self._answers = pickle.loads(found[1 + COUNT.size:])
+        return self._answers
+
+    def _ready(self, timeout_s: float, write: bool) -> bool:
+        """True when a message waits to be read (``write``: or there is room to send one) within the timeout."""
+        readable, writable, _ = select.select([self._sock], [self._sock] if write else [], [], timeout_s)
+        return bool(readable or writable)
+
+    def _take_waiting(self) -> Any:
+        """Read every message waiting, without blocking: answers kept (unpickled only when asked for), a call's
+        result returned (None if none came)."""
+        result = None
+        while not self._stopped:
+            try:
+                data = self._sock.recv(MAX_MESSAGE)
+            except BlockingIOError:
+                break
+            except OSError:
+                data = b""
+            if not data:  # the child's end closed
+                self._stop()
+            elif data[:1] == b"C":
+                result = pickle.loads(data[1:])
+            elif data[:1] == b"A":
+                self._kept.append((COUNT.unpack_from(data, 1)[0], data))
+        return result
+
+    def _send(self, data: bytes, full: str, what: str) -> bool:
+        """Send one message; with the socket full, wait ``wait_s`` at most for room (reading the answers that
+        hold it up meanwhile); False, and the fault ``full`` said as ``what``, when there is none."""
+        deadline = time.perf_counter() + self.wait_s
+        while not self._stopped:
+            try:
+                self._sock.send(data)
+                return True
+            except BlockingIOError:
+                left = deadline - time.perf_counter()
+                if left <= 0 or not self._ready(left, write=True):
+                    self._fault(full, what)
+                    return False
+                self._take_waiting()
+            except OSError:
+                self._stop()
+        return False
+
+    def _stop(self) -> None:
+        self._stopped = True
+        self._fault("stopped", f"stopped (exit code {self._child.poll()}): no roll term for the rest of the run")
+
+    def _fault(self, kind: str, what: str) -> None:
+        self.faults[kind] += 1
+        if kind not in self._said:
+            self._said.add(kind)
+            self.log(f"waves ({self.name}): the estimator's process {what}")
+
+
+if __name__ == "__main__":  # the child (``EstimatorProcess`` starts it with its end of the socket pair); the
+    # module's own names, not this script's, so that the answers unpickle in the companion
+    from mavbridge.companion.wave_process import serve as serve_here
+
+    serve_here(socket.socket(fileno=int(sys.argv[1])))

@@ -1,0 +1,149 @@
+"""The wave estimator in a process of its own (``mavbridge.companion.wave_process``), the companion's default.
+
+Its answers must be the estimator's own, one sample behind (a step's own ATTITUDE is not waited for), whatever
+work the child did ahead of time; a child that is stopped or gone must never stall the step nor leave a stale
+wave planned against for long: late answers stand in for at most a second of autopilot time, then no roll term.
+These run the real child process over a real socket pair.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+
+import numpy as np
+import pytest
+
+from mavbridge.companion.wave_gate import WaveGate, make_wave_source
+from mavbridge.companion.wave_process import STALE_S, EstimatorProcess
+from mavbridge.waves import EstimatorSettings, WindowEstimator
+from mavbridge.waves.kinematic import KinematicBoat, motion_samples
+from mavbridge.waves.source import MotionSample
+from vessel import RegularWaves, otter_parameters
+
+SEA = RegularWaves(1.75, 35.0, 6.0, math.radians(-90.0), phase_rad=0.7)  # the paper's
+
+
+def _samples(seconds: float, seed: int = 2) -> list[MotionSample]:
+    return list(motion_samples(KinematicBoat(SEA, 1.5, lambda t: 0.4), seconds, seed=seed, t0=300.0))
+
+
+@pytest.fixture
+def child() -> EstimatorProcess:
+    source = EstimatorProcess(EstimatorSettings())  # unpaced: it waits for every answer due (seconds at most)
+    yield source
+    source.close()
+
+
+def test_its_answers_are_the_estimators_own_one_sample_behind(child: EstimatorProcess) -> None:
+    inline = WindowEstimator()
+    confident = 0
+    for i, sample in enumerate(_samples(40.0)):
+        child.observe(sample)
+        if i % 2:  # a control step every other sample, as at 20 Hz ATTITUDE and 10 Hz control
+            got, want = child.estimate(sample.t_s), inline.estimate(sample.t_s)
+            assert got == want, (i, got, want)
+            assert child.latest(sample.t_s) == inline.latest(sample.t_s)
+            for explained in (True, False):
+                a, b = child.spread(explained), inline.spread(explained)
+                assert (a is None and b is None) or np.array_equal(a, b), (i, explained)
+            confident += got is not None
+        inline.observe(sample)  # the inline one takes the sample after answering: the child's answers lag one
+    assert confident > 50, confident  # the confident path was compared, not only "no wave"
+    assert not any(child.faults.values()), child.faults
+    assert child.cpu_s > 0.0  # the estimator's work was the child's
+
+
+def test_working_the_fit_ahead_changes_no_answer() -> None:
+    early, on_time = WindowEstimator(), WindowEstimator()
+    worked = 0
+    for sample in _samples(30.0, seed=4):
+        early.observe(sample)
+        on_time.observe(sample)
+        while early.work_ahead():  # as the child does between samples
+            worked += 1
+        assert early.estimate(sample.t_s) == on_time.estimate(sample.t_s)
+        assert early.encounter_frequency() == on_time.encounter_frequency()
+        assert early.cold_starts == on_time.cold_starts
+    assert worked > 20 and early.fits == on_time.fits > 10
+
+
+def test_a_stopped_child_gives_its_last_answers_for_a_second_then_no_wave() -> None:
+    lines: list[str] = []
+    source = EstimatorProcess(EstimatorSettings(), log=lines.append)
+    try:
+        samples = _samples(40.0)
+        for sample in samples[:600]:  # 30 s at 20 Hz: confident
+            source.observe(sample)
+        last = samples[599]
+        assert source.estimate(last.t_s) is not None
+        source.wait_s = 0.0  # paced: never waits
+        os.kill(source.pid, signal.SIGSTOP)  # the child cannot answer from here on
+        try:
+            for sample in samples[600:610]:  # half a second: within STALE_S, the previous answers (same wave)
+                source.observe(sample)
+                assert source.estimate(sample.t_s) is not None
+            assert source.faults["late"] >= 9 and not source.faults["stale"]
+            later = [s for s in samples[610:] if s.t_s - last.t_s > STALE_S + 0.2][:3]
+            for sample in later:
+                source.observe(sample)
+                assert source.estimate(sample.t_s) is None and source.spread(False) is None
+            assert source.faults["stale"] == 3
+        finally:
+            os.kill(source.pid, signal.SIGCONT)
+        source.wait_s = 5.0
+        source.observe(samples[-1])
+        assert source.latest(samples[-1].t_s) is not None  # answers again once it runs
+        said = [line for line in lines if "estimator's process" in line]
+        assert len(said) == 2, said  # late and stale, each said once
+    finally:
+        source.close()
+
+
+def test_a_child_that_is_gone_means_no_wave_said_once_and_nothing_raises(child: EstimatorProcess) -> None:
+    lines: list[str] = []
+    gate = WaveGate(child, lines.append)
+    samples = _samples(20.0)
+    for sample in samples[:200]:
+        gate.observe(sample)
+    os.kill(child.pid, signal.SIGKILL)
+    for sample in samples[200:260]:
+        gate.observe(sample)  # sending to a dead child does not raise
+        assert child.estimate(sample.t_s) is None and child.spread(True) is None
+    assert child.faults["stopped"] >= 1
+    assert sum("stopped" in line for line in lines) == 1
+
+
+def test_a_call_runs_in_the_child_and_odd_samples_are_taken_as_the_estimator_takes_them(
+        child: EstimatorProcess) -> None:
+    assert child.call(os.getpid) == child.pid != os.getpid()
+    odd = MotionSample(1.0, np.array([0.1, 0.0]), np.zeros(3), np.zeros(3), np.zeros(3))  # a 2-vector attitude
+    child.observe(odd)
+    child.observe(odd)
+    assert child.latest(1.0) is None and child.faults["stopped"] == 0  # dropped by the estimator, as inline
+
+
+def test_the_companion_factory_gives_the_process_only_when_asked() -> None:
+    inline = make_wave_source("estimated", None, -1.0, 0.0, otter_parameters())
+    assert isinstance(inline, WindowEstimator)
+    source = make_wave_source("estimated", None, -1.0, 0.0, otter_parameters(), process=True)
+    try:
+        assert isinstance(source, EstimatorProcess) and source.name == inline.name
+        assert source.settings == inline.s and source.settings.roll_sign == -1.0  # calibrated as the inline one
+    finally:
+        source.close()
+    assert source._child.poll() is not None  # closed: the child has ended
+
+
+def test_answers_that_came_before_their_step_are_kept_for_it(child: EstimatorProcess) -> None:
+    """In lockstep the child often answers a step's own sample before the step asks for the one before it: that
+    newer answer must wait for the next step, not be passed over (it would never come again)."""
+    samples = _samples(10.0)
+    for i, sample in enumerate(samples[:100]):
+        child.observe(sample)
+        assert child.call(os.getpid) == child.pid  # in order: every sample sent so far is answered by now
+        child.wait_s = 0.0  # so that an answer passed over shows at once as a fault
+        assert child.answers().samples == i  # as of every sample but the newest, which has come too
+        child.wait_s = 5.0
+    assert not any(child.faults.values()), child.faults
