@@ -15,6 +15,7 @@ the previous input in p and the warm starts are in u, and the answers (``NmpcRes
 
 from __future__ import annotations
 
+import math
 import time
 import weakref
 from dataclasses import dataclass, field
@@ -76,6 +77,8 @@ def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str,
         raise ValueError(f"{field_name}: expected {expected} numbers, got {values!r}") from None
     if arr.size != expected:
         raise ValueError(f"{field_name}: expected {expected} numbers, got {arr.size}")
+    if all(map(math.isfinite, arr.tolist())):  # plain floats: a few numbers, every step (numpy's calls cost more)
+        return arr
     bad = np.flatnonzero(~np.isfinite(arr))
     if bad.size:
         i = int(bad[0])

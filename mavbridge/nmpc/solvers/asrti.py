@@ -39,6 +39,12 @@ WAIT_SHARE = 0.25
 BackgroundResult = tuple[np.ndarray | None, np.ndarray, float, int]  # (w or None, p_next, seconds, iterations)
 
 
+
+def _equal(a: np.ndarray, b: np.ndarray, part: slice) -> bool:
+    """``np.array_equal`` of the two vectors' ``part`` (equal values, NaN never equal), as plain floats: this runs
+    on every step, and numpy's per-call cost is most of it for a few numbers."""
+    return a[part].tolist() == b[part].tolist()
+
 class BackgroundSolve:
     """The converged SQP for the next period, with its own linearisation and QP instances."""
 
@@ -121,13 +127,12 @@ class AdvancedStep:
             return None, {"background": "late"}
         info: dict = {"background_solve_s": seconds, "background_iterations": iterations}
         stale = abs(PARAMS.get(p, "t") - PARAMS.get(p_next, "t")) > 0.5 * self.cfg.period_s
-        same = [np.array_equal(PARAMS.get(p, b), PARAMS.get(p_next, b)) for b in ("waypoint", "u_prev")]
-        if w is None or stale or not all(same):
+        if w is None or stale or not all(_equal(p, p_next, PARAMS.slice(b)) for b in ("waypoint", "u_prev")):
             info["background"] = "unused"
             return None, info
         info["background"] = "used"
-        changed = any(not np.array_equal(PARAMS.get(p, b), PARAMS.get(p_next, b))
-                      for b in ("weights", "wave", "roll_spread")) or not np.array_equal(p[NP:], p_next[NP:])
+        changed = not all(_equal(p, p_next, PARAMS.slice(b)) for b in ("weights", "wave", "roll_spread")) \
+            or not _equal(p, p_next, slice(NP, None))
         info["background_problem"] = "changed" if changed else "same"
         return w, info
 
