@@ -126,10 +126,14 @@ class CompanionStep:
             self.gate.observe(self.state.motion_sample())
 
     def prepare(self) -> None:
-        """The cold full solve before the loop (start_flight's), from the state now."""
+        """The cold full solve before the loop (start_flight's), from the state now; from here the estimator's
+        process (if it has one) is never waited for, as in a paced run (the unpaced watch, and this first step after
+        it, wait for it to catch up)."""
         t_s = (self.state.attitude_ms or 0) / 1000.0
         self.gate.step(self.nmpc, t_s)
         self.nmpc.prepare(self.state.vector(), t_s, WAYPOINT_NE)
+        if hasattr(self.gate.source, "wait_s"):
+            self.gate.source.wait_s = 0.0
 
     def control(self, now_ms: int) -> float:
         """The control step of `mavbridge run` (its _control_step without the link): wave, prediction, solve,
@@ -253,17 +257,31 @@ def collections_timed() -> Iterator[list[float]]:
 
 
 def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: argparse.Namespace,
-                  scenario: Any) -> dict[str, Any]:
-    """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not)."""
-    waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params())
-    with build_nmpc(scenario, waves) as nmpc, around():
-        before = load()
-        step = CompanionStep(nmpc, waves, scenario)
-        with collections_timed() as gc_ms:
-            timings = replay(rec, step, args.watch, args.duration)
-        after = load()
+                  scenario: Any, realtime: bool = False) -> dict[str, Any]:
+    """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not); with
+    ``realtime`` the estimator's process (if it has one) gets the companion's settings a priority lower, as
+    `mavbridge run --realtime` gives them."""
+    waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params(),
+                             process=args.estimator == "process")
+    try:
+        if realtime and hasattr(waves, "call"):
+            from mavbridge.cli.realtime import DEFAULT_PRIORITY, apply_realtime
+
+            got = waves.call(apply_realtime, DEFAULT_PRIORITY - 1)
+            print(f"wave estimator's process: {got.line() if got is not None else 'no answer'}", flush=True)
+        with build_nmpc(scenario, waves) as nmpc, around():
+            before = load()
+            step = CompanionStep(nmpc, waves, scenario)
+            cpu_before = getattr(waves, "cpu_s", 0.0)
+            with collections_timed() as gc_ms:
+                timings = replay(rec, step, args.watch, args.duration)
+            child_ms = (getattr(waves, "cpu_s", 0.0) - cpu_before) * 1e3 / max(1, len(step.solve_ms))
+            after = load()
+    finally:
+        getattr(waves, "close", lambda: None)()
     return {"name": name, "timings": timings, "solve_ms": step.solve_ms, "load": f"{before} -> {after}",
-            "roll_term": step.roll_term / max(1, len(step.solve_ms)), "gc_ms": gc_ms}
+            "roll_term": step.roll_term / max(1, len(step.solve_ms)), "gc_ms": gc_ms, "child_ms": child_ms,
+            "faults": dict(getattr(waves, "faults", {}))}
 
 
 def figures(row: dict[str, Any]) -> str:
@@ -276,7 +294,8 @@ def figures(row: dict[str, Any]) -> str:
             f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
             f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
             f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5} {len(row['gc_ms']):>5} "
-            f"{max(row['gc_ms'], default=0.0):>7.2f}")
+            f"{max(row['gc_ms'], default=0.0):>7.2f} {row['child_ms']:>7.3f}"
+            + (f"  estimator process: {row['faults']}" if any(row["faults"].values()) else ""))
 
 
 def main() -> None:
@@ -288,6 +307,9 @@ def main() -> None:
     p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
     p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
     p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
+    p.add_argument("--estimator", choices=("process", "inline"), default="process",
+                   help="the wave estimator in a process of its own (default, the companion's estimator_process: "
+                        "true) or in the step's process")
     p.add_argument("--conditions", default=None, metavar="NAME,...",
                    help="which of quiet,spinners,realtime to run (default quiet,spinners, and realtime with "
                         "--realtime); e.g. --conditions realtime --duration 600 for the 10 minutes alone")
@@ -310,13 +332,13 @@ def main() -> None:
 
         print(apply_realtime().line(), flush=True)
         rows.append(run_condition(f"{args.spinners} spinners + realtime", lambda: spinners(args.spinners), rec,
-                                  args, scenario))
+                                  args, scenario, realtime=True))
     print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'command':>8} {'command':>8} {'max':>8} "
           f"{'missed':>7} {'solve':>8} {'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} "
-          f"{'load 1 min':>12} {'gaps':>5} {'gc':>5} {'gc max':>7}")
+          f"{'load 1 min':>12} {'gaps':>5} {'gc':>5} {'gc max':>7} {'child':>7}")
     print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'median':>8} {'p99':>8} {'':>8} {'ticks':>7} "
           f"{'median':>8} {'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5} "
-          f"{'runs':>5} {'ms':>7}")
+          f"{'runs':>5} {'ms':>7} {'ms/step':>7}")
     for row in rows:
         print(figures(row))
 
