@@ -5,7 +5,9 @@ Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realti
 
 The step is `mavbridge run`'s, made of its own parts as it builds them: the state from the autopilot's
 messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate``
-(``make_wave_source``: only the companion's interface to it, none of its internals), and at each 0.1 s tick
+(``make_wave_source``: only the companion's interface to it, none of its internals; in a process of its own as
+the companion's default ``estimator_process`` has it, ``--estimator inline`` in the step's process; the
+child's CPU time per step is printed apart, and its faults if any), and at each 0.1 s tick
 the wave handed to the NMPC, the state predicted over the link's delay, the NMPC solve (default solver nrti)
 and the RC command computed. Its telemetry is real: `sim-vehicle` in the paper's waves (realistic sensors,
 hidden phase, ``--seed``) streams what the companion asks for (``mavbridge.link.streams``) into a ``Link`` for
@@ -13,7 +15,8 @@ hidden phase, ``--seed``) streams what the companion asks for (``mavbridge.link.
 speedup 1 on the wall clock: messages handed to the parts when their time comes, a step due when the newest
 ATTITUDE reaches the next tick (``flight.schedule``, as the companion's loop decides it). The first
 ``--watch`` seconds are replayed unpaced with no steps (the estimator watches the boat, as the companion
-does from connection until the pilot engages), then the cold solve, then ``--duration`` paced seconds.
+does from connection until the pilot engages; its process, if it has one, is waited for), then the cold solve,
+then ``--duration`` paced seconds (the estimator's process never waited for, as in a paced run).
 
 A step's time is its control step plus the message handling since the previous one (state updates and the
 estimator's observes: the companion's whole work per period). "command" is the part of the control step until the
@@ -49,7 +52,7 @@ import numpy as np
 from mavbridge.cli.args import single_scenario
 from mavbridge.companion.config import CompanionConfig
 from mavbridge.companion.delay import make_compensator
-from mavbridge.companion.flight import build_nmpc, schedule
+from mavbridge.companion.flight import build_nmpc, ready_for_loop, schedule
 from mavbridge.companion.output_paths import RcOverride
 from mavbridge.companion.outputs import RcSetup
 from mavbridge.companion.state import StateEstimate
@@ -272,6 +275,7 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
         with build_nmpc(scenario, waves) as nmpc, around():
             before = load()
             step = CompanionStep(nmpc, waves, scenario)
+            ready_for_loop()  # as `mavbridge run` sets the interpreter before its loop
             cpu_before = getattr(waves, "cpu_s", 0.0)
             with collections_timed() as gc_ms:
                 timings = replay(rec, step, args.watch, args.duration)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -130,7 +129,7 @@ def run_command(args: argparse.Namespace) -> int:
     """Carry out `mavbridge run`."""
     import time
 
-    from mavbridge.companion.flight import GIL_SWITCH_S, Companion, build_nmpc
+    from mavbridge.companion.flight import Companion, build_nmpc, ready_for_loop
     from mavbridge.companion.wave_gate import make_wave_source
     from mavbridge.lab.runlog import fresh_run_folder
     from mavbridge.link.port_guard import refuse_if_taken
@@ -159,7 +158,7 @@ def run_command(args: argparse.Namespace) -> int:
         with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open
             if config.realtime:  # after the building (its compiler runs are not real-time), before the link
                 realtime_for(config, waves)
-            sys.setswitchinterval(GIL_SWITCH_S)  # the loop, not the background preparation, first to the interpreter
+            ready_for_loop()  # the loop first to the interpreter; what is built left out of the collector's passes
             return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                              args.dry_run).run()
     finally:

@@ -15,9 +15,11 @@ CSV schema and metrics the in-process experiment shares.
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import signal
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -56,8 +58,18 @@ from vessel.config import to_mapping
 # a period at --speedup 10 (``mavbridge run`` sets this for its process)
 GIL_SWITCH_S = 0.0005
 
-__all__ = ["GIL_SWITCH_S", "Companion", "CompanionConfig", "build_nmpc", "load_companion_config", "schedule",
-           "wave_step"]
+__all__ = ["GIL_SWITCH_S", "Companion", "CompanionConfig", "build_nmpc", "load_companion_config", "ready_for_loop",
+           "schedule", "wave_step"]
+
+
+def ready_for_loop() -> None:
+    """The interpreter set for the control loop, once everything before it is built: the loop first to the
+    interpreter (``GIL_SWITCH_S``), and what was built so far (the NMPC's functions, the solver, the modules) left
+    out of the cyclic garbage collector's passes (``gc.freeze``), so that a full pass over it (up to about a
+    millisecond here) is not in some step's time. What the loop allocates is collected as before."""
+    sys.setswitchinterval(GIL_SWITCH_S)
+    gc.collect()
+    gc.freeze()
 
 
 def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) -> RollAwareNmpc:

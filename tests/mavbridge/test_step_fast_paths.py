@@ -4,6 +4,8 @@ compiled library's C API, the wave gate's reused field, the checks on bound buff
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import casadi as ca
@@ -132,3 +134,13 @@ def test_a_deferred_preparation_plans_as_an_immediate_one(solver: str) -> None:
                 assert result.stats["background"] == "used"
     assert np.array_equal(np.array(taus["inside"]), np.array(taus["deferred"]))
     assert np.array_equal(np.array(taus["inside"]), np.array(taus["forgotten"]))
+
+
+def test_the_loop_finds_the_interpreter_set_for_it() -> None:
+    """``ready_for_loop`` (`mavbridge run` and the step bench call it once all is built): the loop's switch interval,
+    and what was built kept out of the collector's passes. In a fresh interpreter: it changes the process's."""
+    code = ("import gc, sys; from mavbridge.companion.flight import GIL_SWITCH_S, ready_for_loop; "
+            "before = gc.get_freeze_count(); ready_for_loop(); "
+            "print(sys.getswitchinterval() == GIL_SWITCH_S, before == 0, gc.get_freeze_count() > 10_000)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["True", "True", "True"], done.stderr
