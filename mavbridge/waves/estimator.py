@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from mavbridge.waves.doppler import DopplerLine
-from mavbridge.waves.filters import MeanRemover, SinusoidFit, lag_correction, lpf_gain
+from mavbridge.waves.filters import CLOCK_BACK_S, MeanRemover, SinusoidFit, lag_correction, lpf_gain
 from mavbridge.waves.filters import finite as _finite
 from mavbridge.waves.filters import smooth_step as _smooth_step
 from mavbridge.waves.heave import HEAVE_GPS, HEAVE_IMU, HEAVE_NONE, HeaveFits
@@ -81,8 +81,13 @@ class WaveEstimator:
         """Take one motion sample (any rate, in time order); bad samples only lower the confidence."""
         stamp = _finite((sample.t_s,), 1)
         t = stamp[0] if stamp is not None else None
-        if t is None or (self._t is not None and t <= self._t):
+        if t is None:
             return
+        if self._t is not None and t <= self._t:
+            if t >= self._t - CLOCK_BACK_S:  # a repeat, or out of order: dropped
+                return
+            self.__init__(self.s)  # the clock went back (a reboot): all it knew is on the old clock (the fits'
+            # phases, the Doppler and settling times); this sample starts again
         if self._t is None or t - self._t > self.s.max_gap_s:
             self._restart(t)
             return

@@ -14,6 +14,8 @@ from __future__ import annotations
 import cmath
 import math
 
+CLOCK_BACK_S = 5.0  # a sample this much older than the last: the autopilot's clock went back (a reboot)
+
 
 def finite(values: object, n: int) -> tuple[float, ...] | None:
     """The first ``n`` entries as floats if all finite, else None (also for None or short input)."""

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from mavbridge.waves.filters import finite, smooth_step
+from mavbridge.waves.filters import CLOCK_BACK_S, finite, smooth_step
 from mavbridge.waves.heave import HEAVE_GPS, HEAVE_IMU, HEAVE_NONE
 from mavbridge.waves.motion_watch import MotionWatch
 from mavbridge.waves.settings import EstimatorSettings
@@ -94,9 +94,10 @@ class WindowEstimator:
             return
         t = stamp[0]
         if self._t is not None and t <= self._t:
-            if t < self._t - 5.0:  # the clock went back (a reboot): the window belongs to the old clock
-                self._forget()
-            return
+            if t >= self._t - CLOCK_BACK_S:  # a repeat, or out of order: dropped
+                return
+            self._forget()  # the clock went back (a reboot): the window belongs to the old clock, and this sample
+            self._t, self._last_att_t = None, -math.inf  # starts the new one (not every sample dropped until then)
         dt = t - self._t if self._t is not None else 0.05
         if dt > self.s.window_s:
             self._forget()

@@ -190,6 +190,28 @@ def test_a_clock_going_back_forgets_the_window_and_bad_samples_never_raise() -> 
     assert est.estimate(rebooted[-1].t_s) is None
 
 
+@pytest.mark.parametrize("method", ["window", "recursive"])
+def test_after_a_reboot_the_estimator_is_not_blind_until_the_new_clock_passes_the_old(method: str) -> None:
+    """The autopilot rebooted after 40 s: its clock restarts at 10 s, far behind the old one. The estimator starts
+    again on the new clock (an estimate within 40 s of it), not only once the new clock has passed the old."""
+    sea = _sea("paper", 6)
+    est = make_estimator(EstimatorSettings(method=method))
+    samples = list(motion_samples(KinematicBoat(sea, 1.0, lambda t: 1.0), 80.0, seed=6, t0=900.0))
+    for sample in samples[:800]:
+        est.observe(sample)
+    assert est.estimate(samples[799].t_s) is not None
+    confident_after_s = None
+    for i, sample in enumerate(samples[800:]):
+        t = sample.t_s - 930.0  # 10 s after the reboot at the first of these
+        est.observe(type(sample)(t, sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned,
+                                 sample.accel_body))
+        if i == 0:
+            assert est.estimate(t) is None  # the wave it knew was on the old clock: forgotten
+        if confident_after_s is None and est.estimate(t) is not None:
+            confident_after_s = t - 10.0
+    assert confident_after_s is not None and confident_after_s < 40.0, confident_after_s
+
+
 def _synthetic_window(wave: WaveParams, hull: HullResponse, harmonic_mps2: float, seed: int) -> Window:
     """20 s at 20 Hz of a boat heading East at 1.6 m/s into ``wave``: pitch, roll and the heave's acceleration
     as the fit's model has them, plus a second harmonic of the wave's phase on the acceleration and white noise
