@@ -3,9 +3,11 @@ on a busy companion computer, and say in one line what it got and what it fell b
 
 * Scheduling: SCHED_FIFO at ``realtime_priority`` (default 10: above every normal process, such as a camera's
   or a logger's, below the kernel's interrupt threads at 50) for every thread of the process; threads started
-  later inherit it (asrti/nrti's background solve, whose result the step waits for), and so would child
-  processes (the companion starts none while it flies). Needs root, CAP_SYS_NICE or RLIMIT_RTPRIO at least
-  the priority (systemd: ``LimitRTPRIO=``); else the process stays SCHED_OTHER.
+  later inherit it (asrti/nrti's background solve, whose result the step waits for); a child process started
+  before (the wave estimator's, ``mavbridge.companion.wave_process``) is given its own settings (`mavbridge
+  run`: one priority lower, applied by the child itself, as locked memory is a process's own). Needs root,
+  CAP_SYS_NICE or RLIMIT_RTPRIO at least the priority (systemd: ``LimitRTPRIO=``); else the process stays
+  SCHED_OTHER.
 * Memory: ``mlockall`` through ctypes, so no page the loop touches is swapped out or faulted in late:
   MCL_CURRENT | MCL_FUTURE where RLIMIT_MEMLOCK is unlimited or the process has CAP_IPC_LOCK (systemd:
   ``LimitMEMLOCK=infinity``); with a finite limit only MCL_CURRENT is tried (a later allocation past the limit

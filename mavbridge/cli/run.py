@@ -167,13 +167,19 @@ def run_command(args: argparse.Namespace) -> int:
 
 def realtime_for(config: Any, waves: Any) -> None:
     """The real-time settings for the companion and, one priority below it, the estimator's process (above every
-    normal process, never ahead of the control step); one line each."""
+    normal process, never ahead of the control step: at priority 1 there is none below, and it stays as it is);
+    one line each."""
     from mavbridge.cli.realtime import apply_realtime
 
     print(apply_realtime(config.realtime_priority).line(), flush=True)
-    if hasattr(waves, "call"):
-        got = waves.call(apply_realtime, max(1, config.realtime_priority - 1))
-        print(f"wave estimator's process: {got.line() if got is not None else 'realtime: no answer'}", flush=True)
+    if not hasattr(waves, "call"):
+        return
+    if config.realtime_priority < 2:
+        print("wave estimator's process: realtime: fell back: SCHED_OTHER (realtime_priority 1 leaves no priority "
+              "below the control step's)", flush=True)
+        return
+    got = waves.call(apply_realtime, config.realtime_priority - 1)
+    print(f"wave estimator's process: {got.line() if got is not None else 'realtime: no answer'}", flush=True)
 
 
 def demo_scenario(path: str | None, solver: str | None, direct: bool) -> Any:

@@ -4,23 +4,26 @@ In the companion's process every ATTITUDE used to run the estimator's per-sample
 sample time a stage of its window fit (up to ≈ 0.8 ms): the larger part of the step's time and most of its tail.
 ``EstimatorProcess`` is a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter:
 ``python -m`` this module), on a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at
-all). ``observe`` sends the sample as one message (a few microseconds, never blocking); the child takes each
+all). ``observe`` sends the sample as one message (a few microseconds; paced, it never waits); the child takes each
 in order and sends back its answers after it: the estimate, the latest fit and both slope spreads. Between
 samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
 still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
 
 A step asks (``answers``) for the answers as of every sample but the newest: the step's own ATTITUDE was sent
 just before it asks, and waiting for the child to wake and take it would put the wake-up (0.15 ms on an idle
-CPU here) back into the step; the sample before it came 50 ms earlier at 20 Hz and is long answered. Which
-answers a step gets therefore never depends on timing: one sample behind the estimator in the step's process.
+CPU here) back into the step; the sample before it came 50 ms earlier at 20 Hz and is long answered. The
+answers are the estimator's one sample later; a step asks once (every question of the step gets the same).
 
 How long the companion waits for the child (``wait_s``): paced (`mavbridge run` without ``--lockstep``) never,
-so a step never waits for another process; in lockstep and in unpaced replays up to seconds, so that every
-answer is the one due. Refusing rather than guessing: answers not there in time (``late``) are replaced by the
-last ones while those are at most ``STALE_S`` of autopilot time older than the newest sample (an estimate's
-phase is on the autopilot clock, so it stays valid), else by none (``stale``: no roll term, the Direct
-behaviour); a child that has gone gives none for the rest of the run (``stopped``); a sample the child has no
-room for in time is dropped (``dropped``). Each is said once in the log and counted (``faults``).
+so a step never waits for another process (and which answers it gets can then depend on timing); in lockstep
+and in unpaced replays up to seconds, so that every answer is the one due. Refusing rather than guessing:
+answers not there in time (``late``) are replaced by the last ones while those are at most ``STALE_S`` of
+autopilot time older than the newest sample (an estimate's phase is on the autopilot clock, so it stays
+valid), else by none (``stale``); a child that has gone gives none for the rest of the run (``stopped``); a
+sample the child has no room for in time is dropped (``dropped``). No answer means no new estimate: the
+``WaveGate`` then holds the last confident wave for ``estimation.hold_s`` as after any loss of confidence, and
+plans without the roll term after it. Faults are counted (``faults``, in metrics.json) and said in the run log
+when they start (at most once a minute for each kind) and, for ``stale``, when answers come again.
 """
 
 from __future__ import annotations
@@ -45,12 +48,13 @@ from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.source import MotionSample, WaveEstimate
 
 SAMPLE = struct.Struct("<17d")  # t, attitude 3, rates 3, position 3, velocity 3, has IMU, specific force 3
-COUNT = struct.Struct("<q")  # the samples an answer is as of
-MAX_MESSAGE = 1 << 16  # bytes: an answer is about one kilobyte
-DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds ≈ 200)
+COUNT = struct.Struct("<q")  # the samples an answer is as of; a call's number
+MAX_MESSAGE = 1 << 16  # bytes: an answer is under a kilobyte
 START_TIMEOUT_S = 60.0  # the child imports numpy and the estimator: seconds on a small computer
 WAIT_S = 5.0  # unpaced (lockstep, replays): how long answers and room for a sample are waited for at most
 STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot time) stand in for late ones
+SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
+FAULTS = ("late", "stale", "stopped", "dropped")
 
 
 @dataclass(frozen=True)
@@ -70,14 +74,18 @@ NO_ANSWERS = Answers(0, -math.inf)
 
 
 def pack_sample(sample: MotionSample) -> bytes:
-    """A motion sample as one message (b"S" + 17 doubles), or pickled (b"P") when its arrays are not 3-vectors."""
+    """A motion sample as one message (b"S" + 17 doubles), or pickled (b"P") unless every vector is 3 numbers
+    (the estimator then judges it, as in the companion's process)."""
+    vectors = (sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned, sample.accel_body)
     try:
-        accel = sample.accel_body
-        return b"S" + SAMPLE.pack(sample.t_s, *sample.attitude, *sample.rates, *sample.position_ned,
-                                  *sample.velocity_ned, float(accel is not None),
-                                  *(accel if accel is not None else (0.0, 0.0, 0.0)))
+        if all(v is None or len(v) == 3 for v in vectors):
+            accel = sample.accel_body
+            return b"S" + SAMPLE.pack(sample.t_s, *sample.attitude, *sample.rates, *sample.position_ned,
+                                      *sample.velocity_ned, float(accel is not None),
+                                      *(accel if accel is not None else (0.0, 0.0, 0.0)))
     except (struct.error, TypeError):
-        return b"P" + pickle.dumps(sample)
+        pass
+    return b"P" + pickle.dumps(sample)
 
 
 def unpack_sample(data: bytes) -> MotionSample:
@@ -104,6 +112,10 @@ def _flat(covariance: np.ndarray | None) -> tuple[float, ...] | None:
     return None if covariance is None else tuple(np.asarray(covariance, float).ravel().tolist())
 
 
+def _exit(code: int | None) -> str:
+    return "" if code is None else f" (exit code {code})"
+
+
 def serve(sock: socket.socket) -> None:
     """The child: the estimator (its settings the first message); every sample taken in order and answered, the
     fit worked ahead while none waits; returns when the companion's end closes or says so."""
@@ -111,23 +123,27 @@ def serve(sock: socket.socket) -> None:
         signal.signal(stop, signal.SIG_IGN)  # first, and needs its answers until then); its socket's end stops this
     estimator = make_estimator(pickle.loads(sock.recv(MAX_MESSAGE)))
     ahead = getattr(estimator, "work_ahead", None)
+    waiting = select.poll()
+    waiting.register(sock, select.POLLIN)
     sock.send(b"R" + estimator.name.encode())
     samples = 0
-    while True:
-        if ahead is not None and not select.select([sock], [], [], 0)[0] and ahead():
-            continue
-        data = sock.recv(MAX_MESSAGE)
-        kind = data[:1]
-        if kind in (b"S", b"P"):
-            sample = unpack_sample(data)
-            estimator.observe(sample)
-            samples += 1
-            sock.send(answers_of(estimator, samples, sample.t_s))
-        elif kind == b"C":  # a call in this process (the companion's real-time settings): its result back
-            call, args = pickle.loads(data[1:])
-            sock.send(b"C" + pickle.dumps(call(*args)))
-        else:  # b"X", or b"" at the companion's end
-            return
+    try:
+        while True:
+            if ahead is not None and not waiting.poll(0) and ahead():
+                continue
+            data = sock.recv(MAX_MESSAGE)
+            if data[:1] in (b"S", b"P"):
+                sample = unpack_sample(data)
+                estimator.observe(sample)
+                samples += 1
+                sock.send(answers_of(estimator, samples, sample.t_s))
+            elif data[:1] == b"C":  # a call in this process (the real-time settings): its number and result back
+                call, args = pickle.loads(data[1 + COUNT.size:])
+                sock.send(data[:1 + COUNT.size] + pickle.dumps(call(*args)))
+            else:  # b"X", or b"" at the companion's end
+                return
+    except OSError:  # the companion's end has gone
+        return
 
 
 @dataclass
@@ -138,16 +154,16 @@ class EstimatorProcess:
     wait_s: float = WAIT_S  # 0: paced, never wait (see the module docstring)
     log: Callable[[str], None] = print
     name: str = "estimated"
-    faults: dict[str, int] = field(init=False, default_factory=lambda: {"late": 0, "stale": 0, "stopped": 0,
-                                                                         "dropped": 0})
-    _said: set[str] = field(init=False, default_factory=set)
+    faults: dict[str, int] = field(init=False, default_factory=lambda: dict.fromkeys(FAULTS, 0))
+    _said_at: dict[str, float] = field(init=False, default_factory=dict)  # when each fault was last said (wall)
     _answers: Answers = field(init=False, default=NO_ANSWERS)
-    _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=deque)  # answers received, not yet used
-    # (sample count, message), oldest first; unpickled only when a step asks for them
+    _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=lambda: deque(maxlen=2))
+    # answers received, not yet used (count, message): only the newest as of sent − 1 and the one for sent matter
     _sent: int = field(init=False, default=0)  # samples sent
     _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
     _stopped: bool = field(init=False, default=False)
-    _missed: int = field(init=False, default=-1)  # the sample count whose answers were last missed (said once)
+    _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
+    _calls: int = field(init=False, default=0)
 
     def __post_init__(self) -> None:
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -155,6 +171,8 @@ class EstimatorProcess:
         self._child = subprocess.Popen([sys.executable, "-m", __name__, str(theirs.fileno())],
                                        pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
         theirs.close()
+        self._poll = select.poll()
+        self._poll.register(ours, select.POLLIN)
         try:
             ours.sendall(pickle.dumps(self.settings))
             ready = self._ready(START_TIMEOUT_S, write=False) and ours.recv(MAX_MESSAGE)
@@ -162,10 +180,10 @@ class EstimatorProcess:
                 raise EOFError
         except (EOFError, OSError):
             self.close()
-            raise RuntimeError(f"the wave estimator's process did not start within {START_TIMEOUT_S:g} s "
-                               f"(exit code {self._child.poll()})") from None
+            raise RuntimeError(f"the wave estimator's process did not start within {START_TIMEOUT_S:g} s"
+                               f"{_exit(self._child.poll())}") from None
         self.name = ready[1:].decode()
-        ours.setblocking(False)  # a step never waits to send
+        ours.setblocking(False)  # a paced step never waits to send
 
     @property
     def pid(self) -> int:
@@ -173,11 +191,12 @@ class EstimatorProcess:
         return self._child.pid
 
     def observe(self, sample: MotionSample) -> None:
-        """Send one motion sample to the estimator (dropped, and said, if the child has no room for it)."""
-        if self._send(pack_sample(sample), "dropped", "had no room for a sample: dropped"):
+        """Send one motion sample to the estimator (dropped, and said, if the child has no room for it in time)."""
+        if self._send(pack_sample(sample), "dropped"):
             self._sent += 1
-            self._sent_t = sample.t_s
-        if self._sent % DRAIN_EVERY == 0:  # its answers so far, read now and then so that the socket never fills
+            if math.isfinite(sample.t_s):
+                self._sent_t = sample.t_s
+        if self._sent % 16 == 0:  # its answers read now and then between steps: the socket never fills
             self._take_waiting()
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
@@ -191,7 +210,8 @@ class EstimatorProcess:
 
     def spread(self, explained: bool) -> np.ndarray | None:
         """The NED slope covariance (2×2, rad²) the wave does not explain; see ``answers``."""
-        flat = self.answers().spread_explained if explained else self.answers().spread_alone
+        answers = self.answers()
+        flat = answers.spread_explained if explained else answers.spread_alone
         return None if flat is None else np.array(flat).reshape(2, 2)
 
     def use_log(self, log: Callable[[str], None]) -> None:
@@ -200,52 +220,63 @@ class EstimatorProcess:
 
     @property
     def cpu_s(self) -> float:
-        """The child's processor time (s) as of its last answers."""
-        return self._current(max(self._sent - 1, 0)).cpu_s
+        """The child's processor time (s) as of the answers last used."""
+        return self._answers.cpu_s
 
     def call(self, function: Callable[..., Any], *args: Any, timeout_s: float = 10.0) -> Any:
         """``function(*args)`` run in the child (importable by name; e.g. the real-time settings), its result;
-        None when the child does not answer."""
-        if not self._send(b"C" + pickle.dumps((function, args)), "stale", "had no room for a call"):
+        None when the child does not answer in time."""
+        self._calls += 1
+        tag = b"C" + COUNT.pack(self._calls)
+        if not self._send(tag + pickle.dumps((function, args)), None):
             return None
         deadline = time.perf_counter() + timeout_s
         while not self._stopped and self._ready(max(deadline - time.perf_counter(), 0.0), write=False):
             result = self._take_waiting()
-            if result is not None:
-                return result
+            if result is not None and result[0] == tag:
+                return result[1]
         return None
 
     def close(self) -> None:
-        """End the child (idempotent)."""
+        """End the child (idempotent): told to stop, its last answers read meanwhile; killed after 2 s."""
+        deadline = time.monotonic() + 2.0
+        if self._child.poll() is None and self._send(b"X", None):
+            while self._child.poll() is None and time.monotonic() < deadline and not self._stopped:
+                if self._ready(0.05, write=False):
+                    self._take_waiting()
         if self._child.poll() is None:
-            self._send(b"X", "stopped", "could not be told to stop")
-            try:
-                self._child.wait(2.0)
-            except subprocess.TimeoutExpired:
-                self._child.kill()
-                self._child.wait(2.0)
+            self._child.kill()
+        self._child.wait(2.0)
         self._sock.close()
 
     def answers(self) -> Answers:
         """The estimator's answers as of every sample but the newest (see the module docstring), waited for at
-        most ``wait_s``; late or stale ones as the module docstring says (each counted once per step)."""
+        most ``wait_s``; late or stale ones as the module docstring says. Asked once per sample count: every
+        question of a step gets the same answers."""
         wanted = max(self._sent - 1, 0)
-        deadline = time.perf_counter() + (self.wait_s if wanted != self._missed else 0.0)
+        if self._chosen[0] == wanted:
+            return self._chosen[1]
+        deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
             self._take_waiting()
             if self._current(wanted).samples == wanted:
-                return self._answers
+                return self._choose(wanted, self._answers, recovered=True)
             left = deadline - time.perf_counter()
             if left <= 0 or not self._ready(left, write=False):
                 break
         if self._stopped:
-            return NO_ANSWERS
-        fresh = self._sent_t - self._answers.t_s <= STALE_S
-        if wanted != self._missed:
-            self._missed = wanted
-            self._fault(*(("late", "answered late; its previous answers are used") if fresh else
-                          ("stale", f"has not answered for over {STALE_S:g} s: no roll term until it does")))
-        return self._answers if fresh else NO_ANSWERS
+            return self._choose(wanted, NO_ANSWERS)
+        age = self._sent_t - self._answers.t_s
+        fresh = 0.0 <= age <= STALE_S or self._answers is NO_ANSWERS  # (nothing yet: late, not stale)
+        self._fault("late" if fresh else "stale")
+        return self._choose(wanted, self._answers if fresh else NO_ANSWERS)
+
+    def _choose(self, wanted: int, answers: Answers, recovered: bool = False) -> Answers:
+        """The step's answers, kept for its other questions; says when answers come again after a stale spell."""
+        if recovered and self._said_at.pop("stale", None) is not None:
+            self.log(f"waves ({self.name}): the estimator's process answers again")
+        self._chosen = (wanted, answers)
+        return answers
 
     def _current(self, wanted: int) -> Answers:
         """The newest answers as of at most ``wanted`` samples (unpickled now if they came since); newer ones kept."""
@@ -258,12 +289,12 @@ class EstimatorProcess:
 
     def _ready(self, timeout_s: float, write: bool) -> bool:
         """True when a message waits to be read (``write``: or there is room to send one) within the timeout."""
-        readable, writable, _ = select.select([self._sock], [self._sock] if write else [], [], timeout_s)
-        return bool(readable or writable)
+        self._poll.modify(self._sock, select.POLLIN | (select.POLLOUT if write else 0))
+        return bool(self._poll.poll(max(timeout_s, 0.0) * 1000.0))
 
-    def _take_waiting(self) -> Any:
-        """Read every message waiting, without blocking: answers kept (unpickled only when asked for), a call's
-        result returned (None if none came)."""
+    def _take_waiting(self) -> tuple[bytes, Any] | None:
+        """Read every message waiting, without blocking: answers kept (unpickled only when asked for); a call's
+        (tag, result) returned (None if none came)."""
         result = None
         while not self._stopped:
             try:
@@ -275,14 +306,14 @@ class EstimatorProcess:
             if not data:  # the child's end closed
                 self._stop()
             elif data[:1] == b"C":
-                result = pickle.loads(data[1:])
+                result = (data[:1 + COUNT.size], pickle.loads(data[1 + COUNT.size:]))
             elif data[:1] == b"A":
                 self._kept.append((COUNT.unpack_from(data, 1)[0], data))
         return result
 
-    def _send(self, data: bytes, full: str, what: str) -> bool:
+    def _send(self, data: bytes, full: str | None) -> bool:
         """Send one message; with the socket full, wait ``wait_s`` at most for room (reading the answers that
-        hold it up meanwhile); False, and the fault ``full`` said as ``what``, when there is none."""
+        hold it up meanwhile); False when there is none (the fault ``full`` counted, if named)."""
         deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
             try:
@@ -291,7 +322,8 @@ class EstimatorProcess:
             except BlockingIOError:
                 left = deadline - time.perf_counter()
                 if left <= 0 or not self._ready(left, write=True):
-                    self._fault(full, what)
+                    if full is not None:
+                        self._fault(full)
                     return False
                 self._take_waiting()
             except OSError:
@@ -299,14 +331,22 @@ class EstimatorProcess:
         return False
 
     def _stop(self) -> None:
-        self._stopped = True
-        self._fault("stopped", f"stopped (exit code {self._child.poll()}): no roll term for the rest of the run")
+        if not self._stopped:
+            self._stopped = True
+            self._fault("stopped")
 
-    def _fault(self, kind: str, what: str) -> None:
+    def _fault(self, kind: str) -> None:
+        """Count a fault; say it when it starts, and again at most once every SAY_EVERY_S while it goes on."""
         self.faults[kind] += 1
-        if kind not in self._said:
-            self._said.add(kind)
-            self.log(f"waves ({self.name}): the estimator's process {what}")
+        now = time.monotonic()
+        if now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
+            return
+        self._said_at[kind] = now
+        what = {"late": "answered late: its previous answers are used",
+                "stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
+                "stopped": f"stopped{_exit(self._child.poll())}: no new estimate for the rest of the run",
+                "dropped": "had no room for a sample: dropped"}[kind]
+        self.log(f"waves ({self.name}): the estimator's process {what} ({self.faults[kind]} so far)")
 
 
 if __name__ == "__main__":  # the child (``EstimatorProcess`` starts it with its end of the socket pair); the

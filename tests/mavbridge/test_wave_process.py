@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -30,7 +31,7 @@ def _samples(seconds: float, seed: int = 2) -> list[MotionSample]:
 
 
 @pytest.fixture
-def child() -> EstimatorProcess:
+def child() -> Iterator[EstimatorProcess]:
     source = EstimatorProcess(EstimatorSettings())  # unpaced: it waits for every answer due (seconds at most)
     yield source
     source.close()
@@ -57,16 +58,19 @@ def test_its_answers_are_the_estimators_own_one_sample_behind(child: EstimatorPr
 
 def test_working_the_fit_ahead_changes_no_answer() -> None:
     early, on_time = WindowEstimator(), WindowEstimator()
-    worked = 0
+    worked = confident = 0
     for sample in _samples(30.0, seed=4):
         early.observe(sample)
         on_time.observe(sample)
         while early.work_ahead():  # as the child does between samples
             worked += 1
         assert early.estimate(sample.t_s) == on_time.estimate(sample.t_s)
+        assert early.latest(sample.t_s) == on_time.latest(sample.t_s)
         assert early.encounter_frequency() == on_time.encounter_frequency()
         assert early.cold_starts == on_time.cold_starts
-    assert worked > 20 and early.fits == on_time.fits > 10
+        confident += on_time.estimate(sample.t_s) is not None
+    assert worked > 20 and early.fits == on_time.fits > 10 and early.cold_starts >= 1
+    assert confident > 100, confident  # the confident answers were compared, not only "no wave"
 
 
 def test_a_stopped_child_gives_its_last_answers_for_a_second_then_no_wave() -> None:
@@ -96,7 +100,7 @@ def test_a_stopped_child_gives_its_last_answers_for_a_second_then_no_wave() -> N
         source.observe(samples[-1])
         assert source.latest(samples[-1].t_s) is not None  # answers again once it runs
         said = [line for line in lines if "estimator's process" in line]
-        assert len(said) == 2, said  # late and stale, each said once
+        assert len(said) == 3 and "answers again" in said[-1], said  # late, stale (each once), then answers again
     finally:
         source.close()
 
@@ -108,6 +112,7 @@ def test_a_child_that_is_gone_means_no_wave_said_once_and_nothing_raises(child: 
     for sample in samples[:200]:
         gate.observe(sample)
     os.kill(child.pid, signal.SIGKILL)
+    child._child.wait(10.0)  # gone, its end of the socket closed: the next send fails every time
     for sample in samples[200:260]:
         gate.observe(sample)  # sending to a dead child does not raise
         assert child.estimate(sample.t_s) is None and child.spread(True) is None
@@ -147,3 +152,35 @@ def test_answers_that_came_before_their_step_are_kept_for_it(child: EstimatorPro
         assert child.answers().samples == i  # as of every sample but the newest, which has come too
         child.wait_s = 5.0
     assert not any(child.faults.values()), child.faults
+
+
+def test_answers_nobody_asks_for_are_not_hoarded(child: EstimatorProcess) -> None:
+    """Steps stop asking while the pilot has the boat (or at the waypoint); the samples keep coming, and what the
+    companion keeps of the answers must not grow with them."""
+    samples = _samples(60.0)
+    for sample in samples:
+        child.observe(sample)
+    assert len(child._kept) <= 2
+    assert child.answers().samples == len(samples) - 1 and not any(child.faults.values())
+
+
+def test_no_answers_yet_is_late_not_stale_and_odd_times_do_not_stop_it() -> None:
+    lines: list[str] = []
+    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0, log=lines.append)
+    try:
+        os.kill(source.pid, signal.SIGSTOP)
+        try:
+            for sample in _samples(2.0)[:5]:
+                source.observe(sample)
+                assert source.estimate(sample.t_s) is None
+        finally:
+            os.kill(source.pid, signal.SIGCONT)
+        assert source.faults["late"] >= 1 and source.faults["stale"] == 0, source.faults
+        assert not any("1 s of autopilot time" in line for line in lines), lines
+        source.wait_s = 5.0
+        nan_time = MotionSample(float("nan"), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+        source.observe(nan_time)
+        source.observe(_samples(2.0)[6])
+        assert source.answers().samples == 6 and source._sent_t == _samples(2.0)[6].t_s
+    finally:
+        source.close()
