@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import os
+import random
 import socket
 import subprocess
 import sys
@@ -19,12 +20,25 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 
+TEST_PORTS = (20000, 32768)  # below the kernel's ephemeral ports (see free_port)
+PORT_DRAWS = 200
 START_TIMEOUT_S = 45.0  # an irregular sea compiles its plant (1–4 s, more on a busy machine) before the port opens
 
 
 def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    """A loopback port nobody listens on right now."""
-    with socket.socket(socket.AF_INET, kind) as s:
+    """A loopback port nobody holds right now, drawn below Linux's ephemeral range (32768–60999): the kernel hands
+    those to every process's outgoing sockets, so one taken from there could be another test's source port by
+    the time its owner binds it (a companion then refuses it as in use)."""
+    draw = random.SystemRandom()
+    for _ in range(PORT_DRAWS):
+        port = draw.randrange(*TEST_PORTS)
+        with socket.socket(socket.AF_INET, kind) as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
+    with socket.socket(socket.AF_INET, kind) as s:  # all drawn were taken: any port the kernel gives
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import gc
 import math
 from pathlib import Path
 from typing import Any
@@ -162,6 +163,7 @@ def run_command(args: argparse.Namespace) -> int:
             return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
                              args.dry_run).run()
     finally:
+        gc.unfreeze()  # the loop is over (see ready_for_loop): the interpreter ends as before, collecting all
         getattr(waves, "close", lambda: None)()  # the estimator's process, if it has one
 
 
