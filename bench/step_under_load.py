@@ -117,6 +117,7 @@ class CompanionStep:
         self.output = RcOverride(scenario.params(), ctx, lambda _line: None)
         self.output.setup = RcSetup()  # what prepare() reads from this simulator (Rover's RC defaults)
         self.solve_ms: list[float] = []
+        self.child_cpu_s = 0.0  # the estimator's process's CPU time when the paced steps began (s)
         self.roll_term = 0
 
     def handle(self, msg: Any, paced: bool = True) -> None:
@@ -137,6 +138,7 @@ class CompanionStep:
         self.nmpc.prepare(self.state.vector(), t_s, WAYPOINT_NE)
         if hasattr(self.gate.source, "wait_s"):
             self.gate.source.wait_s = 0.0
+            self.child_cpu_s = self.gate.source.cpu_s  # its time per step counts from here, not the watch's
 
     def control(self, now_ms: int) -> float:
         """The control step of `mavbridge run` (its _control_step without the link): wave, prediction, solve,
@@ -276,10 +278,9 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
             before = load()
             step = CompanionStep(nmpc, waves, scenario)
             ready_for_loop()  # as `mavbridge run` sets the interpreter before its loop
-            cpu_before = getattr(waves, "cpu_s", 0.0)
             with collections_timed() as gc_ms:
                 timings = replay(rec, step, args.watch, args.duration)
-            child_ms = (getattr(waves, "cpu_s", 0.0) - cpu_before) * 1e3 / max(1, len(step.solve_ms))
+            child_ms = (getattr(waves, "cpu_s", 0.0) - step.child_cpu_s) * 1e3 / max(1, len(step.solve_ms))
             after = load()
     finally:
         getattr(waves, "close", lambda: None)()

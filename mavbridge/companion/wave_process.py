@@ -164,6 +164,7 @@ class EstimatorProcess:
     _stopped: bool = field(init=False, default=False)
     _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
     _calls: int = field(init=False, default=0)
+    _closing: bool = field(init=False, default=False)
 
     def __post_init__(self) -> None:
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -240,6 +241,7 @@ class EstimatorProcess:
     def close(self) -> None:
         """End the child (idempotent): told to stop, its last answers read meanwhile; killed after 2 s."""
         deadline = time.monotonic() + 2.0
+        self._closing = True  # its end of the socket closing now is no fault
         if self._child.poll() is None and self._send(b"X", None):
             while self._child.poll() is None and time.monotonic() < deadline and not self._stopped:
                 if self._ready(0.05, write=False):
@@ -333,7 +335,8 @@ class EstimatorProcess:
     def _stop(self) -> None:
         if not self._stopped:
             self._stopped = True
-            self._fault("stopped")
+            if not self._closing:
+                self._fault("stopped")
 
     def _fault(self, kind: str) -> None:
         """Count a fault; say it when it starts, and again at most once every SAY_EVERY_S while it goes on."""

@@ -136,9 +136,13 @@ def test_the_companion_factory_gives_the_process_only_when_asked() -> None:
     try:
         assert isinstance(source, EstimatorProcess) and source.name == inline.name
         assert source.settings == inline.s and source.settings.roll_sign == -1.0  # calibrated as the inline one
+        lines: list[str] = []
+        source.use_log(lines.append)
     finally:
         source.close()
     assert source._child.poll() is not None  # closed: the child has ended
+    assert not any(source.faults.values()) and lines == []  # an orderly end is no fault, and nothing is said
+    source.close()  # idempotent
 
 
 def test_answers_that_came_before_their_step_are_kept_for_it(child: EstimatorProcess) -> None:
