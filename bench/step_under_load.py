@@ -273,7 +273,8 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
             from mavbridge.cli.realtime import DEFAULT_PRIORITY, apply_realtime
 
             got = waves.call(apply_realtime, DEFAULT_PRIORITY - 1)
-            print(f"wave estimator's process: {got.line() if got is not None else 'no answer'}", flush=True)
+            print(f"wave estimator's process: {got.line() if hasattr(got, 'line') else f'no answer ({got})'}",
+                  flush=True)
         with build_nmpc(scenario, waves) as nmpc, around():
             before = load()
             step = CompanionStep(nmpc, waves, scenario)
@@ -283,6 +284,7 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
             child_ms = (getattr(waves, "cpu_s", 0.0) - step.child_cpu_s) * 1e3 / max(1, len(step.solve_ms))
             after = load()
     finally:
+        gc.unfreeze()  # (ready_for_loop froze this condition's parts: the next condition builds its own)
         getattr(waves, "close", lambda: None)()
     return {"name": name, "timings": timings, "solve_ms": step.solve_ms, "load": f"{before} -> {after}",
             "roll_term": step.roll_term / max(1, len(step.solve_ms)), "gc_ms": gc_ms, "child_ms": child_ms,

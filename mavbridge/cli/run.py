@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import gc
 import math
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -164,7 +165,15 @@ def run_command(args: argparse.Namespace) -> int:
                              args.dry_run).run()
     finally:
         gc.unfreeze()  # the loop is over (see ready_for_loop): the interpreter ends as before, collecting all
-        getattr(waves, "close", lambda: None)()  # the estimator's process, if it has one
+        close_source(waves)
+
+
+def close_source(waves: Any) -> None:
+    """End the estimator's process, if the wave source has one; a failure there is said, never the run's result."""
+    try:
+        getattr(waves, "close", lambda: None)()
+    except (OSError, subprocess.SubprocessError) as exc:
+        print(f"mavbridge run: the wave estimator's process did not end cleanly: {exc}", flush=True)
 
 
 def realtime_for(config: Any, waves: Any) -> None:
@@ -181,7 +190,8 @@ def realtime_for(config: Any, waves: Any) -> None:
               "below the control step's)", flush=True)
         return
     got = waves.call(apply_realtime, config.realtime_priority - 1)
-    print(f"wave estimator's process: {got.line() if got is not None else 'realtime: no answer'}", flush=True)
+    print(f"wave estimator's process: {got.line() if hasattr(got, 'line') else f'realtime: no answer ({got})'}",
+          flush=True)
 
 
 def demo_scenario(path: str | None, solver: str | None, direct: bool) -> Any:

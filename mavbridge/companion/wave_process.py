@@ -1,7 +1,8 @@
 """The wave estimator in a process of its own, so that its work is not the control step's (issue 32).
 
 In the companion's process every ATTITUDE used to run the estimator's per-sample work, and every 0.09 s of
-sample time a stage of its window fit (up to ≈ 0.8 ms): the larger part of the step's time and most of its tail.
+sample time a stage of its window fit (a fraction of a millisecond): the larger part of the step's time and
+most of its tail.
 ``EstimatorProcess`` is a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter:
 ``python -m`` this module), on a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at
 all). ``observe`` sends the sample as one message (a few microseconds; paced, it never waits); the child takes each
@@ -53,6 +54,8 @@ MAX_MESSAGE = 1 << 16  # bytes: an answer is under a kilobyte
 START_TIMEOUT_S = 60.0  # the child imports numpy and the estimator: seconds on a small computer
 WAIT_S = 5.0  # unpaced (lockstep, replays): how long answers and room for a sample are waited for at most
 STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot time) stand in for late ones
+DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds hundreds)
+CLOSE_WAIT_S = 2.0  # close: how long the child may take to end before it is killed
 SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
 FAULTS = ("late", "stale", "stopped", "dropped")
 
@@ -102,18 +105,30 @@ def answers_of(estimator: Any, samples: int, t_s: float) -> bytes:
     the pickled ``Answers``)."""
     spread = getattr(estimator, "spread", None)
     latest = getattr(estimator, "latest", None)
-    got = Answers(samples, t_s, latest(t_s) if latest else estimator.estimate(t_s), estimator.estimate(t_s) is not None,
-                  _flat(spread(True)) if spread else None, _flat(spread(False)) if spread else None,
-                  time.process_time())
+    est = estimator.estimate(t_s)  # the confident estimate is the latest fit (asked for once, not twice)
+    shown = est if est is not None or latest is None else latest(t_s)
+    got = Answers(samples, t_s, shown, est is not None, _flat(spread(True)) if spread else None,
+                  _flat(spread(False)) if spread else None, time.process_time())
     return b"A" + COUNT.pack(samples) + pickle.dumps(got)
 
 
 def _flat(covariance: np.ndarray | None) -> tuple[float, ...] | None:
+    """A 2×2 covariance as four plain floats, row by row (None stays None)."""
     return None if covariance is None else tuple(np.asarray(covariance, float).ravel().tolist())
 
 
 def _exit(code: int | None) -> str:
+    """' (exit code N)' once the child has ended, else nothing."""
     return "" if code is None else f" (exit code {code})"
+
+
+def _called(message: bytes) -> Any:
+    """The result of a call sent by ``EstimatorProcess.call``, or its exception (the child goes on either way)."""
+    try:
+        call, args = pickle.loads(message)
+        return call(*args)
+    except Exception as exc:  # whatever the call raised is the caller's answer, never the child's end
+        return exc
 
 
 def serve(sock: socket.socket) -> None:
@@ -138,8 +153,7 @@ def serve(sock: socket.socket) -> None:
                 samples += 1
                 sock.send(answers_of(estimator, samples, sample.t_s))
             elif data[:1] == b"C":  # a call in this process (the real-time settings): its number and result back
-                call, args = pickle.loads(data[1 + COUNT.size:])
-                sock.send(data[:1 + COUNT.size] + pickle.dumps(call(*args)))
+                sock.send(data[:1 + COUNT.size] + pickle.dumps(_called(data[1 + COUNT.size:])))
             else:  # b"X", or b"" at the companion's end
                 return
     except OSError:  # the companion's end has gone
@@ -165,6 +179,7 @@ class EstimatorProcess:
     _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
     _calls: int = field(init=False, default=0)
     _closing: bool = field(init=False, default=False)
+    _stale_said: bool = field(init=False, default=False)  # a stale spell was said: say when answers come again
 
     def __post_init__(self) -> None:
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
@@ -197,7 +212,7 @@ class EstimatorProcess:
             self._sent += 1
             if math.isfinite(sample.t_s):
                 self._sent_t = sample.t_s
-        if self._sent % 16 == 0:  # its answers read now and then between steps: the socket never fills
+        if self._sent % DRAIN_EVERY == 0:  # its answers read now and then between steps: the socket never fills
             self._take_waiting()
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
@@ -239,16 +254,18 @@ class EstimatorProcess:
         return None
 
     def close(self) -> None:
-        """End the child (idempotent): told to stop, its last answers read meanwhile; killed after 2 s."""
-        deadline = time.monotonic() + 2.0
+        """End the child (idempotent): told to stop, its last answers read meanwhile; killed after CLOSE_WAIT_S."""
+        deadline = time.monotonic() + CLOSE_WAIT_S
         self._closing = True  # its end of the socket closing now is no fault
         if self._child.poll() is None and self._send(b"X", None):
             while self._child.poll() is None and time.monotonic() < deadline and not self._stopped:
                 if self._ready(0.05, write=False):
                     self._take_waiting()
-        if self._child.poll() is None:
+        try:  # its socket closes before its interpreter has ended: the rest of the time for that
+            self._child.wait(max(deadline - time.monotonic(), 0.0))
+        except subprocess.TimeoutExpired:
             self._child.kill()
-        self._child.wait(2.0)
+            self._child.wait(CLOSE_WAIT_S)
         self._sock.close()
 
     def answers(self) -> Answers:
@@ -275,7 +292,8 @@ class EstimatorProcess:
 
     def _choose(self, wanted: int, answers: Answers, recovered: bool = False) -> Answers:
         """The step's answers, kept for its other questions; says when answers come again after a stale spell."""
-        if recovered and self._said_at.pop("stale", None) is not None:
+        if recovered and self._stale_said:
+            self._stale_said = False
             self.log(f"waves ({self.name}): the estimator's process answers again")
         self._chosen = (wanted, answers)
         return answers
@@ -333,6 +351,7 @@ class EstimatorProcess:
         return False
 
     def _stop(self) -> None:
+        """The child's end has closed: no answers from now on (a fault unless we are closing it)."""
         if not self._stopped:
             self._stopped = True
             if not self._closing:
@@ -345,6 +364,7 @@ class EstimatorProcess:
         if now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
             return
         self._said_at[kind] = now
+        self._stale_said |= kind == "stale"
         what = {"late": "answered late: its previous answers are used",
                 "stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
                 "stopped": f"stopped{_exit(self._child.poll())}: no new estimate for the rest of the run",

@@ -79,12 +79,9 @@ def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str,
         raise ValueError(f"{field_name}: expected {expected} numbers, got {arr.size}")
     if all(map(math.isfinite, arr.tolist())):  # plain floats: a few numbers, every step (numpy's calls cost more)
         return arr
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        i = int(bad[0])
-        label = f"{field_name}[{i}]" + (f" ({names[i]})" if names else "")
-        raise ValueError(f"{label} is not finite: {arr[i]!r}")
-    return arr
+    i = int(np.flatnonzero(~np.isfinite(arr))[0])
+    label = f"{field_name}[{i}]" + (f" ({names[i]})" if names else "")
+    raise ValueError(f"{label} is not finite: {arr[i]!r}")
 
 
 def checked_inputs(x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
