@@ -240,8 +240,8 @@ class EstimatorProcess:
         return self._answers.cpu_s
 
     def call(self, function: Callable[..., Any], *args: Any, timeout_s: float = 10.0) -> Any:
-        """``function(*args)`` run in the child (importable by name; e.g. the real-time settings), its result;
-        None when the child does not answer in time."""
+        """``function(*args)`` run in the child (importable by name; e.g. the real-time settings): its result, or
+        the exception it raised; None when the child does not answer in time."""
         self._calls += 1
         tag = b"C" + COUNT.pack(self._calls)
         if not self._send(tag + pickle.dumps((function, args)), None):
