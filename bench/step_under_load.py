@@ -269,12 +269,13 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
     waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params(),
                              process=args.estimator == "process")
     try:
-        if realtime and hasattr(waves, "call"):
-            from mavbridge.cli.realtime import DEFAULT_PRIORITY, apply_realtime
+        if realtime:
+            from mavbridge.cli.realtime import DEFAULT_PRIORITY
+            from mavbridge.cli.run import realtime_for_estimator
 
-            got = waves.call(apply_realtime, DEFAULT_PRIORITY - 1)
-            print(f"wave estimator's process: {got.line() if hasattr(got, 'line') else f'no answer ({got})'}",
-                  flush=True)
+            line = realtime_for_estimator(waves, DEFAULT_PRIORITY)
+            if line is not None:
+                print(line, flush=True)
         with build_nmpc(scenario, waves) as nmpc, around():
             before = load()
             step = CompanionStep(nmpc, waves, scenario)

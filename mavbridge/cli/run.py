@@ -183,15 +183,23 @@ def realtime_for(config: Any, waves: Any) -> None:
     from mavbridge.cli.realtime import apply_realtime
 
     print(apply_realtime(config.realtime_priority).line(), flush=True)
+    line = realtime_for_estimator(waves, config.realtime_priority)
+    if line is not None:
+        print(line, flush=True)
+
+
+def realtime_for_estimator(waves: Any, priority: int) -> str | None:
+    """The real-time settings one priority below ``priority`` for the estimator's process, applied by that process
+    itself (locked memory is a process's own), and the line saying what it got; None without such a process."""
+    from mavbridge.cli.realtime import apply_realtime
+
     if not hasattr(waves, "call"):
-        return
-    if config.realtime_priority < 2:
-        print("wave estimator's process: realtime: fell back: SCHED_OTHER (realtime_priority 1 leaves no priority "
-              "below the control step's)", flush=True)
-        return
-    got = waves.call(apply_realtime, config.realtime_priority - 1)
-    print(f"wave estimator's process: {got.line() if hasattr(got, 'line') else f'realtime: no answer ({got})'}",
-          flush=True)
+        return None
+    if priority < 2:
+        return ("wave estimator's process: realtime: fell back: SCHED_OTHER (realtime_priority 1 leaves no priority "
+                "below the control step's)")
+    got = waves.call(apply_realtime, priority - 1)
+    return f"wave estimator's process: {got.line() if hasattr(got, 'line') else f'realtime: no answer ({got})'}"
 
 
 def demo_scenario(path: str | None, solver: str | None, direct: bool) -> Any:

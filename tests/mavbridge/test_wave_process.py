@@ -23,6 +23,7 @@ from mavbridge.waves.kinematic import KinematicBoat, motion_samples
 from mavbridge.waves.source import MotionSample
 from vessel import RegularWaves, otter_parameters
 
+SYNC_S = 60.0  # where a test waits for the child's answers: returns when they come, fails only if they never do
 SEA = RegularWaves(1.75, 35.0, 6.0, math.radians(-90.0), phase_rad=0.7)  # the paper's
 
 
@@ -32,7 +33,7 @@ def _samples(seconds: float, seed: int = 2) -> list[MotionSample]:
 
 @pytest.fixture
 def child() -> Iterator[EstimatorProcess]:
-    source = EstimatorProcess(EstimatorSettings())  # unpaced: it waits for every answer due (seconds at most)
+    source = EstimatorProcess(EstimatorSettings(), wait_s=SYNC_S)  # unpaced: it waits for every answer due
     yield source
     source.close()
 
@@ -75,7 +76,7 @@ def test_working_the_fit_ahead_changes_no_answer() -> None:
 
 def test_a_stopped_child_gives_its_last_answers_for_a_second_then_no_wave() -> None:
     lines: list[str] = []
-    source = EstimatorProcess(EstimatorSettings(), log=lines.append)
+    source = EstimatorProcess(EstimatorSettings(), wait_s=SYNC_S, log=lines.append)
     try:
         samples = _samples(40.0)
         for sample in samples[:600]:  # 30 s at 20 Hz: confident
@@ -96,7 +97,7 @@ def test_a_stopped_child_gives_its_last_answers_for_a_second_then_no_wave() -> N
             assert source.faults["stale"] == 3
         finally:
             os.kill(source.pid, signal.SIGCONT)
-        source.wait_s = 5.0
+        source.wait_s = SYNC_S
         source.observe(samples[-1])
         assert source.latest(samples[-1].t_s) is not None  # answers again once it runs
         said = [line for line in lines if "estimator's process" in line]
@@ -151,10 +152,10 @@ def test_answers_that_came_before_their_step_are_kept_for_it(child: EstimatorPro
     samples = _samples(10.0)
     for i, sample in enumerate(samples[:100]):
         child.observe(sample)
-        assert child.call(os.getpid) == child.pid  # in order: every sample sent so far is answered by now
+        assert child.call(os.getpid, timeout_s=SYNC_S) == child.pid  # in order: every sample so far is answered
         child.wait_s = 0.0  # so that an answer passed over shows at once as a fault
         assert child.answers().samples == i  # as of every sample but the newest, which has come too
-        child.wait_s = 5.0
+        child.wait_s = SYNC_S
     assert not any(child.faults.values()), child.faults
 
 
@@ -181,7 +182,7 @@ def test_no_answers_yet_is_late_not_stale_and_odd_times_do_not_stop_it() -> None
             os.kill(source.pid, signal.SIGCONT)
         assert source.faults["late"] >= 1 and source.faults["stale"] == 0, source.faults
         assert not any("1 s of autopilot time" in line for line in lines), lines
-        source.wait_s = 5.0
+        source.wait_s = SYNC_S
         nan_time = MotionSample(float("nan"), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
         source.observe(nan_time)
         source.observe(_samples(2.0)[6])

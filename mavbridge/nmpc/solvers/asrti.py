@@ -39,11 +39,11 @@ WAIT_SHARE = 0.25
 BackgroundResult = tuple[np.ndarray | None, np.ndarray, float, int]  # (w or None, p_next, seconds, iterations)
 
 
-
 def _equal(a: np.ndarray, b: np.ndarray, part: slice) -> bool:
     """``np.array_equal`` of the two vectors' ``part`` (equal values, NaN never equal), as plain floats: this runs
     on every step, and numpy's per-call cost is most of it for a few numbers."""
     return a[part].tolist() == b[part].tolist()
+
 
 class BackgroundSolve:
     """The converged SQP for the next period, with its own linearisation and QP instances."""
