@@ -23,8 +23,9 @@ autopilot time older than the newest sample (an estimate's phase is on the autop
 valid), else by none (``stale``); a child that has gone gives none for the rest of the run (``stopped``); a
 sample the child has no room for in time is dropped (``dropped``). No answer means no new estimate: the
 ``WaveGate`` then holds the last confident wave for ``estimation.hold_s`` as after any loss of confidence, and
-plans without the roll term after it. Faults are counted (``faults``, in metrics.json) and said in the run log
-when they start (at most once a minute for each kind) and, for ``stale``, when answers come again.
+plans without the roll term after it. Faults are counted (``faults``, in metrics.json); all but ``late`` (the
+previous sample's answers standing in, which changes nothing a pilot need know) are said in the run log when
+they start (at most once a minute for each kind) and, for ``stale``, when answers come again.
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this oft
 CLOSE_WAIT_S = 2.0  # close: how long the child may take to end before it is killed
 SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
 FAULTS = ("late", "stale", "stopped", "dropped")
+SAID = ("stale", "stopped", "dropped")  # the faults said in the run log (``late`` is only counted)
 
 
 @dataclass(frozen=True)
@@ -358,15 +360,15 @@ class EstimatorProcess:
                 self._fault("stopped")
 
     def _fault(self, kind: str) -> None:
-        """Count a fault; say it when it starts, and again at most once every SAY_EVERY_S while it goes on."""
+        """Count a fault; say it (if one of SAID) when it starts, and again at most once every SAY_EVERY_S while it
+        goes on."""
         self.faults[kind] += 1
         now = time.monotonic()
-        if now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
+        if kind not in SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
             return
         self._said_at[kind] = now
         self._stale_said |= kind == "stale"
-        what = {"late": "answered late: its previous answers are used",
-                "stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
+        what = {"stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
                 "stopped": f"stopped{_exit(self._child.poll())}: no new estimate for the rest of the run",
                 "dropped": "had no room for a sample: dropped"}[kind]
         self.log(f"waves ({self.name}): the estimator's process {what} ({self.faults[kind]} so far)")
