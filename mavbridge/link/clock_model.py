@@ -21,18 +21,77 @@ away. Without an answer the delay is taken as zero and ``round_trip_s`` says Non
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from dataclasses import dataclass, field
-
-import numpy as np
 
 WINDOW_S = 10.0  # wall seconds of arrivals the fit uses
 MIN_SPAN_S = 0.5  # wall seconds of arrivals before a rate is fitted (before: rate 1)
 ROUND_TRIPS_KEPT = 8  # the smallest of the last this many round trips is the link's
 BACKWARDS_S = 5.0  # autopilot time this far behind the newest sample: a new boot, the fit starts again
 AHEAD_S = 30.0  # a stamp this far ahead of the model's "now" is not believed (a forged or corrupt one)
-REFIT_S = 0.25  # wall seconds between full fits over the window; between them a faster sample moves the offset
+REFIT_S = 0.25  # wall seconds between refits of the rate; between them a faster sample moves the offset
+BUCKET_S = 0.2  # wall s of arrivals of which only the fastest is kept for the offset's fit (see ``_Fastest``)
+REBASE_S = 60.0  # wall s: the running sums are taken again from the window, relative to its oldest sample, this
+# often (they are kept relative to a recent sample so that no precision is lost over hours)
+
+
+@dataclass
+class _Sums:
+    """Running sums of the window's samples relative to a reference sample, for the least-squares rate: O(1) per
+    arrival instead of a pass over the window (hundreds of samples) at each refit."""
+
+    ref: tuple[float, float] = (0.0, 0.0)
+    n: int = 0
+    w: float = 0.0
+    a: float = 0.0
+    ww: float = 0.0
+    wa: float = 0.0
+
+    def add(self, wall_s: float, autopilot_s: float, sign: int = 1) -> None:
+        """Add a sample (``sign`` −1: take one away)."""
+        dw, da = wall_s - self.ref[0], autopilot_s - self.ref[1]
+        self.n += sign
+        self.w += sign * dw
+        self.a += sign * da
+        self.ww += sign * dw * dw
+        self.wa += sign * dw * da
+
+    def rate(self) -> float | None:
+        """The least-squares slope of autopilot time against wall time (None when the wall times do not vary)."""
+        sxx = self.ww - self.w * self.w / self.n
+        sxy = self.wa - self.w * self.a / self.n
+        return sxy / sxx if sxx > 0.0 else None
+
+
+@dataclass
+class _Fastest:
+    """The window's fastest sample (the largest autopilot − rate · wall) without a pass over the window: each
+    BUCKET_S of arrivals keeps only its fastest sample (at the rate when it arrived), and the fit looks at those.
+    At the fit's rate the answer is within |Δrate| · BUCKET_S of the exact one (microseconds: the rate moves by
+    1e-4 at most between fits); a bucket leaves the window with its fastest sample."""
+
+    buckets: deque[list[float]] = field(default_factory=deque)  # [bucket number, wall s, autopilot s]
+
+    def add(self, wall_s: float, autopilot_s: float, rate: float) -> None:
+        """A new sample: a bucket of its own, or its bucket's fastest if it came faster (an arrival out of order
+        joins the newest bucket)."""
+        number = math.floor(wall_s / BUCKET_S)
+        newest = self.buckets[-1] if self.buckets else None
+        if newest is None or number > newest[0]:
+            self.buckets.append([number, wall_s, autopilot_s])
+        elif autopilot_s - rate * wall_s > newest[2] - rate * newest[1]:
+            newest[1], newest[2] = wall_s, autopilot_s
+
+    def expire(self, before_wall_s: float) -> None:
+        """Forget the buckets whose fastest sample is older than the window."""
+        while self.buckets and self.buckets[0][1] < before_wall_s:
+            self.buckets.popleft()
+
+    def offset(self, rate: float) -> float:
+        """autopilot − rate · wall of the fastest sample at ``rate`` (−inf when there is none)."""
+        return max((autopilot_s - rate * wall_s for _, wall_s, autopilot_s in self.buckets), default=-math.inf)
 
 
 @dataclass
@@ -45,27 +104,43 @@ class ClockModel:
     rate: float = 1.0
     offset_s: float | None = None
     rejected: int = 0  # stamps not believed (far ahead of the model's now)
-    _dirty: bool = True
-    _fitted_wall_s: float = -np.inf  # the newest arrival at the last full fit
+    _fitted_wall_s: float = -math.inf  # the newest arrival at the last refit of the rate
+    _sums: _Sums = field(default_factory=_Sums)
+    _fastest: _Fastest = field(default_factory=_Fastest)
 
     def observe(self, wall_s: float, autopilot_s: float) -> None:
         """A message stamped ``autopilot_s`` arrived at ``wall_s``."""
         if self.samples:
             newest = self.samples[-1][1]
             if autopilot_s < newest - BACKWARDS_S:  # the autopilot rebooted: its clock started again
-                self.samples.clear()
-                self.round_trips.clear()
-                self.offset_s = None
-                self._fitted_wall_s = -np.inf
+                self._forget()
             elif self.offset_s is not None and autopilot_s > self.rate * wall_s + self.offset_s + AHEAD_S:
                 self.rejected += 1
                 return
+        if not self.samples or wall_s - self._sums.ref[0] > REBASE_S:
+            self._rebase((wall_s, autopilot_s))
         self.samples.append((wall_s, autopilot_s))
-        while self.samples and self.samples[0][0] < wall_s - self.window_s:
-            self.samples.popleft()
+        self._sums.add(wall_s, autopilot_s)
+        self._fastest.add(wall_s, autopilot_s, self.rate)
+        while self.samples[0][0] < wall_s - self.window_s:
+            self._sums.add(*self.samples.popleft(), sign=-1)
+        self._fastest.expire(wall_s - self.window_s)
         if self.offset_s is not None:  # a faster sample than any before moves the offset at once
             self.offset_s = max(self.offset_s, autopilot_s - self.rate * wall_s)
-        self._dirty = True
+
+    def _forget(self) -> None:
+        """A new boot: the fit starts again."""
+        self.samples.clear()
+        self.round_trips.clear()
+        self._fastest.buckets.clear()
+        self.offset_s = None
+        self._fitted_wall_s = -math.inf
+
+    def _rebase(self, reference: tuple[float, float]) -> None:
+        """The running sums again, from the window's samples, relative to ``reference`` (its oldest, or the first)."""
+        self._sums = _Sums(self.samples[0] if self.samples else reference)
+        for sample in self.samples:
+            self._sums.add(*sample)
 
     def observe_round_trip(self, sent_wall_s: float, answered_wall_s: float) -> None:
         """A TIMESYNC request sent at ``sent_wall_s`` was answered at ``answered_wall_s``."""
@@ -73,24 +148,21 @@ class ClockModel:
             self.round_trips.append(answered_wall_s - sent_wall_s)
 
     def _fit(self) -> None:
-        """Rate (least squares over the window, once it spans MIN_SPAN_S) and the minimum offset; at most every
-        REFIT_S of arrivals (a window holds thousands of samples at speedup 10: refitting at every control step
-        took ~7 % of the companion's time)."""
-        if not self._dirty or not self.samples:
+        """The rate (least squares over the window, once it spans MIN_SPAN_S), at most every REFIT_S of arrivals,
+        and the fastest sample's offset at it. Both from running figures kept per arrival (``_Sums``,
+        ``_Fastest``): refitting at every control step once took ~7 % of the companion's time, and a pass over the
+        window every REFIT_S was a third of the steps' tail (issue 32)."""
+        if not self.samples:
             return
         newest = self.samples[-1][0]
         if self.offset_s is not None and newest - self._fitted_wall_s < REFIT_S:
             return
         self._fitted_wall_s = newest
-        wall = np.fromiter((w for w, _ in self.samples), float)
-        auto = np.fromiter((a for _, a in self.samples), float)
-        if wall[-1] - wall[0] >= MIN_SPAN_S and len(wall) >= 3:
-            w0 = wall - wall.mean()
-            slope = float(np.dot(w0, auto - auto.mean()) / np.dot(w0, w0))
-            if slope > 0 and np.isfinite(slope):
+        if newest - self.samples[0][0] >= MIN_SPAN_S and len(self.samples) >= 3:
+            slope = self._sums.rate()
+            if slope is not None and slope > 0 and math.isfinite(slope):
                 self.rate = slope
-        self.offset_s = -float(np.min(self.rate * wall - auto))  # the fastest sample: least late
-        self._dirty = False
+        self.offset_s = self._fastest.offset(self.rate)
 
     @property
     def round_trip_s(self) -> float | None:

@@ -182,3 +182,27 @@ def test_bad_yaml_field_is_one_line_and_exit_2(tmp_path: Path) -> None:
                            str(tmp_path / "never")], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2, done.stderr
     assert done.stderr.count("\n") == 1 and "max_prediction_s" in done.stderr and "[0, 5] s" in done.stderr
+
+
+def test_running_fit_matches_a_full_pass_over_the_window() -> None:
+    """The rate and offset kept per arrival (issue 32: no pass over the window in a control step) against the exact
+    fit over the window, every refit of a 10-minute stream at 30 Hz with exponential jitter and 20 ms spikes: the
+    rate the same to rounding, the offset within 0.3 ms of autopilot time."""
+    rng = random.Random(3)
+    clock = ClockModel()
+    rate_errors, offset_errors = [], []
+    for i in range(600 * 30):
+        sent = i / 30
+        wall = 50.0 + sent + 0.002 + rng.expovariate(1 / 0.002) + (0.02 if rng.random() < 0.01 else 0.0)
+        clock.observe(wall, 200.0 + sent)
+        fitted = clock._fitted_wall_s
+        clock.now_s(wall)
+        if clock._fitted_wall_s == fitted or sent < 15.0:
+            continue
+        w, a = (np.array(column) for column in zip(*clock.samples, strict=True))
+        centred = w - w.mean()
+        rate_errors.append(abs(float(np.dot(centred, a - a.mean()) / np.dot(centred, centred)) - clock.rate))
+        offset_errors.append(abs(-float(np.min(clock.rate * w - a)) - clock.offset_s))
+    assert len(rate_errors) > 1500  # every REFIT_S of ten minutes
+    assert max(rate_errors) < 1e-9
+    assert max(offset_errors) < 3e-4
