@@ -43,6 +43,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -117,39 +118,41 @@ def answers_of(estimator: Any, samples: int, t_s: float) -> bytes:
 
 
 def encode_answers(got: Answers) -> bytes:
-    """b"A", the count, the numbers packed (HEAD), then the estimate's log figures (``extras``): marshalled
-    (b"M") as plain floats, else pickled (b"P"). Unpacking numbers costs the step a fraction of unpickling
+    """b"A", the count, then b"N" and the numbers packed (HEAD) with the estimate's log figures (``extras``)
+    marshalled when they are all numbers (b"M", as plain floats), else pickled (b"P"); or b"Q" and the whole
+    ``Answers`` pickled when its numbers do not pack. Unpacking numbers costs the step a fraction of unpickling
     dataclasses (30 µs paced, issue 32)."""
     est = got.latest
-    numbers = (est.height_m, est.period_s, est.length_m, est.travel_dir_rad, est.phase_rad, est.confidence,
-               est.roll_sign) if est is not None else (0.0,) * 7
-    flags = sum(1 << i for i, on in enumerate((est is not None, got.confident, got.spread_explained is not None,
-                                               got.spread_alone is not None)) if on)
-    head = HEAD.pack(got.t_s, flags, *numbers, *(got.spread_explained or (0.0,) * 4),
-                     *(got.spread_alone or (0.0,) * 4), got.cpu_s)
     extras = est.extras if est is not None else {}
     try:
+        wave = (est.height_m, est.period_s, est.length_m, est.travel_dir_rad, est.phase_rad, est.confidence,
+                   est.roll_sign) if est is not None else (0.0,) * 7
+        flags = sum(1 << i for i, on in enumerate((est is not None, got.confident, got.spread_explained is not None,
+                                                   got.spread_alone is not None)) if on)
+        head = HEAD.pack(got.t_s, flags, *wave, *(got.spread_explained or (0.0,) * 4),
+                         *(got.spread_alone or (0.0,) * 4), got.cpu_s)
+    except (struct.error, TypeError):  # a field that is not a number, a spread that is not four: as they are
+        return b"A" + COUNT.pack(got.samples) + b"Q" + pickle.dumps(got)
+    if all(isinstance(v, Real) and not isinstance(v, bool) for v in extras.values()):
         tail = b"M" + marshal.dumps({str(k): float(v) for k, v in extras.items()})
-    except (TypeError, ValueError):  # a figure that is no number: as it is
+    else:
         tail = b"P" + pickle.dumps(extras)
-    return b"A" + COUNT.pack(got.samples) + head + tail
+    return b"A" + COUNT.pack(got.samples) + b"N" + head + tail
 
 
-def decode_answers(message: bytes, previous: Answers = NO_ANSWERS) -> Answers:
-    """The ``Answers`` in a message ``encode_answers`` made; ``previous``'s estimate object again when its numbers
-    and figures are the same (the wave hand-over then knows it without looking further)."""
-    start = 1 + COUNT.size
-    samples = COUNT.unpack_from(message, 1)[0]
+def decode_answers(message: bytes) -> Answers:
+    """The ``Answers`` in a message ``encode_answers`` made."""
+    start = 2 + COUNT.size
+    if message[start - 1:start] == b"Q":
+        return pickle.loads(message[start:])
     values = HEAD.unpack_from(message, start)
-    t_s, flags, numbers, spreads, cpu_s = values[0], values[1], values[2:9], values[9:17], values[17]
+    t_s, flags, wave, spreads, cpu_s = values[0], values[1], values[2:9], values[9:17], values[17]
     est = None
     if flags & 1:
         tail = message[start + HEAD.size:]
         extras = marshal.loads(tail[1:]) if tail[:1] == b"M" else pickle.loads(tail[1:])
-        est = WaveEstimate(*numbers[:6], extras=extras, roll_sign=numbers[6])
-        if est == previous.latest:
-            est = previous.latest
-    return Answers(samples, t_s, est, bool(flags & 2), spreads[:4] if flags & 4 else None,
+        est = WaveEstimate(*wave[:6], extras=extras, roll_sign=wave[6])
+    return Answers(COUNT.unpack_from(message, 1)[0], t_s, est, bool(flags & 2), spreads[:4] if flags & 4 else None,
                    spreads[4:] if flags & 8 else None, cpu_s)
 
 
@@ -345,7 +348,7 @@ class EstimatorProcess:
         while self._kept and self._kept[0][0] <= wanted:
             found = self._kept.popleft()[1]
         if found is not None:
-            self._answers = decode_answers(found, self._answers)
+            self._answers = decode_answers(found)
         return self._answers
 
     def _ready(self, timeout_s: float, write: bool) -> bool:

@@ -194,16 +194,18 @@ def test_no_answers_yet_is_late_not_stale_and_odd_times_do_not_stop_it() -> None
 
 def test_answers_are_packed_as_numbers_and_come_back_equal() -> None:
     """Answers go over as packed numbers (issue 32: unpickling cost the step 30 µs paced): every field comes back
-    equal; figures that are numpy numbers come back as plain floats, any other figure as it was; an estimate that
-    did not change is the previous object again (the hand-over's cache knows it at once)."""
-    est = WaveEstimate(1.75, 6.0, 35.0, -1.2, 0.7, 0.9, {"mode": 3.0, "fit": np.float64(0.25)}, -1.0)
+    equal; figures that are numpy numbers come back as plain floats, any other figure (text, a flag) as it was;
+    answers whose numbers do not pack come back whole."""
+    est = WaveEstimate(1.75, 6.0, 35.0, -1.2, 0.7, 0.9, {"mode": 3.0, "fit": np.float64(0.25), "n": 40}, -1.0)
     got = Answers(41, 12.5, est, True, (1e-4, 0.0, 0.0, 2e-4), None, 3.5)
     back = decode_answers(encode_answers(got))
     assert back == got and type(back.latest.extras["fit"]) is float
-    assert decode_answers(encode_answers(got), back).latest is back.latest
-    moved = replace(got, latest=replace(est, phase_rad=0.8))
-    assert decode_answers(encode_answers(moved), back).latest == moved.latest != back.latest
-    odd = replace(got, latest=replace(est, extras={"label": "window"}), confident=False, spread_alone=(1.0,) * 4)
-    assert decode_answers(encode_answers(odd)) == odd
+    for extras in ({"label": "1"}, {"flag": True}):
+        odd = replace(got, latest=replace(est, extras=extras), confident=False, spread_alone=(1.0,) * 4)
+        assert decode_answers(encode_answers(odd)).latest.extras == extras
+        assert type(next(iter(decode_answers(encode_answers(odd)).latest.extras.values()))) is type(
+            next(iter(extras.values())))
+    unpackable = replace(got, latest=replace(est, confidence=None), spread_explained=())
+    assert decode_answers(encode_answers(unpackable)) == unpackable
     nothing = Answers(3, 0.5)
     assert decode_answers(encode_answers(nothing)) == nothing
