@@ -43,16 +43,23 @@ class CommandHistory:
         self.entries.append((effective_s, np.asarray(tau, float).copy()))
 
     def segments(self, t0: float, t1: float) -> list[tuple[float, float, np.ndarray]]:
-        """[(from, to, τ)] covering [t0, t1]: the command in effect over each piece (zero before the first)."""
-        current = np.zeros(2)
-        for when, tau in self.entries:
+        """[(from, to, τ)] covering [t0, t1]: the command in effect over each piece (zero before the first).
+
+        Read from the newest back to the command in effect at t0 (entries are in time order): a few entries a
+        step rather than the whole history twice (a fifth of the prediction's time, issue 32)."""
+        current: np.ndarray | None = None
+        later: list[tuple[float, np.ndarray]] = []  # the commands taking effect within (t0, t1), newest first
+        for when, tau in reversed(self.entries):
             if when <= t0:
                 current = tau
+                break
+            if when < t1:
+                later.append((when, tau))
         pieces, start = [], t0
-        for when, tau in self.entries:
-            if t0 < when < t1:
-                pieces.append((start, when, current))
-                start, current = when, tau
+        current = np.zeros(2) if current is None else current
+        for when, tau in reversed(later):
+            pieces.append((start, when, current))
+            start, current = when, tau
         pieces.append((start, t1, current))
         return [p for p in pieces if p[1] > p[0]]
 

@@ -111,6 +111,29 @@ def test_history_gives_the_command_in_effect_on_each_piece() -> None:
     assert len(history.entries) == 1
 
 
+def test_history_read_from_the_newest_is_the_whole_history_read() -> None:
+    """``segments`` reads back from the newest command (issue 32): the same pieces as reading every command, in
+    random histories with repeated times, windows before, inside and after them, and empty ones."""
+    rng = random.Random(1)
+    for _ in range(2000):
+        history, t = CommandHistory(), 0.0
+        for _ in range(rng.randint(0, 80)):
+            t += rng.choice([0.0, 0.05, 0.1, 0.3])
+            history.add(t, np.array([rng.random(), rng.random()]))
+        t0 = rng.uniform(-1.0, t + 1.0)
+        t1 = t0 + rng.choice([0.0, 0.05, 0.2, 5.0])
+        current, pieces, start = np.zeros(2), [], t0
+        for when, tau in history.entries:
+            current = tau if when <= t0 else current
+        for when, tau in history.entries:
+            if t0 < when < t1:
+                pieces.append((start, when, current))
+                start, current = when, tau
+        pieces.append((start, t1, current))
+        want = [(a, b, list(tau)) for a, b, tau in pieces if b > a]
+        assert [(a, b, list(tau)) for a, b, tau in history.segments(t0, t1)] == want, (t0, t1)
+
+
 @pytest.mark.parametrize("wave", [None, RegularWaves(height_m=1.75, length_m=20.0, travel_dir_rad=0.7)],
                          ids=["calm", "regular"])
 def test_prediction_over_one_period_is_the_nmpcs_own_model_step(wave: RegularWaves | None) -> None:
