@@ -14,6 +14,7 @@ the last step plus the step's ``estimate``) is timed per control step, so it cou
 from __future__ import annotations
 
 import math
+import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,6 +25,7 @@ import numpy as np
 from mavbridge.waves.source import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
 from vessel.config import ConfigError
 
+_WAVE_BITS = struct.Struct("<6d")  # an estimate's wave numbers, the key of the field made of them
 WATCH_EVERY_S = 0.1  # before engaging, the source is asked this often whether it knows the sea
 
 
@@ -64,8 +66,10 @@ class WaveGate:
     first_sample_s: float | None = None  # autopilot time of the first motion sample the source got
     _watched_t: float = -math.inf
     _hold: EstimateHold = field(init=False)
-    _made: tuple[tuple[str, ...], Any] | None = field(default=None, init=False, repr=False, compare=False)
+    _made: tuple[bytes | None, Any] | None = field(default=None, init=False, repr=False, compare=False)
     # (an estimate's wave numbers as exact bits, the field made of them)
+    _spread_given: tuple[Any, bytes] | None = field(default=None, init=False, repr=False, compare=False)
+    # (the NMPC, the spread it last took, as exact bits): the same again is not given again
 
     def __post_init__(self) -> None:
         self._hold = EstimateHold(self.hold_s)
@@ -121,9 +125,12 @@ class WaveGate:
         wave model's ranges (e.g. a breaking steepness), said once per run."""
         if est is None:
             return None
-        key = tuple(float(v).hex() for v in (est.height_m, est.length_m, est.period_s, est.travel_dir_rad,
-                                             est.phase_rad, est.roll_sign))  # exact bits: −0.0 is not 0.0 here
-        if self._made is not None and self._made[0] == key:
+        try:  # exact bits: −0.0 is not 0.0 here
+            key: bytes | None = _WAVE_BITS.pack(est.height_m, est.length_m, est.period_s, est.travel_dir_rad,
+                                                est.phase_rad, est.roll_sign)
+        except (struct.error, TypeError):  # not numbers: the field's own checks say what is wrong
+            key = None
+        if key is not None and self._made is not None and self._made[0] == key:
             return self._made[1]  # the same wave as the last step's (the fit has not moved): the same field object,
             # which the NMPC and the predictor recognise without building its parameters again
         try:
@@ -145,11 +152,16 @@ class WaveGate:
         """The sea's unexplained slope statistics to the NMPC (the expected-roll term); says when the roll
         term starts or stops acting on them alone (no confident wave)."""
         spread = sea_spread(self.source, explained)
-        try:
-            nmpc.set_sea_spread(spread)
-        except ValueError:  # not a covariance (cannot happen with the estimator's): no term, no crash
-            spread = None
-            nmpc.set_sea_spread(None)
+        bits = spread.tobytes() if isinstance(spread, np.ndarray) else None
+        given = self._spread_given
+        if bits is None or given is None or given[0] is not nmpc or given[1] != bits:  # (it changes with a fit)
+            self._spread_given = None
+            try:
+                nmpc.set_sea_spread(spread)
+                self._spread_given = None if bits is None else (nmpc, bits)
+            except ValueError:  # not a covariance (cannot happen with the estimator's): no term, no crash
+                spread = None
+                nmpc.set_sea_spread(None)
         alone = spread is not None and not explained
         self.spread_steps += int(alone)
         if alone != self._spread_on and (alone or self._spread_on):

@@ -83,16 +83,22 @@ class Answers:
 NO_ANSWERS = Answers(0, -math.inf)
 
 
+def _numbers(vector: Any) -> Any:
+    """An array's numbers as plain floats in one call (unpacking the array would make a numpy scalar of each);
+    anything else as it is."""
+    return vector.tolist() if isinstance(vector, np.ndarray) else vector
+
+
 def pack_sample(sample: MotionSample) -> bytes:
     """A motion sample as one message (b"S" + 17 doubles), or pickled (b"P") unless every vector is 3 numbers
     (the estimator then judges it, as in the companion's process)."""
-    vectors = (sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned, sample.accel_body)
+    att, rates, pos, vel, accel = (sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned,
+                                   sample.accel_body)
     try:
-        if all(v is None or len(v) == 3 for v in vectors):
-            accel = sample.accel_body
-            return b"S" + SAMPLE.pack(sample.t_s, *sample.attitude, *sample.rates, *sample.position_ned,
-                                      *sample.velocity_ned, float(accel is not None),
-                                      *(accel if accel is not None else (0.0, 0.0, 0.0)))
+        if len(att) == len(rates) == len(pos) == len(vel) == 3 and (accel is None or len(accel) == 3):
+            return b"S" + SAMPLE.pack(sample.t_s, *_numbers(att), *_numbers(rates), *_numbers(pos), *_numbers(vel),
+                                      float(accel is not None),
+                                      *(_numbers(accel) if accel is not None else (0.0, 0.0, 0.0)))
     except (struct.error, TypeError):
         pass
     return b"P" + pickle.dumps(sample)

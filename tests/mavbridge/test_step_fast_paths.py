@@ -16,6 +16,7 @@ from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.companion.state import imu_specific_force
 from mavbridge.companion.wave_gate import WaveGate
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc, compile_native_function
+from mavbridge.nmpc.sea_spread import slope_factor
 from mavbridge.nmpc.solvers.codegen import compiler
 from mavbridge.waves.source import WaveEstimate
 from vessel import OceanCurrent, RegularWaves, otter_parameters
@@ -101,6 +102,40 @@ def test_the_gate_reuses_its_field_only_for_the_very_same_wave() -> None:
     assert fields[1] is fields[0]
     assert len({id(f) for f in fields}) == 4
     assert fields[2].phase_rad == 1e-9 and fields[4].paper_roll_sign is False
+
+
+class _Spreading(_Fixed):
+    """A source that also measures the sea's unexplained slope covariance: whatever it is given."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.covariance: np.ndarray | None = None
+
+    def spread(self, explained: bool) -> np.ndarray | None:
+        return self.covariance
+
+
+def test_the_gate_gives_the_sea_spread_again_only_when_its_bits_change() -> None:
+    """The spread changes only when a fit completes: the same bits are not given to the NMPC again (issue 32), and
+    the NMPC always plans with the spread the source measures now (its slope factor), another NMPC included."""
+    source = _Spreading()
+    given: list[object] = []
+    with RollAwareNmpc(NmpcConfig(horizon=4, solver="ipopt")) as nmpc, \
+            RollAwareNmpc(NmpcConfig(horizon=4, solver="ipopt")) as other:
+        for controller in (nmpc, other):
+            inner = controller.set_sea_spread
+            controller.set_sea_spread = lambda c, inner=inner: (given.append(c), inner(c))  # type: ignore[method-assign]
+        gate = WaveGate(source, log=lambda line: None)
+        a, b = np.array([[4e-4, 1e-4], [1e-4, 2e-4]]), np.array([[1e-4, 0.0], [0.0, 1e-4]])
+        steps = ((a, nmpc, True), (a.copy(), nmpc, False), (b, nmpc, True), (None, nmpc, True), (a, nmpc, True),
+                 (a, other, True), (-a, other, True), (-a, other, True))  # (−a is refused: given each time)
+        for step, (covariance, controller, again) in enumerate(steps):
+            source.covariance = covariance
+            before = len(given)
+            gate.step(controller, float(step))
+            assert (len(given) > before) is again, step
+            want = slope_factor(covariance) if covariance is None or covariance[0, 0] >= 0 else np.zeros(3)
+            assert np.array_equal(controller._sea.factor, want), step
 
 
 def test_an_imu_field_that_is_no_number_makes_the_sample_unusable() -> None:
