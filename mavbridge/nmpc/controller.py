@@ -71,6 +71,9 @@ def make_backend(functions: ProblemFunctions, cfg: NmpcConfig) -> NmpcBackend:
 
 
 def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str, ...] | None = None) -> np.ndarray:
+    if type(values) is np.ndarray and values.shape == (expected,) and values.dtype == np.float64 \
+            and all(map(math.isfinite, values.tolist())):  # the step's own arrays: no conversion, one check
+        return values
     try:
         arr = np.asarray(values, dtype=float).ravel()
     except (TypeError, ValueError):
@@ -87,7 +90,7 @@ def _check_finite(values: Any, expected: int, field_name: str, names: tuple[str,
 def checked_inputs(x0: Any, t: Any, waypoint_ne: Any) -> tuple[np.ndarray, float, np.ndarray]:
     """(x0, t, waypoint) as finite numbers, or ValueError naming the field (and state name)."""
     x = _check_finite(x0, NX, "x0", STATE_NAMES)
-    time_s = float(_check_finite([t], 1, "t")[0])
+    time_s = t if type(t) is float and math.isfinite(t) else float(_check_finite([t], 1, "t")[0])
     return x, time_s, _check_finite(waypoint_ne, 2, "waypoint_ne", ("north", "east"))
 
 

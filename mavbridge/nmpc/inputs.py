@@ -71,7 +71,10 @@ class InputSpace:
         return tau.copy() if self.matrix is None else np.linalg.solve(self.matrix, tau)
 
     def clip(self, u: np.ndarray) -> np.ndarray:
-        """u within its box."""
+        """u within its box (one input in plain floats: np.clip's own cost is most of it, every step)."""
+        if type(u) is np.ndarray and u.shape == self.low.shape == (2,):
+            (a, b), (low_a, low_b), (high_a, high_b) = u.tolist(), self.low.tolist(), self.high.tolist()
+            return np.array([min(max(a, low_a), high_a), min(max(b, low_b), high_b)], float)  # (NaN stays NaN)
         return np.clip(u, self.low, self.high)
 
 

@@ -195,7 +195,9 @@ class Layout:
         w = np.asarray(w, float).ravel()
         P = self.horizon
         stages = w[:P * (NX + NU)].reshape(P, NX + NU)
-        X = np.vstack([stages[:, :NX], w[P * (NX + NU):][None, :]])
+        X = np.empty((P + 1, NX))  # (filled in place: vstack's own calls cost as much again, every step)
+        X[:P] = stages[:, :NX]
+        X[P] = w[P * (NX + NU):]
         return X, stages[:, NX:].copy()
 
     def join(self, X: np.ndarray, U: np.ndarray) -> np.ndarray:

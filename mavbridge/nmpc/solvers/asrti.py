@@ -28,7 +28,7 @@ from mavbridge.nmpc.backend import SolveOutcome
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.functions import ProblemFunctions, problem_functions
 from mavbridge.nmpc.inputs import input_space
-from mavbridge.nmpc.layout import NP, PARAMS, parameter_layout
+from mavbridge.nmpc.layout import PARAMS, parameter_layout
 from mavbridge.nmpc.solvers.gauss_newton import GaussNewtonSqp
 from mavbridge.nmpc.solvers.rti import RtiBackend
 from vessel import OceanCurrent, OtterParameters, WaveField
@@ -39,10 +39,10 @@ WAIT_SHARE = 0.25
 BackgroundResult = tuple[np.ndarray | None, np.ndarray, float, int]  # (w or None, p_next, seconds, iterations)
 
 
-def _equal(a: np.ndarray, b: np.ndarray, part: slice) -> bool:
-    """``np.array_equal`` of the two vectors' ``part`` (equal values, NaN never equal), as plain floats: this runs
-    on every step, and numpy's per-call cost is most of it for a few numbers."""
-    return a[part].tolist() == b[part].tolist()
+_T = PARAMS.index("t")
+_GOAL = slice(PARAMS.slice("waypoint").start, PARAMS.slice("u_prev").stop)  # the waypoint and u_prev (adjacent)
+_PROBLEM = slice(PARAMS.slice("weights").start, None)  # the weights, wave, roll spread and a bank block after NP
+assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"]
 
 
 class BackgroundSolve:
@@ -126,14 +126,13 @@ class AdvancedStep:
         except FuturesTimeout:
             return None, {"background": "late"}
         info: dict = {"background_solve_s": seconds, "background_iterations": iterations}
-        stale = abs(PARAMS.get(p, "t") - PARAMS.get(p_next, "t")) > 0.5 * self.cfg.period_s
-        if w is None or stale or not all(_equal(p, p_next, PARAMS.slice(b)) for b in ("waypoint", "u_prev")):
+        now, made_for = p.tolist(), p_next.tolist()  # plain floats (each step; numpy's per-call cost is most of it)
+        stale = abs(now[_T] - made_for[_T]) > 0.5 * self.cfg.period_s
+        if w is None or stale or now[_GOAL] != made_for[_GOAL]:
             info["background"] = "unused"
             return None, info
         info["background"] = "used"
-        changed = not all(_equal(p, p_next, PARAMS.slice(b)) for b in ("weights", "wave", "roll_spread")) \
-            or not _equal(p, p_next, slice(NP, None))
-        info["background_problem"] = "changed" if changed else "same"
+        info["background_problem"] = "changed" if now[_PROBLEM] != made_for[_PROBLEM] else "same"
         return w, info
 
     def cancel(self) -> None:

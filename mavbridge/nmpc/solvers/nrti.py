@@ -41,6 +41,7 @@ LOG = logging.getLogger(__name__)
 # when a step ends and is taken at the next step, up to asrti's WAIT_SHARE later: a budget within that span
 # (less the step's own time) hands over a QP in time, and the next preparation continues from its plan
 PREPARE_SHARE = 0.75
+_X0, _U_PREV = PARAMS.slice("x0"), PARAMS.slice("u_prev")  # (looked up once: the feedback runs every step)
 _SAID: set[str] = set()  # what this process has been told already (the no-compiler notice, once)
 
 
@@ -199,8 +200,8 @@ class NrtiBackend(AsrtiBackend):
     def feedback(self, qp: CondensedQp, p: np.ndarray, lam_w0: np.ndarray, lam_g0: np.ndarray) -> SolveOutcome | None:
         """One native call: the box QP for the measured state, the plan from its input steps (None: failed)."""
         b = self.buffers
-        np.subtract(p[PARAMS.slice("x0")], qp.w_aug[0:NX], out=b.dz0[0:NX])
-        np.subtract(p[PARAMS.slice("u_prev")], qp.w_aug[NX:NZ], out=b.dz0[NX:NZ])
+        np.subtract(p[_X0], qp.w_aug[0:NX], out=b.dz0[0:NX])
+        np.subtract(p[_U_PREV], qp.w_aug[NX:NZ], out=b.dz0[NX:NZ])
         status = self.lib.nrti_feedback(*qp.args)
         if status < 0 or not np.isfinite(b.w_out).all():
             return None
