@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures import TimeoutError as FuturesTimeout
 from multiprocessing import get_context
 
@@ -31,6 +31,7 @@ from mavbridge.nmpc.inputs import input_space
 from mavbridge.nmpc.layout import PARAMS, parameter_layout
 from mavbridge.nmpc.solvers.gauss_newton import GaussNewtonSqp
 from mavbridge.nmpc.solvers.rti import RtiBackend
+from mavbridge.nmpc.solvers.worker import Job, Worker
 from vessel import OceanCurrent, OtterParameters, WaveField
 
 # Paced (``RollAwareNmpc.pace``): a step waits for the background job at most this share of a wall period
@@ -84,11 +85,11 @@ class AdvancedStep:
         self.wait_s = cfg.as_wait_s  # wall seconds a step waits for the job (``pace``)
         self.functions = functions
         self._solve = BackgroundSolve(functions, cfg) if cfg.as_worker == "thread" else None
-        self._executor: ThreadPoolExecutor | ProcessPoolExecutor | None = None
-        self._pending: Future | None = None
+        self._executor: Worker | ProcessPoolExecutor | None = None
+        self._pending: Future | Job | None = None
         self.closed = False
 
-    def _worker(self) -> ThreadPoolExecutor | ProcessPoolExecutor:
+    def _worker(self) -> Worker | ProcessPoolExecutor:
         if self.closed:
             raise RuntimeError("AdvancedStep: used after close()")
         if self._executor is None:
@@ -98,7 +99,7 @@ class AdvancedStep:
                                                      initializer=_worker_init,
                                                      initargs=(f.params, f.fixed_waves, f.current, self.cfg))
             else:
-                self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="asrti")
+                self._executor = Worker("asrti")  # (lighter than a ThreadPoolExecutor on the step's path)
         return self._executor
 
     def warm_up(self) -> None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from concurrent.futures import Future
 
 import numpy as np
 
@@ -35,6 +34,7 @@ from mavbridge.nmpc.solvers.asrti import AdvancedStep, AsrtiBackend, BackgroundR
 from mavbridge.nmpc.solvers.condensed import CondensedQp, Condenser, FeedbackBuffers, load_block_linearisation
 from mavbridge.nmpc.solvers.gauss_newton import NZ
 from mavbridge.nmpc.solvers.native_lib import native_library
+from mavbridge.nmpc.solvers.worker import Job
 
 LOG = logging.getLogger(__name__)
 # Paced (``RollAwareNmpc.pace``): the preparation stops iterating after this share of a wall period. It starts
@@ -136,9 +136,7 @@ class PreparedStep(AdvancedStep):
         """Prepare the QP at ``w`` for ``p`` itself, here and now (before the loop: no job is in flight),
         and hold it for the first step."""
         result = self.preparation.at_plan(np.array(w, float), np.array(p, float))
-        done: Future = Future()
-        done.set_result(result)
-        self._pending = done
+        self._pending = Job.finished(result)
         return result[0]
 
 

@@ -1,0 +1,60 @@
+"""asrti's and nrti's background thread (``mavbridge.nmpc.solvers.worker``): what a one-thread executor gives."""
+
+from __future__ import annotations
+
+import threading
+from concurrent.futures import TimeoutError as FuturesTimeout
+
+import pytest
+
+from mavbridge.nmpc.solvers.worker import Job, Worker
+
+WAIT_S = 60.0  # the longest a test waits for an event: returns as soon as it happens
+
+
+def test_jobs_run_in_order_on_one_thread_and_results_wait_for_them() -> None:
+    worker = Worker("test")
+    gate, ran = threading.Event(), []
+    try:
+        first = worker.submit(lambda: (gate.wait(WAIT_S), ran.append(threading.current_thread().name))[1])
+        second = worker.submit(lambda x: ran.append(x) or x * 2, 21)
+        with pytest.raises(FuturesTimeout):
+            second.result(timeout=0.0)  # the first still holds the thread
+        assert not first.done() and not second.done()
+        gate.set()
+        assert second.result(timeout=WAIT_S) == 42 and first.done()
+        assert ran == ["test", 21]
+        assert second.result() == 42  # asked again: the same answer
+    finally:
+        worker.shutdown()
+
+
+def test_a_jobs_exception_is_the_takers_and_the_thread_goes_on() -> None:
+    worker = Worker("test")
+    try:
+        failing = worker.submit(lambda: 1 / 0)
+        with pytest.raises(ZeroDivisionError):
+            failing.result(timeout=WAIT_S)
+        assert worker.submit(int, "7").result(timeout=WAIT_S) == 7
+    finally:
+        worker.shutdown()
+
+
+def test_shutdown_ends_the_thread_after_its_job_and_drops_the_rest_when_told() -> None:
+    worker = Worker("test")
+    started, gate = threading.Event(), threading.Event()
+    running = worker.submit(lambda: (started.set(), gate.wait(WAIT_S))[1])
+    queued = worker.submit(int, "1")
+    assert started.wait(WAIT_S)
+    worker.shutdown(wait=False, cancel_futures=True)  # the queued job dropped now, the running one left to end
+    gate.set()
+    worker._thread.join(WAIT_S)
+    assert not worker._thread.is_alive()
+    assert running.result(timeout=0.0) is True and not queued.done()
+    with pytest.raises(RuntimeError, match="after shutdown"):
+        worker.submit(int)
+    worker.shutdown()  # again: nothing
+
+
+def test_a_finished_job_holds_its_value() -> None:
+    assert Job.finished((1, 2)).result(timeout=0.0) == (1, 2)
