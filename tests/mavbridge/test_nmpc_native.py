@@ -144,6 +144,35 @@ def test_feedback_equals_the_sparse_qp_for_a_measured_state() -> None:
 
 
 @needs_compiler
+def test_the_feedback_from_the_preparations_factor_is_the_feedback_that_factors() -> None:
+    """The preparation keeps its last QP's factor at the active set the feedback starts from (issue 32): the
+    feedback's first iteration then only substitutes, and gives bit for bit what factoring gives, whether the
+    measurement keeps the active set or moves it."""
+    cfg = NmpcConfig(horizon=8, solver="nrti")
+    x0, waypoint = np.zeros(12), np.array([40.0, 10.0])
+    x0[5], x0[6] = 0.5, 1.0
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        nmpc.prepare(x0, 0.0, waypoint)
+        backend, p = nmpc._backend, nmpc._parameters(x0, 0.0, waypoint)
+        preparation = backend.advanced.preparation
+        qp, p_next, _, _ = preparation(nmpc._w, p, np.array([cfg.tau_x_max_n, 0.0]))
+        assert qp is not None and qp.factor is not None
+        factoring = preparation.condenser.bind(dataclasses.replace(qp, factor=None))
+        rng, pivots, none = np.random.default_rng(3), set(), np.zeros(1)
+        for scale in (0.0, 0.02, 0.2, 1.0, 3.0, 10.0):
+            measured = p_next.copy()
+            measured[:NX] += scale * rng.normal(size=NX)
+            kept, factored = (backend.feedback(q, measured, none, none) for q in (qp, factoring))
+            assert kept is not None and factored is not None
+            assert np.array_equal(kept.w, factored.w) and kept.stats == factored.stats, scale
+            pivots.add(kept.stats["qp_pivots"])
+        assert 1 in pivots and max(pivots) > 1, pivots  # the active set kept, and moved
+        bogus = preparation.condenser.bind(qp, factor=2.0 * qp.factor)  # the factor is what the first step uses
+        assert not np.array_equal(backend.feedback(bogus, p_next, none, none).w, backend.feedback(qp, p_next, none,
+                                                                                                none).w)
+
+
+@needs_compiler
 def test_a_paced_preparation_stops_at_its_budget_and_hands_over_its_last_qp() -> None:
     """Paced at a wall period (a companion in real time), a step waits a quarter of it for the background and
     the preparation iterates for three quarters, then hands over the QP of its last iteration; unpaced (lockstep,

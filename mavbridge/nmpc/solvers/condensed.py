@@ -123,8 +123,10 @@ class CondensedQp:
     p: np.ndarray  # the parameters it was prepared for
     w_aug: np.ndarray  # the plan (augmented layout)
     arrays: tuple[np.ndarray, ...]  # Hc, gc, Gc, lo, hi, state0, AB, gap: kept alive for ``args``
-    args: tuple  # nrti_feedback's arguments, pointers into ``arrays`` and the backend's FeedbackBuffers
+    args: tuple  # nrti_feedback's arguments, pointers into ``arrays``, ``factor`` and the backend's FeedbackBuffers
     guess_status: int  # the box QP's answer at dz0 = 0 (> 0 solved)
+    factor: np.ndarray | None = None  # the Cholesky factor of Hc's free block at ``state0`` (the preparation's), so
+    # that the feedback's first iteration only substitutes; None: it factors
 
     @property
     def state0(self) -> np.ndarray:
@@ -178,10 +180,15 @@ class Condenser:
         return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays,
                            args=self._feedback_args(arrays, buffers or self.buffers), guess_status=status)
 
-    def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None) -> CondensedQp:
-        """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's)."""
-        return dataclasses.replace(qp, args=self._feedback_args(qp.arrays, buffers or self.buffers))
+    def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None,
+             factor: np.ndarray | None = None) -> CondensedQp:
+        """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's), starting
+        from ``factor`` (``CondensedQp.factor``; default: the QP's own)."""
+        factor = qp.factor if factor is None else factor
+        return dataclasses.replace(qp, factor=factor,
+                                   args=self._feedback_args(qp.arrays, buffers or self.buffers, factor))
 
-    def _feedback_args(self, arrays: tuple[np.ndarray, ...], b: FeedbackBuffers) -> tuple:
+    def _feedback_args(self, arrays: tuple[np.ndarray, ...], b: FeedbackBuffers,
+                       factor: np.ndarray | None = None) -> tuple:
         return (self.cfg.horizon, NX, NZ, NU, *(ptr(a) for a in arrays), ptr(b.dz0), QP_MAX_ITER, QP_TOL,
-                ptr(b.w_out), ptr(b.du), ptr(b.work), ptr(b.iwork))
+                ptr(b.w_out), ptr(b.du), ptr(b.work), ptr(b.iwork), None if factor is None else ptr(factor))

@@ -35,7 +35,7 @@ _D = ctypes.c_double
 SIGNATURES = {
     "nrti_condense": (_I, _I, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P),
     "nrti_box_qp": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _I, _D),
-    "nrti_feedback": (_I, _I, _I, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _I, _D, _P, _P, _P, _P),
+    "nrti_feedback": (_I, _I, _I, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _I, _D, _P, _P, _P, _P, _P),
 }
 
 

@@ -168,9 +168,10 @@ int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, con
     return 0;
 }
 
-/* Fix the bounded variables, solve the free ones by Cholesky. Returns the number free, or -1. */
+/* Fix the bounded variables, solve the free ones by Cholesky (into L; or with L_given, the factor of these free
+   variables made earlier, m x m row-major, read only). Returns the number free, or -1. */
 static int solve_free(int n, const double *H, const double *g, const double *lo, const double *hi,
-                      const int *state, double *x, double *L, double *rhs, int *free_idx) {
+                      const int *state, double *x, double *L, const double *L_given, double *rhs, int *free_idx) {
     int m = 0;
     for (int i = 0; i < n; ++i) {
         if (state[i] < 0) x[i] = lo[i];
@@ -182,18 +183,22 @@ static int solve_free(int n, const double *H, const double *g, const double *lo,
         double s = -g[free_idx[a]];
         for (int j = 0; j < n; ++j) if (state[j] != 0) s -= Hi[j] * x[j];
         rhs[a] = s;
-        for (int b = 0; b <= a; ++b) L[(size_t)a * m + b] = Hi[free_idx[b]];
+        if (!L_given) for (int b = 0; b <= a; ++b) L[(size_t)a * m + b] = Hi[free_idx[b]];
     }
-    if (cholesky(L, m) != 0) return -1;
+    const double *F = L_given;
+    if (!F) {
+        if (cholesky(L, m) != 0) return -1;
+        F = L;
+    }
     for (int a = 0; a < m; ++a) {
         double s = rhs[a];
-        for (int b = 0; b < a; ++b) s -= L[(size_t)a * m + b] * rhs[b];
-        rhs[a] = s / L[(size_t)a * m + a];
+        for (int b = 0; b < a; ++b) s -= F[(size_t)a * m + b] * rhs[b];
+        rhs[a] = s / F[(size_t)a * m + a];
     }
     for (int a = m - 1; a >= 0; --a) {
         double s = rhs[a];
-        for (int b = a + 1; b < m; ++b) s -= L[(size_t)b * m + a] * rhs[b];
-        rhs[a] = s / L[(size_t)a * m + a];
+        for (int b = a + 1; b < m; ++b) s -= F[(size_t)b * m + a] * rhs[b];
+        rhs[a] = s / F[(size_t)a * m + a];
     }
     for (int a = 0; a < m; ++a) x[free_idx[a]] = rhs[a];
     return m;
@@ -223,13 +228,13 @@ static int wrong_status(int n, const double *H, const double *g, const double *l
    with Murty's single swap when the count of wrong statuses stops falling. state[i] in {-1, 0, +1}
    (at lo, free, at hi) is the starting guess and the answer. work: n*n + n doubles, iwork: 2n ints.
    Returns the pivoting iterations (> 0), 0 when max_iter ran out (x clipped), -1 if H is not SPD. */
-int nrti_box_qp(int n, const double *H, const double *g, const double *lo, const double *hi, int *state,
-                double *x, double *work, int *iwork, int max_iter, double tol) {
+static int box_qp(int n, const double *H, const double *g, const double *lo, const double *hi, int *state,
+                  double *x, double *work, int *iwork, int max_iter, double tol, const double *L_first) {
     double *L = work, *rhs = work + (size_t)n * n;
     int *free_idx = iwork, *bad = iwork + n;
     int best = n + 1, stalls = 0;
     for (int it = 1; it <= max_iter; ++it) {
-        if (solve_free(n, H, g, lo, hi, state, x, L, rhs, free_idx) < 0) return -1;
+        if (solve_free(n, H, g, lo, hi, state, x, L, it == 1 ? L_first : 0, rhs, free_idx) < 0) return -1;
         int last = -1;
         int count = wrong_status(n, H, g, lo, hi, state, x, tol, bad, &last);
         if (count == 0) return it;
@@ -244,14 +249,21 @@ int nrti_box_qp(int n, const double *H, const double *g, const double *lo, const
     return 0;
 }
 
+int nrti_box_qp(int n, const double *H, const double *g, const double *lo, const double *hi, int *state,
+                double *x, double *work, int *iwork, int max_iter, double tol) {
+    return box_qp(n, H, g, lo, hi, state, x, work, iwork, max_iter, tol, 0);
+}
+
 /* The feedback step: g = gc + Gc dz0, the box QP from the guess state0, then the states by the linear
    dynamics; w_out (the controller's layout, x of nx per stage) = the plan w_aug (augmented layout) + step.
    Returns nrti_box_qp's answer. work: n*n + 2n + 2nz doubles; iwork: 3n ints, of which iwork[2n..3n) holds
-   the active set the QP ended with (its own copy of state0, updated; the caller may read it back). */
+   the active set the QP ended with (its own copy of state0, updated; the caller may read it back); after a call,
+   work[0..m*m) holds the Cholesky factor of the last iteration's m free variables. L0: NULL, or that factor for
+   the free variables of state0 (the preparation's, of this Hc): the first iteration then only substitutes. */
 int nrti_feedback(int N, int nx, int nz, int nu, const double *Hc, const double *gc, const double *Gc,
                   const double *lo, const double *hi, const int *state0, const double *AB, const double *gap,
                   const double *w_aug, const double *dz0, int max_iter, double tol, double *w_out,
-                  double *du, double *work, int *iwork) {
+                  double *du, double *work, int *iwork, const double *L0) {
     int nzu = nz + nu, n = N * nu;
     double *g = work + (size_t)n * n + n, *dz = g + n, *dz1 = dz + nz;
     int *state = iwork + 2 * n;
@@ -261,7 +273,7 @@ int nrti_feedback(int N, int nx, int nz, int nu, const double *Hc, const double 
         g[a] = s;
     }
     memcpy(state, state0, sizeof(int) * (size_t)n);
-    int status = nrti_box_qp(n, Hc, g, lo, hi, state, du, work, iwork, max_iter, tol);
+    int status = box_qp(n, Hc, g, lo, hi, state, du, work, iwork, max_iter, tol, L0);
     if (status < 0) return status;
     memcpy(dz, dz0, sizeof(double) * (size_t)nz);
     for (int k = 0; k <= N; ++k) {
