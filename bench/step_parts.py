@@ -52,9 +52,10 @@ def timed(owner: Any, method: str, label: str, running: dict[str, int]) -> None:
     setattr(owner, method, wrapper)
 
 
-def instrument(step: CompanionStep, running: dict[str, int]) -> None:
-    """Time the step's parts (see the module docstring)."""
+def instrument(step: CompanionStep, running: dict[str, int]) -> list[str]:
+    """Time the step's parts (see the module docstring); returns their labels, in the step's order."""
     backend = step.nmpc._backend  # the solve's own parts: the background plan's take and the native feedback
+    labels: list[str] = []
     for owner, method, label in ((step.state, "on_message", "handling: state"),
                                  (step.delay, "on_message", "handling: delay clock"),
                                  (step.gate, "observe", "handling: estimator samples"),
@@ -69,10 +70,12 @@ def instrument(step: CompanionStep, running: dict[str, int]) -> None:
                                  (step.nmpc, "advance", "next preparation started")):
         if owner is not None and hasattr(owner, method):
             timed(owner, method, label, running)
+            labels.append(label)
+    return labels
 
 
 def run(args: argparse.Namespace, rec: Any) -> tuple[Parts, list[float]]:
-    """The paced replay with the parts timed: (ms per step of each part, the steps' ms)."""
+    """The paced replay with the parts timed: (ms per step of each part, in the step's order; the steps' ms)."""
     scenario = single_scenario(None, "nrti")
     waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params(),
                              process=args.estimator == "process")
@@ -87,7 +90,7 @@ def run(args: argparse.Namespace, rec: Any) -> tuple[Parts, list[float]]:
             print(realtime_for_estimator(waves, DEFAULT_PRIORITY) or "", flush=True)
         with build_nmpc(scenario, waves) as nmpc, spinners(2) if args.realtime else nullcontext():
             step = CompanionStep(nmpc, waves, scenario)
-            instrument(step, running)
+            labels = instrument(step, running)
             control = step.control
 
             def control_and_collect(now_ms: int) -> float:
@@ -103,7 +106,8 @@ def run(args: argparse.Namespace, rec: Any) -> tuple[Parts, list[float]]:
     finally:
         gc.unfreeze()
         getattr(waves, "close", lambda: None)()
-    return parts, timings.steps_ms[1:]  # (the first step's handling began before the timers' first step)
+    ordered = {label: parts[label] for label in labels if label in parts}
+    return ordered, timings.steps_ms[1:]  # (the first step's handling began before the timers' first step)
 
 
 def main() -> None:
