@@ -95,8 +95,8 @@ def run(args: argparse.Namespace, rec: Any) -> tuple[Parts, list[float]]:
 
             def control_and_collect(now_ms: int) -> float:
                 ready = control(now_ms)
-                for label, ns in running.items():
-                    parts[label].append(ns / 1e6)
+                for label in labels:  # (0 for a part not called this step: a feedback that fell back, say)
+                    parts[label].append(running.get(label, 0) / 1e6)
                 running.clear()
                 return ready
 
@@ -106,7 +106,7 @@ def run(args: argparse.Namespace, rec: Any) -> tuple[Parts, list[float]]:
     finally:
         gc.unfreeze()
         getattr(waves, "close", lambda: None)()
-    ordered = {label: parts[label] for label in labels if label in parts}
+    ordered = {label: parts[label] for label in labels if any(parts[label])}
     return ordered, timings.steps_ms[1:]  # (the first step's handling began before the timers' first step)
 
 

@@ -38,7 +38,7 @@ class CommandHistory:
 
     def add(self, effective_s: float, tau: np.ndarray) -> None:
         """A command that takes effect at autopilot time ``effective_s`` (a reboot's earlier clock restarts)."""
-        if self.entries and effective_s < self.entries[-1][0]:
+        if self.entries and not effective_s >= self.entries[-1][0]:  # (a NaN time too: the entries stay in order)
             self.entries.clear()
         self.entries.append((effective_s, np.asarray(tau, float).copy()))
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import struct
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -68,8 +69,8 @@ class WaveGate:
     _hold: EstimateHold = field(init=False)
     _made: tuple[bytes | None, Any] | None = field(default=None, init=False, repr=False, compare=False)
     # (an estimate's wave numbers as exact bits, the field made of them)
-    _spread_given: tuple[Any, bytes] | None = field(default=None, init=False, repr=False, compare=False)
-    # (the NMPC, the spread it last took, as exact bits): the same again is not given again
+    _spread_given: tuple[weakref.ref, bytes] | None = field(default=None, init=False, repr=False, compare=False)
+    # (the NMPC, the 2×2 float spread it last took, as exact bits): the same again is not given again
 
     def __post_init__(self) -> None:
         self._hold = EstimateHold(self.hold_s)
@@ -152,13 +153,14 @@ class WaveGate:
         """The sea's unexplained slope statistics to the NMPC (the expected-roll term); says when the roll
         term starts or stops acting on them alone (no confident wave)."""
         spread = sea_spread(self.source, explained)
-        bits = spread.tobytes() if isinstance(spread, np.ndarray) else None
+        bits = spread.tobytes() if isinstance(spread, np.ndarray) and spread.dtype == np.float64 \
+            and spread.shape == (2, 2) else None
         given = self._spread_given
-        if bits is None or given is None or given[0] is not nmpc or given[1] != bits:  # (it changes with a fit)
+        if bits is None or given is None or given[0]() is not nmpc or given[1] != bits:  # (it changes with a fit)
             self._spread_given = None
             try:
                 nmpc.set_sea_spread(spread)
-                self._spread_given = None if bits is None else (nmpc, bits)
+                self._spread_given = None if bits is None else (weakref.ref(nmpc), bits)
             except ValueError:  # not a covariance (cannot happen with the estimator's): no term, no crash
                 spread = None
                 nmpc.set_sea_spread(None)

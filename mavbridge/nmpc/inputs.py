@@ -74,8 +74,14 @@ class InputSpace:
         """u within its box (one input in plain floats: np.clip's own cost is most of it, every step)."""
         if type(u) is np.ndarray and u.shape == self.low.shape == (2,):
             (a, b), (low_a, low_b), (high_a, high_b) = u.tolist(), self.low.tolist(), self.high.tolist()
-            return np.array([min(max(a, low_a), high_a), min(max(b, low_b), high_b)], float)  # (NaN stays NaN)
+            return np.array([_clip(a, low_a, high_a), _clip(b, low_b, high_b)], float)
         return np.clip(u, self.low, self.high)
+
+
+def _clip(x: float, low: float, high: float) -> float:
+    """np.clip of one number, bit for bit: a bound on a tie (0.0 for −0.0 at a bound of 0.0), NaN stays NaN."""
+    x = x if x > low or x != x else low
+    return x if x < high or x != x else high
 
 
 def input_space(cfg: NmpcConfig, params: OtterParameters | None) -> InputSpace:

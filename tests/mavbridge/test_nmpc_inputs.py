@@ -13,7 +13,9 @@
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -23,7 +25,7 @@ import pytest
 import mavbridge.lab.experiment as experiment
 from mavbridge.lab.scenario import scenario_from_mapping
 from mavbridge.nmpc import NmpcConfig
-from mavbridge.nmpc.inputs import allocation_matrix, input_space, thrust_limits
+from mavbridge.nmpc.inputs import InputSpace, allocation_matrix, input_space, thrust_limits
 from vessel import otter_parameters, shaft_speeds_to_tau, tau_to_shaft_speeds
 from vessel.allocation import propeller_thrust, tau_limits
 from vessel.config import ConfigError
@@ -128,3 +130,15 @@ def test_a_tau_box_with_propeller_inputs_is_refused_not_ignored(box: dict[str, f
     with pytest.raises(ConfigError, match=f"^{name}: does not apply with inputs: propellers"):
         NmpcConfig(inputs="propellers", **box)
     assert NmpcConfig(inputs="tau", **box).inputs == "tau"  # the paper's setting takes it
+
+
+def test_one_input_is_clipped_bit_for_bit_as_numpy_clips() -> None:
+    """The step clips one input in plain floats (issue 32): np.clip's answer bit for bit, signed zeros at a bound of
+    zero, NaN and infinities included."""
+    values = [0.0, -0.0, 1.0, -1.0, math.nan, math.inf, -math.inf, 5.0, -5.0]
+    boxes = [(0.0, 1.0), (-1.0, 0.0), (-0.0, 0.0), (0.0, -0.0), (-2.0, 2.0), (-math.inf, math.inf)]
+    for first, second in itertools.product(boxes, repeat=2):
+        space = InputSpace("tau", None, np.array([first[0], second[0]]), np.array([first[1], second[1]]))
+        for u in itertools.product(values, repeat=2):
+            got, want = space.clip(np.array(u)), np.clip(np.array(u), space.low, space.high)
+            assert np.array_equal(got, want, equal_nan=True) and np.array_equal(np.signbit(got), np.signbit(want))

@@ -157,7 +157,9 @@ def test_the_feedback_from_the_preparations_factor_is_the_feedback_that_factors(
         preparation = backend.advanced.preparation
         qp, p_next, _, _ = preparation(nmpc._w, p, np.array([cfg.tau_x_max_n, 0.0]))
         assert qp is not None and qp.factor is not None
-        factoring = preparation.condenser.bind(dataclasses.replace(qp, factor=None))
+        factoring = preparation.condenser.bind(qp, factor=None)
+        with pytest.raises(ValueError, match="read-only"):
+            qp.state0[0] = 1  # the factor is of this active set's free block
         rng, pivots, none = np.random.default_rng(3), set(), np.zeros(1)
         for scale in (0.0, 0.02, 0.2, 1.0, 3.0, 10.0):
             measured = p_next.copy()

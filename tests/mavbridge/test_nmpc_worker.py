@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+from concurrent.futures import CancelledError
 from concurrent.futures import TimeoutError as FuturesTimeout
 
 import pytest
@@ -50,7 +51,9 @@ def test_shutdown_ends_the_thread_after_its_job_and_drops_the_rest_when_told() -
     gate.set()
     worker._thread.join(WAIT_S)
     assert not worker._thread.is_alive()
-    assert running.result(timeout=0.0) is True and not queued.done()
+    assert running.result(timeout=0.0) is True and queued.done()
+    with pytest.raises(CancelledError):
+        queued.result()
     with pytest.raises(RuntimeError, match="after shutdown"):
         worker.submit(int)
     worker.shutdown()  # again: nothing

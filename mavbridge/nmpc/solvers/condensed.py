@@ -19,6 +19,7 @@ import ctypes
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -31,6 +32,7 @@ from mavbridge.nmpc.solvers.gauss_newton import HESSIAN_REG, NZ, _input_change_r
 from mavbridge.nmpc.solvers.native_lib import BoxQp, CompiledFunction, ptr
 
 NZU = NZ + NU
+KEEP = object()  # ``Condenser.bind``: the QP's own factor
 QP_MAX_ITER = 40  # block-principal-pivoting iterations per QP (one or two when the guess is right)
 QP_TOL = 1e-9  # bound and multiplier tolerance of the box QP (N, N·m and cost units)
 
@@ -180,11 +182,13 @@ class Condenser:
         return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays,
                            args=self._feedback_args(arrays, buffers or self.buffers), guess_status=status)
 
-    def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None,
-             factor: np.ndarray | None = None) -> CondensedQp:
+    def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None, factor: Any = KEEP) -> CondensedQp:
         """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's), starting
-        from ``factor`` (``CondensedQp.factor``; default: the QP's own)."""
-        factor = qp.factor if factor is None else factor
+        from ``factor`` (``CondensedQp.factor``; default: the QP's own; None: none). With a factor, the QP's starting
+        active set is made read-only: the factor is of that set's free block, and no other."""
+        factor = qp.factor if factor is KEEP else factor
+        if factor is not None:
+            qp.state0.flags.writeable = False
         return dataclasses.replace(qp, factor=factor,
                                    args=self._feedback_args(qp.arrays, buffers or self.buffers, factor))
 

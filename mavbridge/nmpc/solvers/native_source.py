@@ -257,9 +257,10 @@ int nrti_box_qp(int n, const double *H, const double *g, const double *lo, const
 /* The feedback step: g = gc + Gc dz0, the box QP from the guess state0, then the states by the linear
    dynamics; w_out (the controller's layout, x of nx per stage) = the plan w_aug (augmented layout) + step.
    Returns nrti_box_qp's answer. work: n*n + 2n + 2nz doubles; iwork: 3n ints, of which iwork[2n..3n) holds
-   the active set the QP ended with (its own copy of state0, updated; the caller may read it back); after a call,
-   work[0..m*m) holds the Cholesky factor of the last iteration's m free variables. L0: NULL, or that factor for
-   the free variables of state0 (the preparation's, of this Hc): the first iteration then only substitutes. */
+   the active set the QP ended with (its own copy of state0, updated; the caller may read it back). L0: NULL, or
+   the Cholesky factor (m x m, row-major) of Hc's block of state0's m free variables (the preparation's): the first
+   iteration then only substitutes. After a call with L0 NULL, work[0..m*m) holds the factor of the last
+   iteration's free variables (with L0 given, only if the QP took more than one iteration). */
 int nrti_feedback(int N, int nx, int nz, int nu, const double *Hc, const double *gc, const double *Gc,
                   const double *lo, const double *hi, const int *state0, const double *AB, const double *gap,
                   const double *w_aug, const double *dz0, int max_iter, double tol, double *w_out,

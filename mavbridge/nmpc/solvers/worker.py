@@ -12,6 +12,7 @@ from __future__ import annotations
 import queue
 import threading
 from collections.abc import Callable
+from concurrent.futures import CancelledError
 from concurrent.futures import TimeoutError as FuturesTimeout
 from typing import Any
 
@@ -35,6 +36,12 @@ class Job:
         job._value = value
         job._done.release()
         return job
+
+    def cancel(self) -> None:
+        """End the job without running it: ``result`` raises ``CancelledError`` (a job dropped at shutdown)."""
+        self._call = self._args = None
+        self._error = CancelledError()
+        self._done.release()
 
     def run(self) -> None:
         """Run the call (on the worker's thread); its value or exception is kept for ``result``."""
@@ -71,28 +78,34 @@ class Worker:
     def __init__(self, name: str) -> None:
         self._jobs: queue.SimpleQueue[Job | None] = queue.SimpleQueue()
         self._closed = False
+        self._lock = threading.Lock()  # submit and shutdown: no job is put behind the end
         self._thread = threading.Thread(target=self._serve, name=name, daemon=True)
         self._thread.start()
 
     def submit(self, call: Callable[..., Any], *args: Any) -> Job:
         """Hand ``call(*args)`` over; its ``Job`` says when it has ended and what it gave."""
-        if self._closed:
-            raise RuntimeError("Worker: submit after shutdown")
         job = Job(call, args)
-        self._jobs.put(job)
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("Worker: submit after shutdown")
+            self._jobs.put(job)
         return job
 
     def shutdown(self, wait: bool = True, cancel_futures: bool = False) -> None:
-        """End the thread after the job it runs (and, unless ``cancel_futures``, those handed over after it)."""
-        if self._closed:
-            return
-        self._closed = True
-        while cancel_futures:
-            try:
-                self._jobs.get_nowait()
-            except queue.Empty:
-                break
-        self._jobs.put(None)
+        """End the thread after the job it runs (and, unless ``cancel_futures``, those handed over after it: else
+        they end cancelled)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            while cancel_futures:
+                try:
+                    job = self._jobs.get_nowait()
+                except queue.Empty:
+                    break
+                if job is not None:
+                    job.cancel()
+            self._jobs.put(None)
         if wait:
             self._thread.join()
 
