@@ -1,12 +1,11 @@
 """The wave estimator in a process of its own, so that its work is not the control step's (issue 32).
 
-In the companion's process every ATTITUDE used to run the estimator's per-sample work, and every 0.09 s of
-sample time a stage of its window fit (a fraction of a millisecond): the larger part of the step's time and
-most of its tail.
-``EstimatorProcess`` is a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter:
-``python -m`` this module), on a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at
-all). ``observe`` sends the sample as one message (a few microseconds; paced, it never waits); the child takes each
-in order and sends back its answers after it: the estimate, the latest fit and both slope spreads. Between
+In the companion's process the estimator's per-sample work and its fit stages (a fraction of a millisecond
+every 0.09 s of samples) were the larger part of the step's time and most of its tail. ``EstimatorProcess`` is
+a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter: ``python -m`` this module), on
+a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at all). ``observe`` sends the sample
+as one message (``pack_sample``; a few microseconds; paced, it never waits); the child takes each in order and
+sends back its answers after it (``encode_answers``): the estimate, the latest fit and both slope spreads. Between
 samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
 still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
 
@@ -49,9 +48,8 @@ from typing import Any
 import numpy as np
 
 from mavbridge.waves import EstimatorSettings, make_estimator
-from mavbridge.waves.source import MotionSample, WaveEstimate
+from mavbridge.waves.source import MotionSample, WaveEstimate, pack_sample, unpack_sample
 
-SAMPLE = struct.Struct("<17d")  # t, attitude 3, rates 3, position 3, velocity 3, has IMU, specific force 3
 COUNT = struct.Struct("<q")  # the samples an answer is as of; a call's number
 HEAD = struct.Struct("<dB7d8dd")  # answers: t, flags (ANSWER_FLAGS), the estimate's 7 numbers (height, period,
 # length, direction, phase, confidence, roll sign), both spreads (4 each), CPU s
@@ -81,34 +79,6 @@ class Answers:
 
 
 NO_ANSWERS = Answers(0, -math.inf)
-
-
-def pack_sample(sample: MotionSample) -> bytes:
-    """A motion sample as one message (b"S" + 17 doubles), or pickled (b"P") unless every vector is 3 numbers
-    (the estimator then judges it, as in the companion's process). Arrays give their numbers as plain floats in one
-    call each (unpacking an array makes a numpy scalar of each number: 3 µs a sample)."""
-    att, rates, pos, vel, accel = (sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned,
-                                   sample.accel_body)
-    try:
-        if len(att) == len(rates) == len(pos) == len(vel) == 3 and (accel is None or len(accel) == 3):
-            try:
-                values = (*att.tolist(), *rates.tolist(), *pos.tolist(), *vel.tolist())
-            except AttributeError:  # not all arrays
-                values = (*att, *rates, *pos, *vel)
-            force = (0.0, 0.0, 0.0) if accel is None else accel.tolist() if isinstance(accel, np.ndarray) else accel
-            return b"S" + SAMPLE.pack(sample.t_s, *values, float(accel is not None), *force)
-    except (struct.error, TypeError):
-        pass
-    return b"P" + pickle.dumps(sample)
-
-
-def unpack_sample(data: bytes) -> MotionSample:
-    """The sample ``pack_sample`` made."""
-    if data[:1] == b"P":
-        return pickle.loads(data[1:])
-    v = SAMPLE.unpack(data[1:])
-    return MotionSample(v[0], np.array(v[1:4]), np.array(v[4:7]), np.array(v[7:10]), np.array(v[10:13]),
-                        np.array(v[14:17]) if v[13] else None)
 
 
 def answers_of(estimator: Any, samples: int, t_s: float) -> bytes:

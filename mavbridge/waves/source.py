@@ -19,6 +19,8 @@ home: ζ(N, E, t) = (H/2)·sin(ω t − k (N cos χ + E sin χ) + ε), t in auto
 from __future__ import annotations
 
 import math
+import pickle
+import struct
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -44,6 +46,37 @@ class MotionSample:
     position_ned: np.ndarray
     velocity_ned: np.ndarray
     accel_body: np.ndarray | None = None
+
+
+SAMPLE = struct.Struct("<17d")  # t, attitude 3, rates 3, position 3, velocity 3, has IMU, specific force 3
+
+
+def pack_sample(sample: MotionSample) -> bytes:
+    """A motion sample as one message (b"S" + 17 doubles), or pickled (b"P") unless every vector is 3 numbers
+    (the estimator then judges it, as in the companion's process). Arrays give their numbers as plain floats in one
+    call each (unpacking an array makes a numpy scalar of each number: 3 µs a sample)."""
+    att, rates, pos, vel, accel = (sample.attitude, sample.rates, sample.position_ned, sample.velocity_ned,
+                                   sample.accel_body)
+    try:
+        if len(att) == len(rates) == len(pos) == len(vel) == 3 and (accel is None or len(accel) == 3):
+            try:
+                values = (*att.tolist(), *rates.tolist(), *pos.tolist(), *vel.tolist())
+            except AttributeError:  # not all arrays
+                values = (*att, *rates, *pos, *vel)
+            force = (0.0, 0.0, 0.0) if accel is None else accel.tolist() if isinstance(accel, np.ndarray) else accel
+            return b"S" + SAMPLE.pack(sample.t_s, *values, float(accel is not None), *force)
+    except (struct.error, TypeError):
+        pass
+    return b"P" + pickle.dumps(sample)
+
+
+def unpack_sample(data: bytes) -> MotionSample:
+    """The sample ``pack_sample`` made."""
+    if data[:1] == b"P":
+        return pickle.loads(data[1:])
+    v = SAMPLE.unpack(data[1:])
+    return MotionSample(v[0], np.array(v[1:4]), np.array(v[4:7]), np.array(v[7:10]), np.array(v[10:13]),
+                        np.array(v[14:17]) if v[13] else None)
 
 
 def sea_spread(source: object, explained: bool) -> np.ndarray | None:

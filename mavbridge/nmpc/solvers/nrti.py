@@ -7,10 +7,11 @@ iteration's QP, with its solved active set, is the one prepared for the feedback
 (``RollAwareNmpc.pace``) it stops iterating after PREPARE_SHARE of the wall period and hands over its last QP:
 the iterations then spread over the periods that follow, as in plain RTI.
 Feedback (the only work between measurement and input): the measured state's offset from the predicted
-one enters the condensed gradient linearly; one dense box QP from the prepared active set and the
-states by the linear dynamics — one ctypes call into ``native_source``'s kernels on preallocated
-buffers. This is the RTI of Diehl et al. applied to asrti's plan: one Gauss–Newton iteration whose
-linearisation point is the prediction, not the measurement (a second-order difference).
+one enters the condensed gradient linearly; one dense box QP from the prepared active set (its first iteration
+with the preparation's Cholesky factor of that set's free block) and the states by the linear dynamics — one
+ctypes call into ``native_source``'s kernels on preallocated buffers. This is the RTI of Diehl et al. applied to
+asrti's plan: one Gauss–Newton iteration whose linearisation point is the prediction, not the measurement (a
+second-order difference).
 
 Wave and weights changed after the preparation started take effect at the next preparation, one
 period later (``stats["background_problem"] == "changed"``). Without a C compiler, or when the native
