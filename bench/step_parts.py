@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from step_under_load import CompanionStep, record, replay, spinners
+from step_under_load import CompanionStep, record, replay, replay_arguments, spinners
 
 from mavbridge.cli.args import single_scenario
 from mavbridge.companion.flight import build_nmpc, ready_for_loop
@@ -113,12 +113,8 @@ def run(args: argparse.Namespace, rec: Any) -> tuple[Parts, list[float]]:
 def main() -> None:
     """Record, replay with the parts timed, print them."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--duration", type=float, default=60.0, help="paced seconds (default 60)")
-    p.add_argument("--watch", type=float, default=60.0, help="seconds the estimator watches first (default 60)")
-    p.add_argument("--seed", type=int, default=1, help="the simulator's seed (sea phase, sensor noise)")
+    replay_arguments(p)
     p.add_argument("--realtime", action="store_true", help="beside two spinners, under --realtime's settings")
-    p.add_argument("--estimator", choices=("process", "inline"), default="process",
-                   help="the wave estimator in a process of its own (default, as the companion) or inline")
     args = p.parse_args()
     with tempfile.TemporaryDirectory(prefix="step_parts_") as work:
         rec = record(args.watch + args.duration + 1, args.seed, Path(work))

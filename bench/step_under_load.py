@@ -306,18 +306,23 @@ def figures(row: dict[str, Any]) -> str:
             + (f"  estimator process: {row['faults']}" if any(row["faults"].values()) else ""))
 
 
-def main() -> None:
-    """Record once, run each condition, print the table."""
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--duration", type=float, default=60.0, help="paced seconds per condition (default 60)")
+def replay_arguments(p: argparse.ArgumentParser) -> None:
+    """The recording's and the replay's flags (this bench's and ``step_parts``'s)."""
+    p.add_argument("--duration", type=float, default=60.0, help="paced seconds (per condition; default 60)")
     p.add_argument("--watch", type=float, default=60.0, help="seconds the estimator watches first (default 60)")
     p.add_argument("--seed", type=int, default=1, help="the simulator's seed (sea phase, sensor noise)")
-    p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
-    p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
-    p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
     p.add_argument("--estimator", choices=("process", "inline"), default="process",
                    help="the wave estimator in a process of its own (default, the companion's estimator_process: "
                         "true) or in the step's process")
+
+
+def main() -> None:
+    """Record once, run each condition, print the table."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    replay_arguments(p)
+    p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
+    p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
+    p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
     p.add_argument("--conditions", default=None, metavar="NAME,...",
                    help="which of quiet,spinners,realtime to run (default quiet,spinners, and realtime with "
                         "--realtime); e.g. --conditions realtime --duration 600 for the 10 minutes alone")
