@@ -1,34 +1,32 @@
 """Benchmark: the companion's whole control step on a quiet computer and beside two CPU spinners, side by side.
 
 Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realtime] [--conditions NAME,...]
-     [--watch 60] [--seed 1] [--spinners 2]
+     [--watch 60] [--seed 1] [--spinners 2] [--estimator process|inline] [--parts]
 
 The step is `mavbridge run`'s, made of its own parts as it builds them: the state from the autopilot's
-messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate``
-(``make_wave_source``: only the companion's interface to it, none of its internals; in a process of its own as
-the companion's default ``estimator_process`` has it, ``--estimator inline`` in the step's process; the
-child's CPU time per step is printed apart, and its faults if any), and at each 0.1 s tick
-the wave handed to the NMPC, the state predicted over the link's delay, the NMPC solve (default solver nrti)
-and the RC command computed. Its telemetry is real: `sim-vehicle` in the paper's waves (realistic sensors,
-hidden phase, ``--seed``) streams what the companion asks for (``mavbridge.link.streams``) into a ``Link`` for
-``--watch`` + ``--duration`` simulated seconds (at speedup 20). That recording is then replayed paced at
-speedup 1 on the wall clock: messages handed to the parts when their time comes, a step due when the newest
-ATTITUDE reaches the next tick (``flight.schedule``, as the companion's loop decides it). The first
-``--watch`` seconds are replayed unpaced with no steps (the estimator watches the boat, as the companion
-does from connection until the pilot engages; its process, if it has one, is waited for), then the cold solve,
+messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate`` (``make_wave_source``:
+in a process of its own as the companion's default ``estimator_process`` has it, whose CPU time per step and
+faults are printed apart; ``--estimator inline`` in the step's process), and at each 0.1 s tick the wave handed to
+the NMPC, the state predicted over the link's delay, the NMPC solve (default solver nrti) and the RC command.
+Its telemetry is real: `sim-vehicle` in the paper's waves (realistic sensors, hidden phase, ``--seed``) streams
+what the companion asks for (``mavbridge.link.streams``) into a ``Link`` for ``--watch`` + ``--duration``
+simulated seconds. That recording is replayed paced at speedup 1 on the wall clock: messages handed to the parts
+when their time comes, a step due when the newest ATTITUDE reaches the next tick (``flight.schedule``, as the
+companion's loop decides it). The first ``--watch`` seconds are replayed unpaced with no steps (the estimator
+watches the boat, as from connection until the pilot engages; its process is waited for), then the cold solve,
 then ``--duration`` paced seconds (the estimator's process never waited for, as in a paced run).
 
-A step's time is its control step plus the message handling since the previous one (state updates and the
-estimator's observes: the companion's whole work per period). "command" is the part of the control step until the
-command is ready to send: as in the run, the next period's preparation (nrti's background job) is started only
-after it (``RollAwareNmpc.solve(defer_advance=True)``, then ``advance()``). Missed ticks are ticks the loop reached
-a period or more late (skipped, as the companion skips them), not counting the ticks the recording itself has no
-ATTITUDE for (a datagram lost while recording: "gaps", printed apart). Conditions, each on a fresh set of parts:
-quiet; two spinner processes (``while True: pass``, normal priority) beside it; with ``--realtime`` also two
-spinners with the bench process under ``mavbridge.cli.realtime`` (SCHED_FIFO, locked memory, an isolated CPU where
-the system has one; its line is printed). ``--conditions realtime --duration 600`` runs the last alone for ten
-minutes. The load average (1 min) is printed before and after each, and the cyclic garbage collector's runs
-during the replay (the watch included): how many, and the longest (ms).
+A step's time is its control step plus the message handling since the previous one (the companion's whole work
+per period). "command" is the control step until the command is ready to send: as in the run, the next period's
+preparation (nrti's background job) is started after it (``solve(defer_advance=True)``, then ``advance()``).
+Missed ticks: ticks the loop reached a period or more late (skipped, as the companion skips them), the ticks the
+recording has no ATTITUDE for apart ("gaps"). Conditions, each on fresh parts: quiet; two spinners (``while True:
+pass``) beside it; with ``--realtime`` also the spinners with the bench under ``mavbridge.cli.realtime``
+(``--conditions realtime --duration 600``: it alone, ten minutes). Printed too: the load before and after, the
+garbage collector's runs. ``--parts`` also times each part of the step
+(``PARTS``; every call since the previous step summed, a part not called 0) and prints their medians per
+condition: hot each costs a few microseconds, paced several times that (its code and data have left the caches),
+so this says where a step's time goes as it flies; each timer adds about a microsecond.
 """
 
 from __future__ import annotations
@@ -119,6 +117,8 @@ class CompanionStep:
         self.solve_ms: list[float] = []
         self.child_cpu_s = 0.0  # the estimator's process's CPU time when the paced steps began (s)
         self.roll_term = 0
+        self.parts: dict[str, list[float]] = {}  # --parts: each part's ms per step (``time_parts``)
+        self.running: dict[str, int] = {}  # ... and its ns since the previous step
 
     def handle(self, msg: Any, paced: bool = True) -> None:
         """One message, as the run's link handlers take it (state, delay clock, the estimator's sample); the
@@ -154,6 +154,8 @@ class CompanionStep:
         self.nmpc.advance()
         self.solve_ms.append(result.wall_time_s * 1e3)
         self.roll_term += bool(getattr(result, "roll_term_active", False))
+        for label, series in self.parts.items():
+            series.append(self.running.pop(label, 0) / 1e6)
         return command_ready
 
 
@@ -172,6 +174,35 @@ class Timings:
     def loop_missed(self) -> int:
         """The ticks skipped because the loop was late."""
         return self.missed - self.gaps
+
+
+PARTS = (("state", "on_message", "handling: the state"), ("delay", "on_message", "handling: the delay clock"),
+         ("gate", "observe", "handling: the estimator's samples"), ("delay", "compensate", "the clock (state's age)"),
+         ("gate", "step", "the wave hand-over"), ("delay", "predict", "the prediction over the delay"),
+         ("nmpc", "solve", "the NMPC's solve"), ("nmpc._backend", "solve", "  its backend"),
+         ("nmpc._backend.advanced", "take", "    the background plan taken"),
+         ("nmpc._backend", "feedback", "    the native feedback"), ("output", "compute", "the RC command"),
+         ("nmpc", "advance", "the next preparation started"))  # (owner on CompanionStep, method, label)
+
+
+def time_parts(step: CompanionStep) -> None:
+    """``--parts``: each of PARTS the step has wrapped in a timer adding its wall ns to ``step.running``."""
+    for path, method, label in PARTS:
+        owner: Any = step
+        for name in path.split("."):
+            owner = getattr(owner, name, None)
+        if owner is None or not hasattr(owner, method):
+            continue
+        inner, step.parts[label] = getattr(owner, method), []
+
+        def timed(*args: Any, _inner: Callable[..., Any] = inner, _label: str = label, **kwargs: Any) -> Any:
+            start = time.perf_counter_ns()
+            try:
+                return _inner(*args, **kwargs)
+            finally:
+                step.running[_label] = step.running.get(_label, 0) + time.perf_counter_ns() - start
+
+        setattr(owner, method, timed)
 
 
 def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: float) -> Timings:
@@ -279,6 +310,8 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
         with build_nmpc(scenario, waves) as nmpc, around():
             before = load()
             step = CompanionStep(nmpc, waves, scenario)
+            if args.parts:
+                time_parts(step)
             ready_for_loop()  # as `mavbridge run` sets the interpreter before its loop
             with collections_timed() as gc_ms:
                 timings = replay(rec, step, args.watch, args.duration)
@@ -289,7 +322,7 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
         getattr(waves, "close", lambda: None)()
     return {"name": name, "timings": timings, "solve_ms": step.solve_ms, "load": f"{before} -> {after}",
             "roll_term": step.roll_term / max(1, len(step.solve_ms)), "gc_ms": gc_ms, "child_ms": child_ms,
-            "faults": dict(getattr(waves, "faults", {}))}
+            "faults": dict(getattr(waves, "faults", {})), "parts": step.parts}
 
 
 def figures(row: dict[str, Any]) -> str:
@@ -306,20 +339,24 @@ def figures(row: dict[str, Any]) -> str:
             + (f"  estimator process: {row['faults']}" if any(row["faults"].values()) else ""))
 
 
-def replay_arguments(p: argparse.ArgumentParser) -> None:
-    """The recording's and the replay's flags (this bench's and ``step_parts``'s)."""
-    p.add_argument("--duration", type=float, default=60.0, help="paced seconds (per condition; default 60)")
-    p.add_argument("--watch", type=float, default=60.0, help="seconds the estimator watches first (default 60)")
-    p.add_argument("--seed", type=int, default=1, help="the simulator's seed (sea phase, sensor noise)")
-    p.add_argument("--estimator", choices=("process", "inline"), default="process",
-                   help="the wave estimator in a process of its own (default, the companion's estimator_process: "
-                        "true) or in the step's process")
+def print_parts(row: dict[str, Any]) -> None:
+    """``--parts``: each part's median and p90 ms per step, and its share of the median step."""
+    median = float(np.median(row["timings"].steps_ms))
+    print(f"\n{row['name']}: parts (ms per step, wall clock; indented ones are inside the one above)")
+    for label, series in row["parts"].items():
+        v = np.asarray(series[1:], float)  # (the first step's handling began before the timers)
+        print(f"  {label:<36} {np.median(v):>8.4f} {np.percentile(v, 90):>8.4f} {np.median(v) / median:>6.0%}")
 
 
 def main() -> None:
     """Record once, run each condition, print the table."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    replay_arguments(p)
+    p.add_argument("--duration", type=float, default=60.0, help="paced seconds per condition (default 60)")
+    p.add_argument("--watch", type=float, default=60.0, help="seconds the estimator watches first (default 60)")
+    p.add_argument("--seed", type=int, default=1, help="the simulator's seed (sea phase, sensor noise)")
+    p.add_argument("--estimator", choices=("process", "inline"), default="process",
+                   help="the wave estimator in a process of its own (default, the companion's) or inline")
+    p.add_argument("--parts", action="store_true", help="also time each part of the step (see PARTS)")
     p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
     p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
     p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
@@ -354,6 +391,9 @@ def main() -> None:
           f"{'runs':>5} {'ms':>7} {'ms/step':>7}")
     for row in rows:
         print(figures(row))
+    if args.parts:
+        for row in rows:
+            print_parts(row)
 
 
 if __name__ == "__main__":
