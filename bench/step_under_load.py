@@ -10,11 +10,11 @@ faults are printed apart; ``--estimator inline`` in the step's process), and at 
 the NMPC, the state predicted over the link's delay, the NMPC solve (default solver nrti) and the RC command.
 Its telemetry is real: `sim-vehicle` in the paper's waves (realistic sensors, hidden phase, ``--seed``) streams
 what the companion asks for (``mavbridge.link.streams``) into a ``Link`` for ``--watch`` + ``--duration``
-simulated seconds. That recording is replayed paced at speedup 1 on the wall clock: messages handed to the parts
-when their time comes, a step due when the newest ATTITUDE reaches the next tick (``flight.schedule``, as the
-companion's loop decides it). The first ``--watch`` seconds are replayed unpaced with no steps (the estimator
-watches the boat, as from connection until the pilot engages; its process is waited for), then the cold solve,
-then ``--duration`` paced seconds (the estimator's process never waited for, as in a paced run).
+simulated seconds. That recording is replayed paced at speedup 1 on the wall clock as the companion's loop reads
+it: rest until the next tick can come (``pause_s``), then every message that has come, or the next; a step due
+when the newest ATTITUDE reaches the next tick (``flight.schedule``). The first ``--watch`` seconds are replayed
+unpaced with no steps (the estimator watches the boat, as from connection until the pilot engages; its process is
+waited for), then the cold solve, then ``--duration`` paced seconds (the estimator's process never waited for).
 
 A step's time is its control step plus the message handling since the previous one (the companion's whole work
 per period). "command" is the control step until the command is ready to send: as in the run, the next period's
@@ -22,8 +22,8 @@ preparation (nrti's background job) is started after it (``solve(defer_advance=T
 Missed ticks: ticks the loop reached a period or more late (skipped, as the companion skips them), the ticks the
 recording has no ATTITUDE for apart ("gaps"). Conditions, each on fresh parts: quiet; two spinners (``while True:
 pass``) beside it; with ``--realtime`` also the spinners with the bench under ``mavbridge.cli.realtime``
-(``--conditions realtime --duration 600``: it alone, ten minutes). Printed too: the load before and after, the
-garbage collector's runs. ``--parts`` also times each part of the step
+(``--conditions realtime --duration 600``: it alone, ten minutes). Printed too: the loop's reads of the link per
+step, the load before and after, the garbage collector's runs. ``--parts`` also times each part of the step
 (``PARTS``; every call since the previous step summed, a part not called 0) and prints their medians per
 condition: hot each costs a few microseconds, paced several times that (its code and data have left the caches),
 so this says where a step's time goes as it flies; each timer adds about a microsecond.
@@ -169,6 +169,7 @@ class Timings:
     late_ms: list[float] = field(default_factory=list)  # the tick's ATTITUDE due to the start of its step
     missed: int = 0  # ticks skipped, in all
     gaps: int = 0  # of them, ticks the recording itself has no ATTITUDE for (a datagram lost while recording)
+    reads: int = 0  # the loop's reads of the link (a wake-up each)
 
     @property
     def loop_missed(self) -> int:
@@ -222,9 +223,11 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         return wall0 + (rec.stamps_ms[index] - t0_ms) / 1000.0
 
     while i < len(rec.messages) and rec.stamps_ms[i] <= end_ms:
-        if (wait := due_at(i) - time.perf_counter()) > 0:
+        wake = max(due_at(i), time.perf_counter() + step.delay.pause_s(next_tick and next_tick / 1e3, step.period_s))
+        step.delay.backlog = wake > due_at(i)  # woken by the rest, not by a message: what came waited (not timed)
+        if (wait := wake - time.perf_counter()) > 0:
             time.sleep(wait)
-        start = time.perf_counter()
+        start, out.reads = time.perf_counter(), out.reads + 1
         while i < len(rec.messages) and due_at(i) <= time.perf_counter():  # all that is due: the run drains too
             step.handle(rec.messages[i])
             if rec.messages[i].get_type() == "ATTITUDE":  # a loop always on time would step on this one
@@ -237,26 +240,23 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         due, next_tick, missed = schedule(now_ms, next_tick, period_ms) if now_ms is not None else (False, None, 0)
         if not due:
             continue
+        step.delay.ticked((now_ms - next_tick + period_ms) / 1000.0)  # as the run's loop tells it
         begin = time.perf_counter()
         command_ready = step.control(now_ms)
         out.steps_ms.append((time.perf_counter() - begin + handled_s) * 1e3)
         out.command_ms.append((command_ready - begin) * 1e3)
         out.handling_ms.append(handled_s * 1e3)
-        out.late_ms.append((begin - attitude_due) * 1e3)  # from the ATTITUDE's arrival to the step's start
+        out.late_ms += [(begin - attitude_due) * 1e3] if attitude_due else []  # its ATTITUDE's arrival to its start
         handled_s = 0.0
         out.missed += missed
     return out
 
 
-def _normal_priority() -> None:
-    """preexec_fn: the spinner runs SCHED_OTHER whatever the bench process has become."""
-    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-
-
 @contextmanager
 def spinners(count: int) -> Iterator[None]:
     """``count`` processes that burn a CPU each at normal priority, stopped by their handles."""
-    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"], preexec_fn=_normal_priority)
+    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"],  # SCHED_OTHER whatever the bench's is
+                              preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)))
              for _ in range(count)]
     try:
         time.sleep(1.0)  # let them take the CPUs
@@ -335,7 +335,7 @@ def figures(row: dict[str, Any]) -> str:
             f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
             f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
             f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5} {len(row['gc_ms']):>5} "
-            f"{max(row['gc_ms'], default=0.0):>7.2f} {row['child_ms']:>7.3f}"
+            f"{max(row['gc_ms'], default=0.0):>7.2f} {row['child_ms']:>7.3f} {t.reads / max(1, len(steps)):>6.2f}"
             + (f"  estimator process: {row['faults']}" if any(row["faults"].values()) else ""))
 
 
@@ -385,10 +385,10 @@ def main() -> None:
                                   args, scenario, realtime=True))
     print(f"\n{'condition':<26} {'steps':>6} {'median':>8} {'p99':>8} {'command':>8} {'command':>8} {'max':>8} "
           f"{'missed':>7} {'solve':>8} {'solve':>8} {'handling':>8} {'late p99':>8} {'late':>8} {'roll':>6} "
-          f"{'load 1 min':>12} {'gaps':>5} {'gc':>5} {'gc max':>7} {'child':>7}")
+          f"{'load 1 min':>12} {'gaps':>5} {'gc':>5} {'gc max':>7} {'child':>7} {'reads':>6}")
     print(f"{'(step: ms, wall clock)':<26} {'':>6} {'':>8} {'':>8} {'median':>8} {'p99':>8} {'':>8} {'ticks':>7} "
           f"{'median':>8} {'p99':>8} {'median':>8} {'':>8} {'max':>8} {'term':>6} {'':>12} {'(rec)':>5} "
-          f"{'runs':>5} {'ms':>7} {'ms/step':>7}")
+          f"{'runs':>5} {'ms':>7} {'ms/step':>7} {'/step':>6}")
     for row in rows:
         print(figures(row))
     if args.parts:

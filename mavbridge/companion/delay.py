@@ -32,6 +32,9 @@ TIMESYNC_PERIOD_S = 1.0  # wall seconds between our TIMESYNC requests
 PENDING_KEPT = 16  # unanswered requests remembered (a lost one is forgotten)
 CLOCK_MESSAGES = ("ATTITUDE", "GLOBAL_POSITION_INT")
 MAX_CLOCK_RATE = 1000.0  # the simulator's fastest --speedup
+PAUSE_MARGIN_S = 0.0005  # wall s the loop wakes before a tick's earliest arrival (the clock fit's error, the timer's)
+TICK_LAGS_KEPT = 8  # ticks: the smallest of the last this many ATTITUDE lags past the tick is the one rested to
+ROUND_TRIP_WATCH_S = 0.5  # wall s after a TIMESYNC request the loop reads at once: the answer's arrival is the figure
 
 
 class DelayCompensator:
@@ -47,6 +50,9 @@ class DelayCompensator:
         self.horizons_s: list[float] = []
         self._pending: deque[int] = deque(maxlen=PENDING_KEPT)
         self._last_request = -TIMESYNC_PERIOD_S
+        self._last_stamp = -1  # our newest request's ts1
+        self._tick_lags: deque[float] = deque(maxlen=TICK_LAGS_KEPT)  # autopilot s from each tick to its ATTITUDE
+        self.backlog = False  # the loop is reading what waited in the socket (after a rest or a step): not timed
 
     def attach(self, link: Any) -> None:
         """Watch the link's time-stamped messages and TIMESYNC answers; ask for round trips when idle."""
@@ -56,13 +62,16 @@ class DelayCompensator:
         link.idle_hooks.append(lambda: self.request_round_trip(link))
 
     def on_message(self, msg: Any) -> None:
-        """An arrival for the clock fit, or the answer to one of our TIMESYNC requests."""
+        """An arrival for the clock fit, or the answer to one of our TIMESYNC requests; neither while ``backlog``
+        (the message waited in the socket: when it came is not known)."""
         kind, now = msg.get_type(), time.monotonic()
         if kind in CLOCK_MESSAGES:
-            self.clock.observe(now, int(msg.time_boot_ms) / 1000.0)
+            if not self.backlog:
+                self.clock.observe(now, int(msg.time_boot_ms) / 1000.0)
         elif kind == "TIMESYNC" and msg.tc1 != 0 and msg.ts1 in self._pending:
             self._pending.remove(msg.ts1)
-            self.clock.observe_round_trip(msg.ts1 / 1e9, now)
+            if not self.backlog:
+                self.clock.observe_round_trip(msg.ts1 / 1e9, now)
 
     def request_round_trip(self, link: Any) -> None:
         """A TIMESYNC request, once every TIMESYNC_PERIOD_S of wall time."""
@@ -72,12 +81,46 @@ class DelayCompensator:
         self._last_request = now
         stamp = time.monotonic_ns()
         self._pending.append(stamp)
+        self._last_stamp = stamp
         link.send("timesync", 0, stamp)
 
     def wall_seconds(self, autopilot_s: float) -> float:
         """``autopilot_s`` seconds of autopilot time in wall seconds: over the clock's fitted rate (1 until fitted;
         a simulator's speedup), taken in [1, MAX_CLOCK_RATE] so a bad fit never grants more than real time."""
         return autopilot_s / min(max(self.clock.rate, 1.0), MAX_CLOCK_RATE)
+
+    def ticked(self, lag_s: float) -> None:
+        """A step was due: its ATTITUDE was stamped ``lag_s`` (autopilot s) after the tick (the stream's phase)."""
+        self._tick_lags.append(lag_s)
+
+    def pause_s(self, next_tick_s: float | None, longest_s: float) -> float:
+        """Wall seconds the loop may rest before reading the link again, at most ``longest_s``: until the earliest
+        arrival of the next tick's ATTITUDE on the clock model (stamped the tick (autopilot s) plus the smallest of
+        the recent lags ``ticked``, at most half of ``longest_s`` in autopilot time). Resting, the loop takes
+        the period's messages together instead of waking for each (a dozen a period; each wake-up costs the step
+        its caches, issue 32), and the tick's ATTITUDE as soon as it is there. What waited in the socket is not
+        timed (``backlog``): timed, the rest's own lateness would move the clock model's line later, and the next
+        rest with it. 0, reading at once: in lockstep, with no tick
+        or no fitted clock rate yet (a simulator's speedup would make a rest too long), and while one of our
+        TIMESYNC requests waits for its answer (its round trip is measured on its arrival)."""
+        if self.lockstep or next_tick_s is None or not self.clock.ready():
+            return 0.0
+        lag = min(min(self._tick_lags, default=0.0), 0.5 * longest_s * self.clock.rate)
+        arrival = self.clock.earliest_arrival_s(next_tick_s + max(lag, 0.0))  # (the fit is brought up to date)
+        now = time.monotonic()
+        if not self.clock.rate_fitted or (now - self._last_request < ROUND_TRIP_WATCH_S
+                                          and self._last_stamp in self._pending):
+            return 0.0
+        rest = arrival - PAUSE_MARGIN_S - now
+        return min(rest, longest_s) if rest > 0.0 else 0.0
+
+    def rest(self, link: Any, next_tick_s: float | None, period_s: float) -> None:
+        """The loop's rest before it reads ``link`` (``pause_s``, at most ``period_s`` of autopilot time): the
+        period's messages wait in the socket, to be read together, and what came meanwhile is ``backlog``."""
+        pause = self.pause_s(next_tick_s, self.wall_seconds(period_s))
+        if pause > 0.0:
+            time.sleep(pause)
+        self.backlog = link.pending()
 
     def compensate(self, state_s: float) -> tuple[float, float]:
         """(the state's age, the time to plan at) for a state stamped ``state_s`` (autopilot s)."""

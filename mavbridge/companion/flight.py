@@ -100,6 +100,13 @@ class LoopEvents:
     engaged_at_ms: int | None = None
     arrived_at_ms: int | None = None
     rates_hz: dict[str, float] = field(default_factory=dict)
+    reads: int = 0  # the loop's reads of the link (a wake-up each, after its rest)
+    ticks: int = 0  # ticks a step was due at
+
+    def ticked(self, missed: int) -> None:
+        """A step is due, ``missed`` ticks after the last one that was."""
+        self.ticks += 1
+        self.skipped_ticks += missed
 
 
 def loop_metrics(record: RunRecorder, events: LoopEvents,
@@ -114,7 +121,8 @@ def loop_metrics(record: RunRecorder, events: LoopEvents,
         return ms / 1000.0 if ms is not None else None
 
     return {**figures, "connected_at_s": seconds(events.connected_at_ms), "engaged_at_s": seconds(events.engaged_at_ms),
-            "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz}
+            "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz,
+            "link_reads_per_tick": round(events.reads / events.ticks, 2) if events.ticks else None}
 
 
 def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[bool, int, int]:
@@ -324,9 +332,11 @@ class Companion:
                 signal.signal(s, handler if self._stop_reason is None else signal.SIG_IGN)
         return 1 if self._failure else code
 
-    def _service_link(self, link: Link) -> bool:
-        """Read the link, follow the mission and the supervisor; False once the run must end."""
+    def _service_link(self, link: Link, next_tick_ms: int | None = None) -> bool:
+        """Rest until the next tick can come, read the link, follow the mission and the supervisor; False: end."""
         link.heartbeat_if_due()
+        self.delay.rest(link, None if next_tick_ms is None else next_tick_ms / 1000.0, self.period_s)
+        self.events.reads += 1
         link.recv(0.05)
         link.drain()  # act on the newest state, never on a backlog
         if self.mission.changed and self.commands.commanding:
@@ -352,7 +362,7 @@ class Companion:
             if self._stop_reason:
                 self.supervisor.stop(self._stop_reason)
                 break
-            if not self._service_link(link):
+            if not self._service_link(link, next_tick_ms):
                 break
             if self.supervisor.phase == Phase.WAITING and not self.supervisor.self_commanded:
                 self.notices.waiting(self.supervisor.reason)
@@ -362,7 +372,8 @@ class Companion:
             due, next_tick_ms, missed = schedule(now_ms, next_tick_ms, self.period_ms)
             if not due:
                 continue
-            self.events.skipped_ticks += missed
+            self.events.ticked(missed)
+            self.delay.ticked((now_ms - next_tick_ms + self.period_ms) / 1000.0)  # its ATTITUDE's lag past the tick
             self.notices.skipped(missed, self.period_s)
             if self.deferred_start is not None and now_ms >= self.deferred_start.due_ms:
                 switch_mode_at_start(self, link, now_ms)

@@ -9,22 +9,21 @@ sends back its answers after it (``encode_answers``): the estimate, the latest f
 samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
 still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
 
-A step asks (``answers``) for the answers as of every sample but the newest: the step's own ATTITUDE was sent
-just before it asks, and waiting for the child to wake and take it would put the wake-up (0.15 ms on an idle
-CPU here) back into the step; the sample before it came 50 ms earlier at 20 Hz and is long answered. The
-answers are the estimator's one sample later; a step asks once (every question of the step gets the same).
+A step asks (``answers``) once for the answers as of every sample but the newest (its own ATTITUDE, sent just
+before: waiting for the child to take it would put that wake-up back into the step). Paced, answers as of the
+previous step's samples are in time: the loop reads a period's messages together (``DelayCompensator.pause_s``).
 
 How long the companion waits for the child (``wait_s``): paced (`mavbridge run` without ``--lockstep``) never,
 so a step never waits for another process (and which answers it gets can then depend on timing); in lockstep
 and in unpaced replays up to seconds, so that every answer is the one due. Refusing rather than guessing:
-answers not there in time (``late``) are replaced by the last ones while those are at most ``STALE_S`` of
-autopilot time older than the newest sample (an estimate's phase is on the autopilot clock, so it stays
-valid), else by none (``stale``); a child that has gone gives none for the rest of the run (``stopped``); a
-sample the child has no room for in time is dropped (``dropped``). No answer means no new estimate: the
-``WaveGate`` then holds the last confident wave for ``estimation.hold_s`` as after any loss of confidence, and
-plans without the roll term after it. Faults are counted (``faults``, in metrics.json); all but ``late`` (the
-previous sample's answers standing in, which changes nothing a pilot need know) are said in the run log when
-they start (at most once a minute for each kind) and, for ``stale``, when answers come again.
+answers not in time (``late``: not even as of the previous step's samples) are replaced by the last ones while
+those are at most ``STALE_S`` of autopilot time older than the newest sample (an estimate's phase is on the
+autopilot clock, so it stays valid), else by none (``stale``); a child that has gone gives none for the rest of
+the run (``stopped``); a sample the child has no room for in time is dropped (``dropped``). No answer means no
+new estimate: the ``WaveGate`` then holds the last confident wave for ``estimation.hold_s`` as after any loss of
+confidence, and plans without the roll term after it. Faults are counted (``faults``, in metrics.json); all but
+``late`` (older answers standing in, which changes nothing a pilot need know) are said in the run log when they
+start (at most once a minute for each kind) and, for ``stale``, when answers come again.
 """
 
 from __future__ import annotations
@@ -195,6 +194,7 @@ class EstimatorProcess:
     _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
     _stopped: bool = field(init=False, default=False)
     _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
+    _floor: int = field(init=False, default=0)  # samples sent when the last step asked: answered by now, or late
     _calls: int = field(init=False, default=0)
     _closing: bool = field(init=False, default=False)
     _stale_said: bool = field(init=False, default=False)  # a stale spell was said: say when answers come again
@@ -293,6 +293,7 @@ class EstimatorProcess:
         wanted = max(self._sent - 1, 0)
         if self._chosen[0] == wanted:
             return self._chosen[1]
+        floor, self._floor = min(self._floor, wanted), self._sent
         deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
             self._take_waiting()
@@ -303,6 +304,8 @@ class EstimatorProcess:
                 break
         if self._stopped:
             return self._choose(wanted, NO_ANSWERS)
+        if self._answers is not NO_ANSWERS and self._answers.samples >= floor:  # as of the last step's samples
+            return self._choose(wanted, self._answers, recovered=True)
         age = self._sent_t - self._answers.t_s
         fresh = 0.0 <= age <= STALE_S or self._answers is NO_ANSWERS  # (nothing yet: late, not stale)
         self._fault("late" if fresh else "stale")

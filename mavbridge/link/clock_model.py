@@ -113,6 +113,7 @@ class ClockModel:
     rate: float = 1.0
     offset_s: float | None = None
     rejected: int = 0  # stamps not believed (far ahead of the model's now)
+    rate_fitted: bool = False  # the rate is a fit over MIN_SPAN_S of arrivals (not the 1 assumed before)
     _fitted_wall_s: float = -math.inf  # the newest arrival at the last refit of the rate
     _sums: _Sums = field(default_factory=_Sums)
     _fastest: _Fastest = field(default_factory=_Fastest)
@@ -145,6 +146,7 @@ class ClockModel:
         self.round_trips.clear()
         self._fastest.buckets.clear()
         self.offset_s = None
+        self.rate_fitted = False
         self._fitted_wall_s = -math.inf
 
     def observe_round_trip(self, sent_wall_s: float, answered_wall_s: float) -> None:
@@ -167,6 +169,7 @@ class ClockModel:
             slope = self._sums.rate()
             if slope is not None and slope > 0 and math.isfinite(slope):
                 self.rate = slope
+                self.rate_fitted = True
         offset = self._fastest.offset(self.rate)
         newest_offset = self.samples[-1][1] - self.rate * newest  # (no bucket left: arrivals far out of wall order)
         self.offset_s = offset if math.isfinite(offset) else newest_offset
@@ -192,6 +195,15 @@ class ClockModel:
             raise ValueError("clock model: no time-stamped message has arrived yet")
         wall = time.monotonic() if wall_s is None else wall_s
         return self.rate * wall + self.offset_s + self.one_way_delay_s()
+
+    def earliest_arrival_s(self, autopilot_s: float) -> float:
+        """The earliest wall time (monotonic s) a message stamped ``autopilot_s`` can arrive: where the fastest
+        sample's lateness puts it (the loop rests until then, ``DelayCompensator.pause_s``); ValueError before any
+        sample."""
+        self._fit()
+        if self.offset_s is None:
+            raise ValueError("clock model: no time-stamped message has arrived yet")
+        return (autopilot_s - self.offset_s) / self.rate
 
     def age_s(self, autopilot_s: float, wall_s: float | None = None) -> float:
         """How old (autopilot s) a state stamped ``autopilot_s`` is now; never negative."""

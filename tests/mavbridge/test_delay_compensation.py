@@ -15,7 +15,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavbridge.companion.config import load_companion_config
-from mavbridge.companion.delay import DelayCompensator
+from mavbridge.companion.delay import PAUSE_MARGIN_S, DelayCompensator
 from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.link.clock_model import ClockModel
 from mavbridge.nmpc.config import NmpcConfig
@@ -248,3 +248,86 @@ def test_the_running_fit_survives_arrivals_out_of_order_and_reboots() -> None:
         clock.observe(wall, stamp)
         assert clock._sums.n == len(clock.samples)
     assert clock.rejected == 0
+
+
+def assert_rests_until(comp: DelayCompensator, next_tick_s: float, longest_s: float, wake_s: float) -> None:
+    """The rest asked for now ends at ``wake_s`` (monotonic s; none if past), at most ``longest_s`` from now: within
+    what the clock moved while it was asked, however slowly the test runs."""
+    before = time.monotonic()
+    rest = comp.pause_s(next_tick_s, longest_s)
+    after = time.monotonic()
+
+    def expected(at: float) -> float:
+        return min(longest_s, max(0.0, wake_s - at))
+
+    assert expected(after) <= rest <= expected(before), (rest, wake_s - before, wake_s - after)
+
+
+def test_the_loop_rests_until_the_next_tick_can_arrive_and_no_longer() -> None:
+    """The rest ends PAUSE_MARGIN_S before the earliest wall time the next tick's ATTITUDE can arrive (the fastest
+    arrival's line, at the tick plus the smallest recent lag), never beyond ``longest_s``, and is 0 once that time
+    has passed."""
+    comp = DelayCompensator(True, False, 1.0, None)
+    assert comp.pause_s(51.0, 0.1) == 0.0  # no arrival yet: read at once
+    now = time.monotonic()
+    for i in range(100):  # a second of arrivals at rate 1, 5 ms late, the newest stamped 50.99 just now
+        comp.clock.observe(now - 0.99 + i * 0.01 + 0.005, 50.0 + i * 0.01)
+    arrival = comp.clock.earliest_arrival_s(51.04)
+    assert arrival == pytest.approx(now + 0.055, abs=1e-6)
+    assert_rests_until(comp, 51.04, 0.1, arrival - PAUSE_MARGIN_S)
+    assert comp.pause_s(51.04, 0.01) <= 0.01  # never longer than asked
+    assert comp.pause_s(50.5, 0.1) == 0.0  # that tick's messages can be here already
+    assert comp.pause_s(None, 0.1) == 0.0  # no tick yet
+    comp.ticked(0.02)  # the ATTITUDE that made a step due came 20 ms past its tick, the next one 7 ms past
+    comp.ticked(0.007)
+    assert_rests_until(comp, 51.04, 0.1, arrival + 0.007 - PAUSE_MARGIN_S)  # the next ATTITUDE: smallest lag later
+    fresh = DelayCompensator(True, False, 1.0, None)  # a lag is rested at most half of the longest rest
+    now = time.monotonic()
+    for i in range(100):
+        fresh.clock.observe(now - 0.99 + i * 0.01 + 0.005, 50.0 + i * 0.01)
+    fresh.ticked(0.015)
+    assert_rests_until(fresh, 50.99, 0.02, fresh.clock.earliest_arrival_s(50.99) + 0.01 - PAUSE_MARGIN_S)
+    lockstep = DelayCompensator(True, True, 1.0, None)
+    for i in range(100):
+        lockstep.clock.observe(now - 0.99 + i * 0.01, 50.0 + i * 0.01)
+    assert lockstep.pause_s(51.04, 0.1) == 0.0  # the autopilot waits for the command: never rest
+
+
+def test_no_rest_before_the_rate_is_fitted_nor_while_a_round_trip_is_out() -> None:
+    """A simulator's speedup is unknown until MIN_SPAN_S of arrivals (a rest at rate 1 would be ten ticks at
+    --speedup 10); a TIMESYNC answer is timed on its arrival, so the loop reads at once while ours is out."""
+    comp = DelayCompensator(True, False, 1.0, None)
+    now = time.monotonic()
+    for i in range(20):  # 0.2 s of arrivals: under MIN_SPAN_S
+        comp.clock.observe(now - 0.2 + i * 0.01, 50.0 + i * 0.01)
+    assert comp.pause_s(50.25, 0.1) == 0.0 and not comp.clock.rate_fitted
+    for i in range(20, 100):
+        comp.clock.observe(now - 0.2 + i * 0.01, 50.0 + i * 0.01)
+    comp.clock.now_s()  # (the fit runs when asked)
+    assert comp.clock.rate_fitted
+    tick = 51.5  # half a second ahead: a rest, however slowly the test runs
+    assert comp.pause_s(tick, 0.1) > 0.0
+    comp._pending.append(777)  # our request, just sent
+    comp._last_stamp, comp._last_request = 777, time.monotonic()
+    assert comp.pause_s(tick, 0.1) == 0.0
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=777))  # its answer
+    assert comp.clock.round_trip_s is not None and comp.pause_s(tick, 0.1) > 0.0
+    comp.clock.observe(now + 1.0, 1.0)  # the autopilot rebooted: its rate is unknown again
+    assert not comp.clock.rate_fitted and comp.pause_s(1.05, 0.1) == 0.0
+
+
+def test_what_waited_in_the_socket_is_not_timed() -> None:
+    """After a rest (or a long step) the loop reads what waited in the socket: when it came is unknown, so it
+    neither moves the clock model (the rest's own lateness would move its line, and the next rest, later) nor
+    times a round trip; an answer read so still ends the watch for it."""
+    comp = DelayCompensator(True, False, 1.0, None)
+    comp.backlog = True
+    comp.on_message(mavlink.MAVLink_attitude_message(5000, 0, 0, 0, 0, 0, 0))
+    assert not comp.clock.ready()
+    comp._pending.append(321)
+    comp._last_stamp, comp._last_request = 321, time.monotonic()
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=321))
+    assert comp.clock.round_trip_s is None and 321 not in comp._pending
+    comp.backlog = False
+    comp.on_message(mavlink.MAVLink_attitude_message(5100, 0, 0, 0, 0, 0, 0))
+    assert comp.clock.ready() and comp.clock.samples[-1][1] == pytest.approx(5.1)

@@ -209,3 +209,28 @@ def test_answers_are_packed_as_numbers_and_come_back_equal() -> None:
     assert decode_answers(encode_answers(unpackable)) == unpackable
     nothing = Answers(3, 0.5)
     assert decode_answers(encode_answers(nothing)) == nothing
+
+
+def test_paced_answers_as_of_the_last_steps_samples_are_in_time() -> None:
+    """The loop reads a period's messages together, so a step's two samples go to the child at once: answers as
+    of the previous step's samples are in time (no fault); older ones are late."""
+    source = EstimatorProcess(EstimatorSettings(), wait_s=SYNC_S)
+    try:
+        samples = _samples(10.0)
+        for sample in samples[:40]:
+            source.observe(sample)
+        assert source.answers().samples == 39
+        assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # in order: all 40 answered
+        source.wait_s = 0.0  # paced
+        os.kill(source.pid, signal.SIGSTOP)  # no answer from here on
+        try:
+            source.observe(samples[40])  # a period's two samples, read together before the step
+            source.observe(samples[41])
+            assert source.answers().samples == 40 and not any(source.faults.values()), source.faults
+            source.observe(samples[42])
+            source.observe(samples[43])
+            assert source.answers().samples == 40 and source.faults["late"] == 1, source.faults  # not as of 42
+        finally:
+            os.kill(source.pid, signal.SIGCONT)
+    finally:
+        source.close()
