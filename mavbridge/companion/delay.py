@@ -62,16 +62,17 @@ class DelayCompensator:
         link.idle_hooks.append(lambda: self.request_round_trip(link))
 
     def on_message(self, msg: Any) -> None:
-        """An arrival for the clock fit, or the answer to one of our TIMESYNC requests; neither while ``backlog``
-        (the message waited in the socket: when it came is not known)."""
+        """An arrival for the clock fit (not while ``backlog``: it waited in the socket, when it came is not known),
+        or the answer to one of our TIMESYNC requests (always: the loop does not rest while one is awaited, so it
+        waited at most as long as the read it came in, and skipping the answers read with others would keep only
+        the slower ones)."""
         kind, now = msg.get_type(), time.monotonic()
         if kind in CLOCK_MESSAGES:
             if not self.backlog:
                 self.clock.observe(now, int(msg.time_boot_ms) / 1000.0)
         elif kind == "TIMESYNC" and msg.tc1 != 0 and msg.ts1 in self._pending:
             self._pending.remove(msg.ts1)
-            if not self.backlog:
-                self.clock.observe_round_trip(msg.ts1 / 1e9, now)
+            self.clock.observe_round_trip(msg.ts1 / 1e9, now)
 
     def request_round_trip(self, link: Any) -> None:
         """A TIMESYNC request, once every TIMESYNC_PERIOD_S of wall time."""

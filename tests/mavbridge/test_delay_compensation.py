@@ -318,8 +318,8 @@ def test_no_rest_before_the_rate_is_fitted_nor_while_a_round_trip_is_out() -> No
 
 def test_what_waited_in_the_socket_is_not_timed() -> None:
     """After a rest (or a long step) the loop reads what waited in the socket: when it came is unknown, so it
-    neither moves the clock model (the rest's own lateness would move its line, and the next rest, later) nor
-    times a round trip; an answer read so still ends the watch for it."""
+    does not move the clock model (the rest's own lateness would move its line, and the next rest, later). A
+    TIMESYNC answer still times its round trip: no rest while it is awaited, so at most the read's own wait."""
     comp = DelayCompensator(True, False, 1.0, None)
     comp.backlog = True
     comp.on_message(mavlink.MAVLink_attitude_message(5000, 0, 0, 0, 0, 0, 0))
@@ -327,7 +327,7 @@ def test_what_waited_in_the_socket_is_not_timed() -> None:
     comp._pending.append(321)
     comp._last_stamp, comp._last_request = 321, time.monotonic()
     comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=321))
-    assert comp.clock.round_trip_s is None and 321 not in comp._pending
+    assert comp.clock.round_trip_s is not None and 321 not in comp._pending
     comp.backlog = False
     comp.on_message(mavlink.MAVLink_attitude_message(5100, 0, 0, 0, 0, 0, 0))
     assert comp.clock.ready() and comp.clock.samples[-1][1] == pytest.approx(5.1)
