@@ -120,12 +120,11 @@ class CompanionStep:
         self.parts: dict[str, list[float]] = {}  # --parts: each part's ms per step (``time_parts``)
         self.running: dict[str, int] = {}  # ... and its ns since the previous step
 
-    def handle(self, msg: Any, paced: bool = True) -> None:
+    def handle(self, msg: Any) -> None:
         """One message, as the run's link handlers take it (state, delay clock, the estimator's sample); the
-        link's clock model only sees paced arrivals (an unpaced watch would look like a huge delay)."""
+        link's clock model only times what the replay does not mark ``backlog`` (the unpaced watch is)."""
         self.state.on_message(msg)
-        if paced:
-            self.delay.on_message(msg)
+        self.delay.on_message(msg)
         if msg.get_type() == "ATTITUDE" and self.state.ready():
             self.gate.observe(self.state.motion_sample())
 
@@ -210,9 +209,9 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
     """The watch unpaced, the cold solve, then ``duration_s`` paced at speedup 1 (see the module docstring)."""
     period_ms = round(step.period_s * 1000)
     t0_ms = rec.stamps_ms[0] + round(watch_s * 1000)
-    i = 0
+    i, step.delay.backlog = 0, True  # the watch is unpaced: not timed (it would look like a huge delay)
     while rec.stamps_ms[i] < t0_ms:
-        step.handle(rec.messages[i], paced=False)
+        step.handle(rec.messages[i])
         i += 1
     step.prepare()
     out, handled_s, next_tick, attitude_due, ideal_tick = Timings(), 0.0, None, 0.0, None
@@ -227,6 +226,8 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         step.delay.backlog = wake > due_at(i)  # woken by the rest, not by a message: what came waited (not timed)
         if (wait := wake - time.perf_counter()) > 0:
             time.sleep(wait)
+            if step.delay.backlog:  # (as the run's rest: how late it ended)
+                step.delay.overslept(time.perf_counter() - wake)
         start, out.reads = time.perf_counter(), out.reads + 1
         while i < len(rec.messages) and due_at(i) <= time.perf_counter():  # all that is due: the run drains too
             step.handle(rec.messages[i])
@@ -264,7 +265,6 @@ def spinners(count: int) -> Iterator[None]:
     finally:
         for proc in procs:
             proc.kill()
-        for proc in procs:
             proc.wait()
 
 

@@ -33,7 +33,11 @@ PENDING_KEPT = 16  # unanswered requests remembered (a lost one is forgotten)
 CLOCK_MESSAGES = ("ATTITUDE", "GLOBAL_POSITION_INT")
 MAX_CLOCK_RATE = 1000.0  # the simulator's fastest --speedup
 PAUSE_MARGIN_S = 0.0005  # wall s the loop wakes before a tick's earliest arrival (the clock fit's error, the timer's)
+OVERSLEPT_KEPT = 16  # rests: the loop wakes early by the most the last this many overslept (the scheduler's latency)
 TICK_LAGS_KEPT = 8  # ticks: the smallest of the last this many ATTITUDE lags past the tick is the one rested to
+FLOOD_READ = 32  # messages refused in one read (foreign, bad, unsigned, stale): no rest before the next read, so
+# that a flood cannot fill the socket's buffer (~200 datagrams) during a rest and crowd out the autopilot's own
+REFUSED = ("foreign", "bad", "unsigned", "stale")  # the link's counts of refused messages
 ROUND_TRIP_WATCH_S = 0.5  # wall s after a TIMESYNC request the loop reads at once: the answer's arrival is the figure
 
 
@@ -52,6 +56,8 @@ class DelayCompensator:
         self._last_request = -TIMESYNC_PERIOD_S
         self._last_stamp = -1  # our newest request's ts1
         self._tick_lags: deque[float] = deque(maxlen=TICK_LAGS_KEPT)  # autopilot s from each tick to its ATTITUDE
+        self._overslept: deque[float] = deque(maxlen=OVERSLEPT_KEPT)  # wall s each rest ended late
+        self._flooded = False  # the last read refused more than FLOOD_READ messages
         self.backlog = False  # the loop is reading what waited in the socket (after a rest or a step): not timed
 
     def attach(self, link: Any) -> None:
@@ -97,31 +103,49 @@ class DelayCompensator:
     def pause_s(self, next_tick_s: float | None, longest_s: float) -> float:
         """Wall seconds the loop may rest before reading the link again, at most ``longest_s``: until the earliest
         arrival of the next tick's ATTITUDE on the clock model (stamped the tick (autopilot s) plus the smallest of
-        the recent lags ``ticked``, at most half of ``longest_s`` in autopilot time). Resting, the loop takes
-        the period's messages together instead of waking for each (a dozen a period; each wake-up costs the step
-        its caches, issue 32), and the tick's ATTITUDE as soon as it is there. What waited in the socket is not
-        timed (``backlog``): timed, the rest's own lateness would move the clock model's line later, and the next
-        rest with it. 0, reading at once: in lockstep, with no tick
-        or no fitted clock rate yet (a simulator's speedup would make a rest too long), and while one of our
-        TIMESYNC requests waits for its answer (its round trip is measured on its arrival)."""
+        the recent lags ``ticked``, at most half of ``longest_s`` in autopilot time), less PAUSE_MARGIN_S and the
+        most the recent rests overslept (``overslept``: on a busy computer without real-time priority a sleep ends
+        milliseconds late, and the ATTITUDE would wait that long on top of it). Resting, the loop takes the
+        period's messages together instead of waking for each (a dozen a period; each wake-up costs the step its
+        caches, issue 32), and the tick's ATTITUDE as soon as it is there. What waited in the socket is not timed
+        (``backlog``): timed, the rest's own lateness would move the clock model's line later, and the next rest
+        with it. 0, reading at once: in lockstep, with no tick or no fitted clock rate yet (a simulator's speedup
+        would make a rest too long), when nothing was timed for two periods (the line may be behind the link's:
+        the next arrival then moves it), and for ROUND_TRIP_WATCH_S after our newest TIMESYNC request while it
+        waits for its answer (its round trip is measured on its arrival)."""
         if self.lockstep or next_tick_s is None or not self.clock.ready():
             return 0.0
         lag = min(min(self._tick_lags, default=0.0), 0.5 * longest_s * self.clock.rate)
         arrival = self.clock.earliest_arrival_s(next_tick_s + max(lag, 0.0))  # (the fit is brought up to date)
         now = time.monotonic()
-        if not self.clock.rate_fitted or (now - self._last_request < ROUND_TRIP_WATCH_S
-                                          and self._last_stamp in self._pending):
-            return 0.0
-        rest = arrival - PAUSE_MARGIN_S - now
+        if not self.clock.rate_fitted or now - self.clock.samples[-1][0] > 2.0 * longest_s or (
+                now - self._last_request < ROUND_TRIP_WATCH_S and self._last_stamp in self._pending):
+            return 0.0  # (nothing timed for two periods: the model may be behind the link; read at once till it is not)
+        rest = arrival - PAUSE_MARGIN_S - max(self._overslept, default=0.0) - now
         return min(rest, longest_s) if rest > 0.0 else 0.0
 
-    def rest(self, link: Any, next_tick_s: float | None, period_s: float) -> None:
-        """The loop's rest before it reads ``link`` (``pause_s``, at most ``period_s`` of autopilot time): the
-        period's messages wait in the socket, to be read together, and what came meanwhile is ``backlog``."""
-        pause = self.pause_s(next_tick_s, self.wall_seconds(period_s))
+    def overslept(self, late_s: float) -> None:
+        """A rest ended ``late_s`` wall seconds after it was due to."""
+        self._overslept.append(max(late_s, 0.0))
+
+    def read(self, link: Any, next_tick_s: float | None, period_s: float) -> None:
+        """The loop's read of ``link``: a rest first (``pause_s``, at most ``period_s`` of autopilot time; none
+        after a read that refused a flood), then what waited meanwhile (``backlog``), the next message (0.05 s at
+        most) and everything that came; the newest state is acted on, never a backlog. What other reads take (a
+        mission's download, a command's answer) is timed as it comes."""
+        pause = 0.0 if self._flooded else self.pause_s(next_tick_s, self.wall_seconds(period_s))
         if pause > 0.0:
+            due = time.monotonic() + pause
             time.sleep(pause)
+            self.overslept(time.monotonic() - due)
+        refused = sum(link.counts.get(kind, 0) for kind in REFUSED)
         self.backlog = link.pending()
+        try:
+            link.recv(0.05)
+            link.drain()
+        finally:
+            self.backlog = False
+        self._flooded = sum(link.counts.get(kind, 0) for kind in REFUSED) - refused > FLOOD_READ
 
     def compensate(self, state_s: float) -> tuple[float, float]:
         """(the state's age, the time to plan at) for a state stamped ``state_s`` (autopilot s)."""

@@ -335,10 +335,8 @@ class Companion:
     def _service_link(self, link: Link, next_tick_ms: int | None = None) -> bool:
         """Rest until the next tick can come, read the link, follow the mission and the supervisor; False: end."""
         link.heartbeat_if_due()
-        self.delay.rest(link, None if next_tick_ms is None else next_tick_ms / 1000.0, self.period_s)
-        self.events.reads += 1
-        link.recv(0.05)
-        link.drain()  # act on the newest state, never on a backlog
+        self.events.reads += next_tick_ms is not None  # (the loop's reads once its ticks begin)
+        self.delay.read(link, None if next_tick_ms is None else next_tick_ms / 1000.0, self.period_s)
         if self.mission.changed and self.commands.commanding:
             self.commands.stand_down(link, self.state)  # the download blocks for seconds: never leave it running
         self.mission.reload_if_changed(link, self.state.set_home)

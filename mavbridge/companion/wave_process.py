@@ -304,9 +304,9 @@ class EstimatorProcess:
                 break
         if self._stopped:
             return self._choose(wanted, NO_ANSWERS)
-        if self._answers is not NO_ANSWERS and self._answers.samples >= floor:  # as of the last step's samples
-            return self._choose(wanted, self._answers, recovered=True)
         age = self._sent_t - self._answers.t_s
+        if self._answers is not NO_ANSWERS and self._answers.samples >= floor and 0.0 <= age <= STALE_S:
+            return self._choose(wanted, self._answers, recovered=True)  # as of the last step's samples: in time
         fresh = 0.0 <= age <= STALE_S or self._answers is NO_ANSWERS  # (nothing yet: late, not stale)
         self._fault("late" if fresh else "stale")
         return self._choose(wanted, self._answers if fresh else NO_ANSWERS)

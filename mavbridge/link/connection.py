@@ -138,7 +138,11 @@ class Link:
         return msg
 
     def pending(self) -> bool:
-        """True if bytes wait in the socket or device (pymavlink's own buffer may hold a partial frame: ignored)."""
+        """True if bytes wait in the socket or device, or pymavlink's own buffer holds what may be a whole frame (a
+        datagram of several frames gives one per read: the rest stays there; a partial frame is ignored)."""
+        mav = getattr(self.conn, "mav", None)
+        if mav is not None and mav.buf_len() >= max(mav.expected_length, 1):
+            return True
         fd = getattr(self.conn, "fd", None)
         if fd is None:
             return False

@@ -281,6 +281,9 @@ def test_the_loop_rests_until_the_next_tick_can_arrive_and_no_longer() -> None:
     comp.ticked(0.02)  # the ATTITUDE that made a step due came 20 ms past its tick, the next one 7 ms past
     comp.ticked(0.007)
     assert_rests_until(comp, 51.04, 0.1, arrival + 0.007 - PAUSE_MARGIN_S)  # the next ATTITUDE: smallest lag later
+    comp.overslept(0.003)  # a rest ended 3 ms late (a busy computer): the next ones end that much earlier
+    comp.overslept(-0.001)  # (early counts as on time)
+    assert_rests_until(comp, 51.04, 0.1, arrival + 0.007 - PAUSE_MARGIN_S - 0.003)
     fresh = DelayCompensator(True, False, 1.0, None)  # a lag is rested at most half of the longest rest
     now = time.monotonic()
     for i in range(100):
@@ -331,3 +334,16 @@ def test_what_waited_in_the_socket_is_not_timed() -> None:
     comp.backlog = False
     comp.on_message(mavlink.MAVLink_attitude_message(5100, 0, 0, 0, 0, 0, 0))
     assert comp.clock.ready() and comp.clock.samples[-1][1] == pytest.approx(5.1)
+
+
+def test_no_rest_once_nothing_was_timed_for_two_periods() -> None:
+    """If every rest ended after the tick's messages came (the link became faster than the model's line), nothing
+    would be timed again and the line would stay behind: after two periods without a timed arrival the loop reads
+    at once, and the next arrival moves the line."""
+    comp = DelayCompensator(True, False, 1.0, None)
+    now = time.monotonic()
+    for i in range(100):  # a second of arrivals that ended half a second ago
+        comp.clock.observe(now - 1.5 + i * 0.01, 50.0 + i * 0.01)
+    assert comp.pause_s(52.0, 0.1) == 0.0
+    comp.clock.observe(time.monotonic(), 51.5)
+    assert comp.pause_s(52.0, 0.1) > 0.0

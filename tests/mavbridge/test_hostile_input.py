@@ -129,3 +129,46 @@ def test_flood_generator_is_seeded(seed: int) -> None:
     a = [frame for _, frame in hostile_packets(50, seed)]
     assert a == [frame for _, frame in hostile_packets(50, seed)]
     assert a != [frame for _, frame in hostile_packets(50, seed + 10)]
+
+
+def _fitted(comp: DelayCompensator) -> float:
+    """A second of arrivals at rate 1 ending now (the newest stamped 50.99 s); returns the wall time now."""
+    now = time.monotonic()
+    for i in range(100):
+        comp.clock.observe(now - 0.99 + i * 0.01, 50.0 + i * 0.01)
+    comp.clock.now_s()  # (the fit runs when asked)
+    return now
+
+
+def test_the_loops_read_takes_every_frame_of_a_datagram_and_does_not_rest_after_a_flood() -> None:
+    """A datagram of several frames (ArduPilot packs them) is read whole, not one frame a read: after a rest the
+    rest of it would wait a period. After a read that refused a flood the loop does not rest: ~200 datagrams
+    fill the socket's buffer, and the autopilot's own would be dropped."""
+    port = free_port(socket.SOCK_DGRAM)
+    link = Link(f"udpin:127.0.0.1:{port}", log=lambda _line: None)
+    comp = DelayCompensator(True, False, 1.0, None)
+    seen: list[int] = []
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as autopilot, \
+            socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as hostile:
+        try:
+            autopilot.sendto(_frame((1, 1), ROVER_HEARTBEAT), ("127.0.0.1", port))
+            assert [m.get_type() for m in _receive(link, ["HEARTBEAT"])] == ["HEARTBEAT"]
+            link.handlers.append(lambda m: seen.append(m.time_boot_ms) if m.get_type() == "ATTITUDE" else None)
+            packed = b"".join(_frame((1, 1), mavlink.MAVLink_attitude_message(600 + i, 0, 0, 0, 0, 0, 0))
+                              for i in range(3))
+            autopilot.sendto(packed, ("127.0.0.1", port))  # (on loopback it is in the socket when sendto returns)
+            comp.read(link, None, 0.1)
+            assert seen == [600, 601, 602]
+            for _ in range(40):
+                hostile.sendto(_frame((7, 1), ROVER_HEARTBEAT), ("127.0.0.1", port))
+            comp.read(link, None, 0.1)
+            assert link.counts["foreign"] == 40
+            _fitted(comp)
+            assert comp.pause_s(51.5, 0.1) > 0.0  # a rest is due ...
+            comp.read(link, 51.5, 0.1)
+            assert not comp._overslept  # ... but not taken after the flood
+            _fitted(comp)
+            comp.read(link, 51.5, 0.1)  # the last read refused nothing: this one rests
+            assert len(comp._overslept) == 1
+        finally:
+            link.close()
