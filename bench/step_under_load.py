@@ -226,8 +226,6 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         step.delay.backlog = wake > due_at(i)  # woken by the rest, not by a message: what came waited (not timed)
         if (wait := wake - time.perf_counter()) > 0:
             time.sleep(wait)
-            if step.delay.backlog:  # (as the run's rest: how late it ended)
-                step.delay.overslept(time.perf_counter() - wake)
         start, out.reads = time.perf_counter(), out.reads + 1
         while i < len(rec.messages) and due_at(i) <= time.perf_counter():  # all that is due: the run drains too
             step.handle(rec.messages[i])
@@ -237,6 +235,8 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
                 out.gaps += gap if ideal_due else 0
             i += 1
         handled_s += time.perf_counter() - start
+        if step.delay.backlog:  # (as the run's read: how late the rest and what waited ended)
+            step.delay.overslept(time.perf_counter() - wake)
         now_ms = step.state.attitude_ms
         due, next_tick, missed = schedule(now_ms, next_tick, period_ms) if now_ms is not None else (False, None, 0)
         if not due:

@@ -52,8 +52,8 @@ class CompanionConfig(LinkSettings):
                                          "compensates (0 on ArduPilot)")
     estimator_process: bool = bounded(True, doc="estimator: run the wave estimator in a process of its own, so that "
                                       "its per-sample work and its fit are not the control step's (the estimator's "
-                                      "answers, one sample later: a paced step never waits for it); false: in the "
-                                      "companion's process")
+                                      "answers, one sample later, or a period paced: a paced step never waits for "
+                                      "it); false: in the companion's process")
     lockstep: bool = bounded(False, doc="simulation only, against `sim-vehicle --lockstep`: the simulator waits "
                              "for each command, so a step waits for asrti's background solve fully, has no "
                              "wall-clock deadline and no wall-clock stand-down (a real boat never waits: leave "

@@ -33,8 +33,8 @@ PENDING_KEPT = 16  # unanswered requests remembered (a lost one is forgotten)
 CLOCK_MESSAGES = ("ATTITUDE", "GLOBAL_POSITION_INT")
 MAX_CLOCK_RATE = 1000.0  # the simulator's fastest --speedup
 PAUSE_MARGIN_S = 0.0005  # wall s the loop wakes before a tick's earliest arrival (the clock fit's error, the timer's)
-OVERSLEPT_KEPT = 16  # rests: the loop wakes early by the most the last this many overslept (the scheduler's latency)
-TICK_LAGS_KEPT = 8  # ticks: the smallest of the last this many ATTITUDE lags past the tick is the one rested to
+OVERSLEPT_KEPT = 32  # rests: the loop wakes early by the most the last this many overran (see ``overslept``)
+TICK_LAGS_KEPT = 32  # ticks (a few seconds, past the 1 Hz streams): the smallest lag of the ATTITUDE is rested to
 FLOOD_READ = 32  # messages refused in one read (foreign, bad, unsigned, stale): no rest before the next read, so
 # that a flood cannot fill the socket's buffer (~200 datagrams) during a rest and crowd out the autopilot's own
 REFUSED = ("foreign", "bad", "unsigned", "stale")  # the link's counts of refused messages
@@ -104,8 +104,9 @@ class DelayCompensator:
         """Wall seconds the loop may rest before reading the link again, at most ``longest_s``: until the earliest
         arrival of the next tick's ATTITUDE on the clock model (stamped the tick (autopilot s) plus the smallest of
         the recent lags ``ticked``, at most half of ``longest_s`` in autopilot time), less PAUSE_MARGIN_S and the
-        most the recent rests overslept (``overslept``: on a busy computer without real-time priority a sleep ends
-        milliseconds late, and the ATTITUDE would wait that long on top of it). Resting, the loop takes the
+        most the recent rests overran (``overslept``: the sleep's lateness, milliseconds on a busy computer
+        without real-time priority, and reading what waited, up to milliseconds when the 1 Hz streams come: the
+        tick's ATTITUDE must not wait for either). Resting, the loop takes the
         period's messages together instead of waking for each (a dozen a period; each wake-up costs the step its
         caches, issue 32), and the tick's ATTITUDE as soon as it is there. What waited in the socket is not timed
         (``backlog``): timed, the rest's own lateness would move the clock model's line later, and the next rest
@@ -125,7 +126,7 @@ class DelayCompensator:
         return min(rest, longest_s) if rest > 0.0 else 0.0
 
     def overslept(self, late_s: float) -> None:
-        """A rest ended ``late_s`` wall seconds after it was due to."""
+        """A rest and the reading of what waited ended ``late_s`` wall seconds after the rest was due to end."""
         self._overslept.append(max(late_s, 0.0))
 
     def read(self, link: Any, next_tick_s: float | None, period_s: float) -> None:
@@ -134,15 +135,16 @@ class DelayCompensator:
         most) and everything that came; the newest state is acted on, never a backlog. What other reads take (a
         mission's download, a command's answer) is timed as it comes."""
         pause = 0.0 if self._flooded else self.pause_s(next_tick_s, self.wall_seconds(period_s))
+        due = time.monotonic() + pause
         if pause > 0.0:
-            due = time.monotonic() + pause
             time.sleep(pause)
-            self.overslept(time.monotonic() - due)
         refused = sum(link.counts.get(kind, 0) for kind in REFUSED)
         self.backlog = link.pending()
         try:
             link.recv(0.05)
             link.drain()
+            if pause > 0.0 and self.backlog:
+                self.overslept(time.monotonic() - due)
         finally:
             self.backlog = False
         self._flooded = sum(link.counts.get(kind, 0) for kind in REFUSED) - refused > FLOOD_READ

@@ -1,6 +1,7 @@
 """The companion's estimate of the autopilot's clock *now*, from when its messages arrive.
 
-Every time-stamped message (ATTITUDE, GLOBAL_POSITION_INT, ...) gives a pair (our wall arrival time w,
+Every time-stamped message read as it came (ATTITUDE, GLOBAL_POSITION_INT, ...; the companion's loop does not
+give it what waited in the socket during a rest, ``DelayCompensator.read``) gives a pair (our wall arrival time w,
 the autopilot's time a it was stamped with). The autopilot's clock runs at ``rate`` autopilot seconds
 per wall second (1 on a real boat; the simulator's ``--speedup`` in simulation), so
 

@@ -163,12 +163,16 @@ def test_the_loops_read_takes_every_frame_of_a_datagram_and_does_not_rest_after_
                 hostile.sendto(_frame((7, 1), ROVER_HEARTBEAT), ("127.0.0.1", port))
             comp.read(link, None, 0.1)
             assert link.counts["foreign"] == 40
+            attitude = mavlink.MAVLink_attitude_message(700, 0, 0, 0, 0, 0, 0)
             _fitted(comp)
             assert comp.pause_s(51.5, 0.1) > 0.0  # a rest is due ...
+            autopilot.sendto(_frame((1, 1), attitude), ("127.0.0.1", port))
             comp.read(link, 51.5, 0.1)
-            assert not comp._overslept  # ... but not taken after the flood
+            assert seen[-1] == 700 and not comp._overslept  # ... but not taken after the flood (none timed)
             _fitted(comp)
-            comp.read(link, 51.5, 0.1)  # the last read refused nothing: this one rests
-            assert len(comp._overslept) == 1
+            attitude.time_boot_ms = 701
+            autopilot.sendto(_frame((1, 1), attitude), ("127.0.0.1", port))
+            comp.read(link, 51.5, 0.1)  # the last read refused nothing: this one rests, then reads what waited
+            assert seen[-1] == 701 and len(comp._overslept) == 1
         finally:
             link.close()
