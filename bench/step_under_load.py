@@ -170,11 +170,6 @@ class Timings:
     gaps: int = 0  # of them, ticks the recording itself has no ATTITUDE for (a datagram lost while recording)
     reads: int = 0  # the loop's reads of the link (a wake-up each)
 
-    @property
-    def loop_missed(self) -> int:
-        """The ticks skipped because the loop was late."""
-        return self.missed - self.gaps
-
 
 PARTS = (("state", "on_message", "handling: the state"), ("delay", "on_message", "handling: the delay clock"),
          ("gate", "observe", "handling: the estimator's samples"), ("delay", "compensate", "the clock (state's age)"),
@@ -222,7 +217,8 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
         return wall0 + (rec.stamps_ms[index] - t0_ms) / 1000.0
 
     while i < len(rec.messages) and rec.stamps_ms[i] <= end_ms:
-        wake = max(due_at(i), time.perf_counter() + step.delay.pause_s(next_tick and next_tick / 1e3, step.period_s))
+        rest = step.delay.pause_s(next_tick and next_tick / 1e3, step.period_s)
+        wake = max(due_at(i), time.perf_counter() + rest)
         step.delay.backlog = wake > due_at(i)  # woken by the rest, not by a message: what came waited (not timed)
         if (wait := wake - time.perf_counter()) > 0:
             time.sleep(wait)
@@ -235,7 +231,7 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
                 out.gaps += gap if ideal_due else 0
             i += 1
         handled_s += time.perf_counter() - start
-        if step.delay.backlog:  # (as the run's read: how late the rest and what waited ended)
+        if rest > 0.0 and step.delay.backlog:  # (as the run's read: how late the rest and what waited ended)
             step.delay.overslept(time.perf_counter() - wake)
         now_ms = step.state.attitude_ms
         due, next_tick, missed = schedule(now_ms, next_tick, period_ms) if now_ms is not None else (False, None, 0)
@@ -332,7 +328,7 @@ def figures(row: dict[str, Any]) -> str:
                                                                    row["solve_ms"], t.command_ms))
     return (f"{row['name']:<26} {len(steps):>6} {np.median(steps):>8.3f} {np.percentile(steps, 99):>8.3f} "
             f"{np.median(command):>8.3f} {np.percentile(command, 99):>8.3f} "
-            f"{steps.max():>8.3f} {t.loop_missed:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
+            f"{steps.max():>8.3f} {t.missed - t.gaps:>7} {np.median(solve):>8.3f} {np.percentile(solve, 99):>8.3f} "
             f"{np.median(t.handling_ms):>8.3f} {np.percentile(late, 99):>8.2f} {np.nanmax(late):>8.2f} "
             f"{row['roll_term']:>6.0%} {row['load']:>12} {t.gaps:>5} {len(row['gc_ms']):>5} "
             f"{max(row['gc_ms'], default=0.0):>7.2f} {row['child_ms']:>7.3f} {t.reads / max(1, len(steps)):>6.2f}"

@@ -19,6 +19,7 @@ Off (``delay_compensation: false``) the age is still measured and logged, for co
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from typing import Any
@@ -35,8 +36,10 @@ MAX_CLOCK_RATE = 1000.0  # the simulator's fastest --speedup
 PAUSE_MARGIN_S = 0.0005  # wall s the loop wakes before a tick's earliest arrival (the clock fit's error, the timer's)
 OVERSLEPT_KEPT = 32  # rests: the loop wakes early by the most the last this many overran (see ``overslept``)
 TICK_LAGS_KEPT = 32  # ticks (a few seconds, past the 1 Hz streams): the smallest lag of the ATTITUDE is rested to
-FLOOD_READ = 32  # messages refused in one read (foreign, bad, unsigned, stale): no rest before the next read, so
-# that a flood cannot fill the socket's buffer (~200 datagrams) during a rest and crowd out the autopilot's own
+FLOOD_READ = 32  # messages refused (foreign, bad, unsigned, stale) in one read, or a period on average over a
+# FLOOD_WINDOW_S: no rest until a window without, so that a flood cannot fill the socket's buffer (~200 datagrams)
+# during a rest and crowd out the autopilot's own
+FLOOD_WINDOW_S = 2.0  # wall s over which refused messages are counted
 REFUSED = ("foreign", "bad", "unsigned", "stale")  # the link's counts of refused messages
 ROUND_TRIP_WATCH_S = 0.5  # wall s after a TIMESYNC request the loop reads at once: the answer's arrival is the figure
 
@@ -57,7 +60,8 @@ class DelayCompensator:
         self._last_stamp = -1  # our newest request's ts1
         self._tick_lags: deque[float] = deque(maxlen=TICK_LAGS_KEPT)  # autopilot s from each tick to its ATTITUDE
         self._overslept: deque[float] = deque(maxlen=OVERSLEPT_KEPT)  # wall s each rest ended late
-        self._flooded = False  # the last read refused more than FLOOD_READ messages
+        self.flooding = False  # refused messages come too fast to rest (see FLOOD_READ)
+        self._flood_mark = (0, -math.inf)  # (refused messages so far, wall s) when the window began
         self.backlog = False  # the loop is reading what waited in the socket (after a rest or a step): not timed
 
     def attach(self, link: Any) -> None:
@@ -69,16 +73,17 @@ class DelayCompensator:
 
     def on_message(self, msg: Any) -> None:
         """An arrival for the clock fit (not while ``backlog``: it waited in the socket, when it came is not known),
-        or the answer to one of our TIMESYNC requests (always: the loop does not rest while one is awaited, so it
-        waited at most as long as the read it came in, and skipping the answers read with others would keep only
-        the slower ones)."""
+        or the answer to one of our TIMESYNC requests (also in the backlog while the loop does not rest for it,
+        within ROUND_TRIP_WATCH_S of our newest request: it waited at most as long as the read it came in, and
+        skipping the answers read with others would keep only the slower ones)."""
         kind, now = msg.get_type(), time.monotonic()
         if kind in CLOCK_MESSAGES:
             if not self.backlog:
                 self.clock.observe(now, int(msg.time_boot_ms) / 1000.0)
         elif kind == "TIMESYNC" and msg.tc1 != 0 and msg.ts1 in self._pending:
             self._pending.remove(msg.ts1)
-            self.clock.observe_round_trip(msg.ts1 / 1e9, now)
+            if not self.backlog or (msg.ts1 == self._last_stamp and now - self._last_request < ROUND_TRIP_WATCH_S):
+                self.clock.observe_round_trip(msg.ts1 / 1e9, now)
 
     def request_round_trip(self, link: Any) -> None:
         """A TIMESYNC request, once every TIMESYNC_PERIOD_S of wall time."""
@@ -122,7 +127,8 @@ class DelayCompensator:
         if not self.clock.rate_fitted or now - self.clock.samples[-1][0] > 2.0 * longest_s or (
                 now - self._last_request < ROUND_TRIP_WATCH_S and self._last_stamp in self._pending):
             return 0.0  # (nothing timed for two periods: the model may be behind the link; read at once till it is not)
-        rest = arrival - PAUSE_MARGIN_S - max(self._overslept, default=0.0) - now
+        overran = min(max(self._overslept, default=0.0), 0.5 * longest_s)  # (a rare long one never ends the rests)
+        rest = arrival - PAUSE_MARGIN_S - overran - now
         return min(rest, longest_s) if rest > 0.0 else 0.0
 
     def overslept(self, late_s: float) -> None:
@@ -131,10 +137,10 @@ class DelayCompensator:
 
     def read(self, link: Any, next_tick_s: float | None, period_s: float) -> None:
         """The loop's read of ``link``: a rest first (``pause_s``, at most ``period_s`` of autopilot time; none
-        after a read that refused a flood), then what waited meanwhile (``backlog``), the next message (0.05 s at
+        while ``flooding``), then what waited meanwhile (``backlog``), the next message (0.05 s at
         most) and everything that came; the newest state is acted on, never a backlog. What other reads take (a
         mission's download, a command's answer) is timed as it comes."""
-        pause = 0.0 if self._flooded else self.pause_s(next_tick_s, self.wall_seconds(period_s))
+        pause = 0.0 if self.flooding else self.pause_s(next_tick_s, self.wall_seconds(period_s))
         due = time.monotonic() + pause
         if pause > 0.0:
             time.sleep(pause)
@@ -147,7 +153,19 @@ class DelayCompensator:
                 self.overslept(time.monotonic() - due)
         finally:
             self.backlog = False
-        self._flooded = sum(link.counts.get(kind, 0) for kind in REFUSED) - refused > FLOOD_READ
+        self.judge_flood(sum(link.counts.get(kind, 0) for kind in REFUSED), refused, self.wall_seconds(period_s),
+                         time.monotonic())
+
+    def judge_flood(self, refused: int, before: int, period_wall_s: float, now: float) -> None:
+        """``refused`` messages refused so far (``before`` when the read began): ``flooding`` from a read that
+        refused more than FLOOD_READ for a window at least; at the end of each window, whether it refused more
+        than FLOOD_READ a period on average."""
+        if refused - before > FLOOD_READ:
+            self.flooding, self._flood_mark = True, (refused, now)
+        elif now - self._flood_mark[1] >= FLOOD_WINDOW_S:
+            window_s = now - self._flood_mark[1]
+            self.flooding = refused - self._flood_mark[0] > FLOOD_READ * window_s / period_wall_s
+            self._flood_mark = (refused, now)
 
     def compensate(self, state_s: float) -> tuple[float, float]:
         """(the state's age, the time to plan at) for a state stamped ``state_s`` (autopilot s)."""

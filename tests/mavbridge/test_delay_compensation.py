@@ -15,7 +15,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from mavbridge.companion.config import load_companion_config
-from mavbridge.companion.delay import PAUSE_MARGIN_S, DelayCompensator
+from mavbridge.companion.delay import FLOOD_WINDOW_S, PAUSE_MARGIN_S, DelayCompensator
 from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.link.clock_model import ClockModel
 from mavbridge.nmpc.config import NmpcConfig
@@ -284,6 +284,8 @@ def test_the_loop_rests_until_the_next_tick_can_arrive_and_no_longer() -> None:
     comp.overslept(0.003)  # a rest ended 3 ms late (a busy computer): the next ones end that much earlier
     comp.overslept(-0.001)  # (early counts as on time)
     assert_rests_until(comp, 51.04, 0.1, arrival + 0.007 - PAUSE_MARGIN_S - 0.003)
+    comp.overslept(0.09)  # a rare long one (a blocked write) counts at most half the longest rest: rests go on
+    assert_rests_until(comp, 51.04, 0.1, arrival + 0.007 - PAUSE_MARGIN_S - 0.05)
     fresh = DelayCompensator(True, False, 1.0, None)  # a lag is rested at most half of the longest rest
     now = time.monotonic()
     for i in range(100):
@@ -329,7 +331,10 @@ def test_what_waited_in_the_socket_is_not_timed() -> None:
     assert not comp.clock.ready()
     comp._pending.append(321)
     comp._last_stamp, comp._last_request = 321, time.monotonic()
-    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=321))
+    comp._pending.append(320)  # an older request's answer read with the backlog: it may have waited a rest
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=320))
+    assert comp.clock.round_trip_s is None and 320 not in comp._pending
+    comp.on_message(mavlink.MAVLink_timesync_message(tc1=5, ts1=321))  # the newest, while the loop reads at once
     assert comp.clock.round_trip_s is not None and 321 not in comp._pending
     comp.backlog = False
     comp.on_message(mavlink.MAVLink_attitude_message(5100, 0, 0, 0, 0, 0, 0))
@@ -347,3 +352,25 @@ def test_no_rest_once_nothing_was_timed_for_two_periods() -> None:
     assert comp.pause_s(52.0, 0.1) == 0.0
     comp.clock.observe(time.monotonic(), 51.5)
     assert comp.pause_s(52.0, 0.1) > 0.0
+
+
+def test_a_flood_stops_the_rests_until_a_window_without_one() -> None:
+    """Refused messages (foreign, bad, ...): more than FLOOD_READ in one read stops the rests at once; a steady
+    flood too slow for that in any one read (the reads come fast once the loop does not rest) keeps them stopped
+    while a window refuses more than FLOOD_READ a period on average; a window without ends it."""
+    comp, period = DelayCompensator(True, False, 1.0, None), 0.1
+    comp.judge_flood(5, 0, period, 100.0)  # the first read: a window begins
+    assert not comp.flooding
+    comp.judge_flood(45, 5, period, 100.1)  # 40 in one read
+    assert comp.flooding
+    total, now = 45, 100.1
+    while now < 100.1 + FLOOD_WINDOW_S:  # 10 in each read every 2 ms: 5000 a second, never 32 in one read
+        now += 0.002
+        comp.judge_flood(total + 10, total, period, now)
+        total += 10
+        assert comp.flooding
+    for _ in range(int(FLOOD_WINDOW_S / 0.05) + 1):  # a window of a stray one every 50 ms (20 a second)
+        now += 0.05
+        comp.judge_flood(total + 1, total, period, now)
+        total += 1
+    assert not comp.flooding

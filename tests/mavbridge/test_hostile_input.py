@@ -14,7 +14,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from bench.hostile_flood import MESSAGE_TYPES, extreme_message, hostile_packets
-from mavbridge.companion.delay import DelayCompensator
+from mavbridge.companion.delay import FLOOD_WINDOW_S, DelayCompensator
 from mavbridge.companion.mission_tracker import MissionTracker
 from mavbridge.companion.state import StateEstimate
 from mavbridge.companion.supervisor import Supervisor
@@ -163,16 +163,20 @@ def test_the_loops_read_takes_every_frame_of_a_datagram_and_does_not_rest_after_
                 hostile.sendto(_frame((7, 1), ROVER_HEARTBEAT), ("127.0.0.1", port))
             comp.read(link, None, 0.1)
             assert link.counts["foreign"] == 40
+            assert comp.flooding
             attitude = mavlink.MAVLink_attitude_message(700, 0, 0, 0, 0, 0, 0)
             _fitted(comp)
             assert comp.pause_s(51.5, 0.1) > 0.0  # a rest is due ...
             autopilot.sendto(_frame((1, 1), attitude), ("127.0.0.1", port))
             comp.read(link, 51.5, 0.1)
-            assert seen[-1] == 700 and not comp._overslept  # ... but not taken after the flood (none timed)
+            assert seen[-1] == 700 and not comp._overslept  # ... but not taken during the flood (none timed)
+            time.sleep(FLOOD_WINDOW_S)  # a window of no refused message ...
+            comp.read(link, None, 0.1)
+            assert not comp.flooding  # ... ends it
             _fitted(comp)
             attitude.time_boot_ms = 701
             autopilot.sendto(_frame((1, 1), attitude), ("127.0.0.1", port))
-            comp.read(link, 51.5, 0.1)  # the last read refused nothing: this one rests, then reads what waited
+            comp.read(link, 51.5, 0.1)  # this one rests, then reads what waited
             assert seen[-1] == 701 and len(comp._overslept) == 1
         finally:
             link.close()
