@@ -1,7 +1,7 @@
 """Benchmark: the companion's whole control step on a quiet computer and beside two CPU spinners, side by side.
 
 Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realtime] [--conditions NAME,...]
-     [--watch 60] [--seed 1] [--spinners 2] [--estimator process|inline] [--parts]
+     [--watch 60] [--seed 1] [--spinners 2] [--estimator process|inline] [--parts] [--no-rest]
 
 The step is `mavbridge run`'s, made of its own parts as it builds them: the state from the autopilot's
 messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate`` (``make_wave_source``:
@@ -306,6 +306,8 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
         with build_nmpc(scenario, waves) as nmpc, around():
             before = load()
             step = CompanionStep(nmpc, waves, scenario)
+            if args.no_rest:  # the loop as it was before it rested: a read for every message as it comes
+                step.delay.pause_s = lambda *_args: 0.0
             if args.parts:
                 time_parts(step)
             ready_for_loop()  # as `mavbridge run` sets the interpreter before its loop
@@ -353,6 +355,7 @@ def main() -> None:
     p.add_argument("--estimator", choices=("process", "inline"), default="process",
                    help="the wave estimator in a process of its own (default, the companion's) or inline")
     p.add_argument("--parts", action="store_true", help="also time each part of the step (see PARTS)")
+    p.add_argument("--no-rest", action="store_true", help="no rest before a read (the loop before 2026-12-06)")
     p.add_argument("--solver", default="nrti", help="NMPC solver (default nrti, the companion's default)")
     p.add_argument("--spinners", type=int, default=2, help="CPU spinner processes beside it (default 2)")
     p.add_argument("--realtime", action="store_true", help="also: spinners with the step under --realtime")
