@@ -191,20 +191,23 @@ class ClockModel:
 
     def now_s(self, wall_s: float | None = None) -> float:
         """The autopilot's time (s) at wall time ``wall_s`` (default: now); ValueError before any sample."""
-        self._fit()
-        if self.offset_s is None:
-            raise ValueError("clock model: no time-stamped message has arrived yet")
+        offset = self._fitted_offset_s()  # (first: the fit may move the rate)
         wall = time.monotonic() if wall_s is None else wall_s
-        return self.rate * wall + self.offset_s + self.one_way_delay_s()
+        return self.rate * wall + offset + self.one_way_delay_s()
 
     def earliest_arrival_s(self, autopilot_s: float) -> float:
         """The earliest wall time (monotonic s) a message stamped ``autopilot_s`` can arrive: where the fastest
         sample's lateness puts it (the loop rests until then, ``DelayCompensator.pause_s``); ValueError before any
         sample."""
+        offset = self._fitted_offset_s()  # (first: the fit may move the rate)
+        return (autopilot_s - offset) / self.rate
+
+    def _fitted_offset_s(self) -> float:
+        """The offset after the fit is brought up to date; ValueError before any sample."""
         self._fit()
         if self.offset_s is None:
             raise ValueError("clock model: no time-stamped message has arrived yet")
-        return (autopilot_s - self.offset_s) / self.rate
+        return self.offset_s
 
     def age_s(self, autopilot_s: float, wall_s: float | None = None) -> float:
         """How old (autopilot s) a state stamped ``autopilot_s`` is now; never negative."""

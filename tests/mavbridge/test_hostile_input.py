@@ -166,9 +166,9 @@ def test_the_loops_read_takes_every_frame_of_a_datagram_and_does_not_rest_after_
             assert comp.flooding
             attitude = mavlink.MAVLink_attitude_message(700, 0, 0, 0, 0, 0, 0)
             _fitted(comp)
-            assert comp.pause_s(51.5, 0.1) > 0.0  # a rest is due ...
+            assert comp.pause_s(51.5, 1.0) > 0.0  # a rest is due (a 1 s period: a slow test still finds it due) ...
             autopilot.sendto(_frame((1, 1), attitude), ("127.0.0.1", port))
-            comp.read(link, 51.5, 0.1)
+            comp.read(link, 51.5, 1.0)
             assert seen[-1] == 700 and not comp._overslept  # ... but not taken during the flood (none timed)
             time.sleep(FLOOD_WINDOW_S)  # a window of no refused message ...
             comp.read(link, None, 0.1)
@@ -176,7 +176,7 @@ def test_the_loops_read_takes_every_frame_of_a_datagram_and_does_not_rest_after_
             _fitted(comp)
             attitude.time_boot_ms = 701
             autopilot.sendto(_frame((1, 1), attitude), ("127.0.0.1", port))
-            comp.read(link, 51.5, 0.1)  # this one rests, then reads what waited
+            comp.read(link, 51.5, 1.0)  # this one rests, then reads what waited
             assert seen[-1] == 701 and len(comp._overslept) == 1
         finally:
             link.close()
