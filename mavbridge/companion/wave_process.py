@@ -5,13 +5,16 @@ every 0.09 s of samples) were the larger part of the step's time and most of its
 a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter: ``python -m`` this module), on
 a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at all). ``observe`` sends the sample
 as one message (``pack_sample``; a few microseconds; paced, it never waits); the child takes each in order and
-sends back its answers after it (``encode_answers``): the estimate, the latest fit and both slope spreads. Between
+sends back its answers after it (``encode_answers``): the estimate, the latest fit and both slope spreads. Paced,
+the samples are sent together instead (``flush``: one message, b"B", when a step asks, or every BATCH samples), and
+the child answers once, after the last: a socket call each costs the step tens of microseconds paced (issue 32). Between
 samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
 still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
 
 A step asks (``answers``) once for the answers as of every sample but the newest (its own ATTITUDE, sent just
 before: waiting for the child to take it would put that wake-up back into the step). Paced, answers as of the
-previous step's samples are in time: the loop reads a period's messages together (``DelayCompensator.pause_s``).
+previous step's samples are in time: the loop reads a period's messages together (``DelayCompensator.pause_s``),
+and they go to the child together when the step asks; the step reads answers only until those have come.
 
 How long the companion waits for the child (``wait_s``): paced (`mavbridge run` without ``--lockstep``) never,
 so a step never waits for another process (and which answers it gets can then depend on timing); in lockstep
@@ -28,7 +31,6 @@ start (at most once a minute for each kind) and, for ``stale``, when answers com
 
 from __future__ import annotations
 
-import marshal
 import math
 import pickle
 import select
@@ -41,97 +43,34 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from numbers import Real
 from typing import Any
 
 import numpy as np
 
 from mavbridge.waves import EstimatorSettings, make_estimator
-from mavbridge.waves.source import MotionSample, WaveEstimate, pack_sample, unpack_sample
+from mavbridge.waves.source import (
+    COUNT,
+    NO_ANSWERS,
+    Answers,
+    MotionSample,
+    WaveEstimate,
+    answers_of,
+    decode_answers,
+    pack_sample,
+    unpack_sample,
+)
 
-COUNT = struct.Struct("<q")  # the samples an answer is as of; a call's number
-HEAD = struct.Struct("<dB7d8dd")  # answers: t, flags (ANSWER_FLAGS), the estimate's 7 numbers (height, period,
-# length, direction, phase, confidence, roll sign), both spreads (4 each), CPU s
-ANSWER_FLAGS = ("estimate", "confident", "spread_explained", "spread_alone")  # bit 0, 1, 2, 3
 MAX_MESSAGE = 1 << 16  # bytes: an answer is under a kilobyte
 START_TIMEOUT_S = 60.0  # the child imports numpy and the estimator: seconds on a small computer
 WAIT_S = 5.0  # unpaced (lockstep, replays): how long answers and room for a sample are waited for at most
 STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot time) stand in for late ones
 DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds hundreds)
+BATCH = 16  # paced: samples held for one message at most (steps ask every 2; before engaging the gate asks every 2)
+ENTRY = struct.Struct("<I")  # a batch's entries: each sample's length, then the sample as ``pack_sample`` made it
 CLOSE_WAIT_S = 2.0  # close: how long the child may take to end before it is killed
 SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
 FAULTS = ("late", "stale", "stopped", "dropped")
 SAID = ("stale", "stopped", "dropped")  # the faults said in the run log (``late`` is only counted)
-
-
-@dataclass(frozen=True)
-class Answers:
-    """What the estimator says once it has taken ``samples`` samples, the last at ``t_s`` (autopilot time)."""
-
-    samples: int
-    t_s: float
-    latest: WaveEstimate | None = None
-    confident: bool = False  # ``estimate`` gives ``latest`` (else None)
-    spread_explained: tuple[float, ...] | None = None  # 2×2 NED covariance, row by row
-    spread_alone: tuple[float, ...] | None = None
-    cpu_s: float = 0.0  # the child's processor time so far
-
-
-NO_ANSWERS = Answers(0, -math.inf)
-
-
-def answers_of(estimator: Any, samples: int, t_s: float) -> bytes:
-    """The estimator's answers after ``samples`` samples, the last at ``t_s``, as one message (``encode_answers``)."""
-    spread = getattr(estimator, "spread", None)
-    latest = getattr(estimator, "latest", None)
-    est = estimator.estimate(t_s)  # the confident estimate is the latest fit (asked for once, not twice)
-    shown = est if est is not None or latest is None else latest(t_s)
-    return encode_answers(Answers(samples, t_s, shown, est is not None, _flat(spread(True)) if spread else None,
-                                  _flat(spread(False)) if spread else None, time.process_time()))
-
-
-def encode_answers(got: Answers) -> bytes:
-    """b"A", the count, then b"N" and the numbers packed (HEAD) with the estimate's log figures (``extras``)
-    marshalled when they are all numbers (b"M", as plain floats), else pickled (b"P"); or b"Q" and the whole
-    ``Answers`` pickled when its numbers do not pack. Unpacking numbers costs the step a fraction of unpickling
-    dataclasses (30 µs paced, issue 32)."""
-    est = got.latest
-    extras = est.extras if est is not None else {}
-    try:
-        wave = (est.height_m, est.period_s, est.length_m, est.travel_dir_rad, est.phase_rad, est.confidence,
-                   est.roll_sign) if est is not None else (0.0,) * 7
-        flags = sum(1 << i for i, on in enumerate((est is not None, got.confident, got.spread_explained is not None,
-                                                   got.spread_alone is not None)) if on)
-        head = HEAD.pack(got.t_s, flags, *wave, *(got.spread_explained or (0.0,) * 4),
-                         *(got.spread_alone or (0.0,) * 4), got.cpu_s)
-    except (struct.error, TypeError):  # a field that is not a number, a spread that is not four: as they are
-        return b"A" + COUNT.pack(got.samples) + b"Q" + pickle.dumps(got)
-    if all(isinstance(v, Real) and not isinstance(v, bool) for v in extras.values()):
-        tail = b"M" + marshal.dumps({str(k): float(v) for k, v in extras.items()})
-    else:
-        tail = b"P" + pickle.dumps(extras)
-    return b"A" + COUNT.pack(got.samples) + b"N" + head + tail
-
-
-def decode_answers(message: bytes) -> Answers:
-    """The ``Answers`` in a message ``encode_answers`` made."""
-    start = 2 + COUNT.size
-    if message[start - 1:start] == b"Q":
-        return pickle.loads(message[start:])
-    values = HEAD.unpack_from(message, start)
-    t_s, flags, wave, spreads, cpu_s = values[0], values[1], values[2:9], values[9:17], values[17]
-    est = None
-    if flags & 1:
-        tail = message[start + HEAD.size:]
-        extras = marshal.loads(tail[1:]) if tail[:1] == b"M" else pickle.loads(tail[1:])
-        est = WaveEstimate(*wave[:6], extras=extras, roll_sign=wave[6])
-    return Answers(COUNT.unpack_from(message, 1)[0], t_s, est, bool(flags & 2), spreads[:4] if flags & 4 else None,
-                   spreads[4:] if flags & 8 else None, cpu_s)
-
-
-def _flat(covariance: np.ndarray | None) -> tuple[float, ...] | None:
-    """A 2×2 covariance as four plain floats, row by row (None stays None)."""
-    return None if covariance is None else tuple(np.asarray(covariance, float).ravel().tolist())
 
 
 def _exit(code: int | None) -> str:
@@ -146,6 +85,23 @@ def _called(message: bytes) -> Any:
         return call(*args)
     except Exception as exc:  # whatever the call raised is the caller's answer, never the child's end
         return exc
+
+
+def batched(packed: list[bytes]) -> bytes:
+    """Samples packed by ``pack_sample`` as one message: b"B", then each one's length and bytes (``ENTRY``)."""
+    return b"B" + b"".join(ENTRY.pack(len(one)) + one for one in packed)
+
+
+def unbatched(message: bytes) -> list[MotionSample]:
+    """The samples of one message: a sample (b"S", b"P") or a batch (``batched``)."""
+    if message[:1] != b"B":
+        return [unpack_sample(message)]
+    samples, at = [], 1
+    while at < len(message):
+        (size,) = ENTRY.unpack_from(message, at)
+        samples.append(unpack_sample(message[at + ENTRY.size:at + ENTRY.size + size]))
+        at += ENTRY.size + size
+    return samples
 
 
 def serve(sock: socket.socket) -> None:
@@ -164,11 +120,13 @@ def serve(sock: socket.socket) -> None:
             if ahead is not None and not waiting.poll(0) and ahead():
                 continue
             data = sock.recv(MAX_MESSAGE)
-            if data[:1] in (b"S", b"P"):
-                sample = unpack_sample(data)
-                estimator.observe(sample)
-                samples += 1
-                sock.send(answers_of(estimator, samples, sample.t_s))
+            if data[:1] in (b"S", b"P", b"B"):
+                taken = unbatched(data)
+                for sample in taken:
+                    estimator.observe(sample)
+                    samples += 1
+                if taken:  # (a batch is answered after its last sample only)
+                    sock.send(answers_of(estimator, samples, taken[-1].t_s))
             elif data[:1] == b"C":  # a call in this process (the real-time settings): its number and result back
                 sock.send(data[:1 + COUNT.size] + pickle.dumps(_called(data[1 + COUNT.size:])))
             else:  # b"X", or b"" at the companion's end
@@ -192,6 +150,8 @@ class EstimatorProcess:
     # answers received, not yet used (count, message): only the newest as of sent − 1 and the one for sent matter
     _sent: int = field(init=False, default=0)  # samples sent
     _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
+    _held: list[bytes] = field(init=False, default_factory=list)  # paced: samples packed, not sent yet (``flush``)
+    _held_t: float = field(init=False, default=-math.inf)  # the newest finite time among them (autopilot s)
     _stopped: bool = field(init=False, default=False)
     _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
     _floor: int = field(init=False, default=0)  # samples sent when the last step asked: answered by now, or late
@@ -225,13 +185,25 @@ class EstimatorProcess:
         return self._child.pid
 
     def observe(self, sample: MotionSample) -> None:
-        """Send one motion sample to the estimator (dropped, and said, if the child has no room for it in time)."""
-        if self._send(pack_sample(sample), "dropped"):
-            self._sent += 1
-            if math.isfinite(sample.t_s):
-                self._sent_t = sample.t_s
-        if self._sent % DRAIN_EVERY == 0:  # its answers read now and then between steps: the socket never fills
-            self._take_waiting()
+        """One motion sample to the estimator: paced (``wait_s`` 0) held for the next ``flush``, else sent now after
+        any held ones (dropped, and said, if the child has no room for it in time)."""
+        self._held.append(pack_sample(sample))
+        if math.isfinite(sample.t_s):
+            self._held_t = sample.t_s
+        if self.wait_s <= 0.0 and len(self._held) < BATCH:
+            return
+        self.flush()
+        if self.wait_s <= 0.0 or self._sent % DRAIN_EVERY == 0:  # answers read now and then between steps' questions
+            self._take_waiting()  # (the pilot has the boat, the waypoint is reached): the socket never fills
+
+    def flush(self) -> None:
+        """Send the samples held as one message (dropped, and said, if the child has no room for it in time)."""
+        if not self._held:
+            return
+        held, self._held = self._held, []
+        if self._send(held[0] if len(held) == 1 else batched(held), "dropped"):
+            self._sent += len(held)
+            self._sent_t = self._held_t if math.isfinite(self._held_t) else self._sent_t
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The wave to plan against (None while not confident, or without answers); see ``answers``."""
@@ -260,6 +232,7 @@ class EstimatorProcess:
     def call(self, function: Callable[..., Any], *args: Any, timeout_s: float = 10.0) -> Any:
         """``function(*args)`` run in the child (importable by name; e.g. the real-time settings): its result, or
         the exception it raised; None when the child does not answer in time."""
+        self.flush()  # (the samples before it, taken before it)
         self._calls += 1
         tag = b"C" + COUNT.pack(self._calls)
         if not self._send(tag + pickle.dumps((function, args)), None):
@@ -289,14 +262,16 @@ class EstimatorProcess:
     def answers(self) -> Answers:
         """The estimator's answers as of every sample but the newest (see the module docstring), waited for at
         most ``wait_s``; late or stale ones as the module docstring says. Asked once per sample count: every
-        question of a step gets the same answers."""
+        question of a step gets the same answers. Paced, the answers are read only until those as of the last step's
+        samples have come (the newer ones cannot have: those samples are sent now)."""
+        self.flush()
         wanted = max(self._sent - 1, 0)
         if self._chosen[0] == wanted:
             return self._chosen[1]
         floor, self._floor = min(self._floor, wanted), self._sent
         deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
-            self._take_waiting()
+            self._take_waiting(until=wanted if self.wait_s > 0.0 else floor)
             if self._current(wanted).samples == wanted:
                 return self._choose(wanted, self._answers, recovered=True)
             left = deadline - time.perf_counter()
@@ -333,10 +308,14 @@ class EstimatorProcess:
         self._poll.modify(self._sock, select.POLLIN | (select.POLLOUT if write else 0))
         return bool(self._poll.poll(max(timeout_s, 0.0) * 1000.0))
 
-    def _take_waiting(self) -> tuple[bytes, Any] | None:
-        """Read every message waiting, without blocking: answers kept (unpacked only when asked for); a call's
-        (tag, result) returned (None if none came)."""
+    def _take_waiting(self, until: int | None = None) -> tuple[bytes, Any] | None:
+        """Read the messages waiting, without blocking: answers kept (unpacked only when asked for); a call's
+        (tag, result) returned (None if none came). ``until``: only until answers as of that many samples or more are
+        kept (none read if they are already): a read that finds nothing costs the step as much as one that does."""
         result = None
+        have = self._kept[-1][0] if self._kept else -1 if self._answers is NO_ANSWERS else self._answers.samples
+        if until is not None and have >= until:
+            return None
         while not self._stopped:
             try:
                 data = self._sock.recv(MAX_MESSAGE)
@@ -350,6 +329,8 @@ class EstimatorProcess:
                 result = (data[:1 + COUNT.size], pickle.loads(data[1 + COUNT.size:]))
             elif data[:1] == b"A":
                 self._kept.append((COUNT.unpack_from(data, 1)[0], data))
+                if until is not None and self._kept[-1][0] >= until:
+                    break
         return result
 
     def _send(self, data: bytes, full: str | None) -> bool:

@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from mavbridge.companion.wave_gate import WaveGate, make_wave_source
-from mavbridge.companion.wave_process import STALE_S, Answers, EstimatorProcess, decode_answers, encode_answers
+from mavbridge.companion.wave_process import BATCH, STALE_S, EstimatorProcess
 from mavbridge.waves import EstimatorSettings, WindowEstimator
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples
-from mavbridge.waves.source import MotionSample, WaveEstimate
+from mavbridge.waves.source import Answers, MotionSample, WaveEstimate, decode_answers, encode_answers
 from vessel import RegularWaves, otter_parameters
 
 SYNC_S = 60.0  # where a test waits for the child's answers: returns when they come, fails only if they never do
@@ -232,5 +232,52 @@ def test_paced_answers_as_of_the_last_steps_samples_are_in_time() -> None:
             assert source.answers().samples == 40 and source.faults["late"] == 1, source.faults  # not as of 42
         finally:
             os.kill(source.pid, signal.SIGCONT)
+    finally:
+        source.close()
+
+
+def test_paced_samples_go_to_the_child_together_when_a_step_asks() -> None:
+    """Paced, a period's samples are held and sent as one message when the step asks (a socket call costs the step
+    tens of microseconds paced); the child answers once, after the last, and those answers are the estimator's own
+    as of the previous step's samples."""
+    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)
+    inline, confident = WindowEstimator(), 0
+    try:
+        samples = _samples(40.0)
+        for i, sample in enumerate(samples):
+            source.observe(sample)
+            if i % 2 == 0:
+                assert len(source._held) == 1 and source._sent == i  # held, not sent
+                continue
+            got = source.estimate(sample.t_s)  # the step: both samples go now; answers as of the last step's
+            assert source._held == [] and source._sent == i + 1
+            asked = source.answers().samples
+            assert asked == max(i - 1, 0) or (i == 1 and asked == 0), (i, asked)
+            want = inline.estimate(samples[i - 2].t_s) if i > 1 else None
+            assert got == want, (i, got, want)
+            confident += got is not None
+            inline.observe(samples[i - 1])
+            inline.observe(sample)
+            assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # in order: this batch is answered
+        source._take_waiting()
+        assert [count for count, _ in source._kept] == [len(samples)]  # one answer a batch: none as of an odd count
+        assert confident > 50, confident
+        assert source.faults == {"late": 1, "stale": 0, "stopped": 0, "dropped": 0}  # (the first step: none yet)
+    finally:
+        source.close()
+
+
+def test_paced_samples_nobody_asks_for_go_in_batches_and_their_answers_are_read() -> None:
+    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)
+    try:
+        samples = _samples(30.0)
+        for sample in samples[:BATCH * 3 + 5]:
+            source.observe(sample)
+        assert source._sent == BATCH * 3 and len(source._held) == 5
+        assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # (a call sends the held samples first)
+        assert source._sent == BATCH * 3 + 5 and source._held == []
+        source._take_waiting()
+        assert len(source._kept) <= 2 and source._kept[-1][0] == BATCH * 3 + 5
+        assert not any(source.faults.values()), source.faults
     finally:
         source.close()
