@@ -145,6 +145,7 @@ class RollAwareNmpc(SeaInputs):
         self.layout = self._functions.layout
         self._sea = SeaKnowledge(self.config, self._functions.fixed_waves, self.waves)
         self._backend: NmpcBackend = make_backend(self._functions, self.config)
+        self._prepared_feedback = getattr(self._backend, "prepared_feedback", None)  # nrti: see ``_feedback_only``
         self._closed = False
         # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
         self._finalizer = weakref.finalize(self, self._backend.close)
@@ -185,6 +186,7 @@ class RollAwareNmpc(SeaInputs):
         self._plan_age = 0
         self._plan_t: float | None = None  # the time the stored plan starts at
         self._u_applied = np.zeros(NU)
+        self._dual_shifts = 0  # steps whose shift of the stored multipliers is still to be made (``_stored_duals``)
         self._deferred: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # (plan, p, u) for ``advance``
         if not self._closed:
             self._backend.reset()  # asrti: let a running background solve end, and forget it
@@ -247,15 +249,33 @@ class RollAwareNmpc(SeaInputs):
     def _warm_guess(self, x0: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         """(primal guess with x0 in place, λ_w, λ_g): the stored plan (shifted unless it starts at t)."""
         current = self._plan_t is not None and abs(self._plan_t - t) < 1e-9  # the plan from ``prepare``
-        if self._w is None:
-            guess = self._rollout(x0, t)
-        elif current:
-            guess = self._w.copy()
-        else:
-            guess = self.layout.shift(self._w)
+        guess = self._rollout(x0, t) if self._w is None else self._w.copy() if current else self.layout.shift(self._w)
         guess[self.layout.x_index(0)] = x0
-        lam_w, lam_g = (self._lam_w, self._lam_g) if current else shift_duals(self.layout, self._lam_w, self._lam_g)
+        lam_w, lam_g = self._stored_duals()
+        if not current:
+            lam_w, lam_g = shift_duals(self.layout, lam_w, lam_g)
         return guess, lam_w, lam_g
+
+    def _stored_duals(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The stored multipliers with the shifts the prepared feedback's steps left to be made (``_feedback_only``).
+        After horizon + 1 shifts they no longer change (every stage is the last one's): at most that many are made."""
+        for _ in range(min(self._dual_shifts, self.layout.horizon + 1)):
+            self._lam_w, self._lam_g = shift_duals(self.layout, self._lam_w, self._lam_g)
+        self._dual_shifts = 0
+        return self._lam_w, self._lam_g
+
+    def _feedback_only(self, p: np.ndarray, t: float) -> SolveOutcome | None:
+        """nrti's step on the QP prepared for p, without a warm start (None: not nrti, no stored plan, or no usable
+        feedback; then the full step). Its plan is stored; the multipliers are kept as they were, their shift for
+        this step left to be made when a warm start needs them (``_stored_duals``): the same warm starts, bit for
+        bit, as shifting them every step."""
+        if self._prepared_feedback is None or self._w is None or self._lam_w is None or self._lam_g is None:
+            return None
+        outcome = self._prepared_feedback(p)
+        if outcome is None:
+            return None
+        self._dual_shifts += not (self._plan_t is not None and abs(self._plan_t - t) < 1e-9)
+        return outcome
 
     def solve(self, x0: Any, t: float, waypoint_ne: Any, deadline_s: float | None = None,
               defer_advance: bool = False) -> NmpcResult:
@@ -274,14 +294,20 @@ class RollAwareNmpc(SeaInputs):
         x0, t, waypoint = model_inputs(self.config, x0, t, waypoint_ne)
         start = time.perf_counter()
         have_plan = self._w is not None and self._plan_age < self.layout.horizon
-        guess, lam_w, lam_g = self._warm_guess(x0, t)
         p = self._parameters(x0, t, waypoint)
-        outcome: SolveOutcome = self._backend.solve(guess, p, self._lbw, self._ubw, lam_w, lam_g)
-        if outcome.start is not None:  # the backend started from its own plan (asrti: the background one)
-            guess = outcome.start
+        guess = lam_w = lam_g = None  # the warm start: made only when the step needs it
+        outcome = self._feedback_only(p, t)
+        if outcome is None:
+            guess, lam_w, lam_g = self._warm_guess(x0, t)
+            outcome = self._backend.solve(guess, p, self._lbw, self._ubw, lam_w, lam_g)
+            if outcome.start is not None:  # the backend started from its own plan (asrti: the background one)
+                guess = outcome.start
         wall = time.perf_counter() - start - outcome.wait_s
+        late = deadline_s is not None and wall > deadline_s
+        if late and guess is None:  # the fallback is the previous plan's next input: from the plan stored until now
+            guess = self._warm_guess(x0, t)[0]
         u_chosen, plan, fallback, source = self._choose_input(outcome, guess, lam_w, lam_g, have_plan, t)
-        if fallback is None and deadline_s is not None and wall > deadline_s:
+        if fallback is None and late:
             fallback = f"late: {wall * 1e3:.1f} ms > deadline {deadline_s * 1e3:.1f} ms"
             u_chosen, source = self._fallback_input(guess, have_plan, outcome.usable)
         u = self.inputs.clip(u_chosen)  # the model's input u: τ, or the propeller thrusts
@@ -305,17 +331,19 @@ class RollAwareNmpc(SeaInputs):
             self._deferred = None
             self._backend.advance(plan, p, u)
 
-    def _choose_input(self, outcome: SolveOutcome, guess: np.ndarray, lam_w: np.ndarray | None,
+    def _choose_input(self, outcome: SolveOutcome, guess: np.ndarray | None, lam_w: np.ndarray | None,
                       lam_g: np.ndarray | None, have_plan: bool,
                       t: float) -> tuple[np.ndarray, np.ndarray, str | None, str | None]:
         """(u, plan, fallback reason, fallback source) after a solve (u: the model's input); stores the plan
-        for the next step."""
+        for the next step (and the outcome's multipliers, unless it has none: the prepared feedback's)."""
         self._plan_t = t
         if outcome.usable:
-            self._w, self._lam_w, self._lam_g = outcome.w, outcome.lam_w, outcome.lam_g
+            self._w = outcome.w
+            if outcome.lam_w is not None:
+                self._lam_w, self._lam_g = outcome.lam_w, outcome.lam_g
             self._plan_age = 0
             return outcome.w[self.layout.u_index(0)].copy(), outcome.w, None, None
-        self._w, self._lam_w, self._lam_g = guess, lam_w, lam_g
+        self._w, self._lam_w, self._lam_g = guess, lam_w, lam_g  # (a failed step always made its warm start)
         self._plan_age += 1
         tau, source = self._fallback_input(guess, have_plan, usable=False)
         return tau, guess, f"solver failed: {outcome.status}", source

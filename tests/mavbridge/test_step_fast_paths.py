@@ -16,6 +16,8 @@ from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.companion.state import imu_specific_force
 from mavbridge.companion.wave_gate import WaveGate
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc, compile_native_function
+from mavbridge.nmpc.controller import shift_duals
+from mavbridge.nmpc.layout import Layout
 from mavbridge.nmpc.sea_spread import slope_factor
 from mavbridge.nmpc.solvers.codegen import compiler
 from mavbridge.waves.source import WaveEstimate
@@ -179,3 +181,59 @@ def test_the_loop_finds_the_interpreter_set_for_it() -> None:
             "print(sys.getswitchinterval() == GIL_SWITCH_S, before == 0, gc.get_freeze_count() > 10_000)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.stdout.split() == ["True", "True", "True"], done.stderr
+
+
+def _nrti_run(feedback_only: bool, deadline_s: float | None = None) -> list[tuple]:
+    """(τ, plan, status, fallback, the stored multipliers every third step) of 12 paced-like nrti steps, the 5th and
+    9th without a prepared QP (its job dropped), with or without the controller's feedback-only step
+    (``RollAwareNmpc._feedback_only``)."""
+    sea = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2, phase_rad=0.3)
+    out = []
+    with RollAwareNmpc(NmpcConfig(horizon=8, solver="nrti"), otter_parameters(), sea) as nmpc:
+        assert nmpc._prepared_feedback is not None
+        if not feedback_only:
+            nmpc._prepared_feedback = None  # every step through the backend's full solve, warm start made
+        x = np.zeros(12)
+        x[5], x[6] = math.pi / 2, 1.0
+        nmpc.prepare(x, 0.0, (85.0, 75.0))
+        for k in range(12):
+            if k in (4, 8):
+                nmpc._backend.advanced.cancel()  # no prepared QP: an SQP step from the warm start (shifted duals)
+            result = nmpc.solve(x, 0.1 * k, (85.0, 75.0), deadline_s=deadline_s, defer_advance=True)
+            nmpc.advance()
+            duals = [d.copy() for d in nmpc._stored_duals()] if k % 3 == 2 else []  # (made now: shifts left made)
+            out.append((result.tau, result.states, result.status, result.fallback, duals))
+            x = result.states[1] + 0.01  # (not quite the plan: the feedback has something to do)
+    return out
+
+
+@needs_cc
+@pytest.mark.parametrize("deadline_s", [None, 1e-12])
+def test_the_feedback_only_step_plans_as_the_full_one(deadline_s: float | None) -> None:
+    """nrti's step makes no warm start while its QP was prepared (issue 32: shifting the plan and its multipliers
+    cost as much as the feedback, paced); the multipliers' shifts are made when a later step needs them: the same
+    commands and plans bit for bit, with steps that needed them between, and with every answer late (the previous
+    plan's next input)."""
+    fast, full = _nrti_run(True, deadline_s), _nrti_run(False, deadline_s)
+    statuses = [status for _, _, status, *_ in full]
+    assert statuses.count("NRTI") >= 8 and any(s != "NRTI" for s in statuses), statuses  # both kinds of step
+    for k, (a, b) in enumerate(zip(fast, full, strict=True)):
+        (tau_a, plan_a, status_a, late_a, duals_a), (tau_b, plan_b, status_b, late_b, duals_b) = a, b
+        assert status_a == status_b and (late_a is None) == (late_b is None), k  # (its text has the wall time)
+        assert len(duals_a) == len(duals_b), k
+        assert all(np.array_equal(u, v) for u, v in zip(duals_a, duals_b, strict=True)), k
+        assert np.array_equal(tau_a, tau_b) and np.array_equal(plan_a, plan_b), k
+    assert all(late is not None for *_, late, _ in fast) == (deadline_s is not None)
+
+
+def test_the_multipliers_stop_changing_after_horizon_and_one_shifts() -> None:
+    """Why ``_stored_duals`` makes at most horizon + 1 of the shifts left to it (a long run of feedback-only steps)."""
+    nmpc_layout = Layout(6)
+    rng = np.random.default_rng(3)
+    lam_w, lam_g = rng.normal(size=nmpc_layout.n_w), rng.normal(size=12 * 7)
+    shifted = [(lam_w, lam_g)]
+    for _ in range(6 + 5):
+        shifted.append(shift_duals(nmpc_layout, *shifted[-1]))
+    assert not np.array_equal(shifted[6][1], shifted[5][1])  # still moving before
+    for later in shifted[7:]:
+        assert all(np.array_equal(a, b) for a, b in zip(later, shifted[7], strict=True))

@@ -153,6 +153,7 @@ class NrtiBackend(AsrtiBackend):
         super().__init__(functions, cfg)
         lib, self.native = native_library()
         self.buffers: FeedbackBuffers | None = None
+        self._taken: tuple[CondensedQp | None, dict, float] | None = None  # see ``prepared_feedback``
         if lib is None:
             say_once(f"nrti: {self.native}; running as asrti (slower)")
             return
@@ -175,14 +176,39 @@ class NrtiBackend(AsrtiBackend):
                 self.feedback(qp, p, outcome.lam_w, outcome.lam_g)
         return outcome
 
+    def prepared_feedback(self, p: np.ndarray) -> SolveOutcome | None:
+        """The step when a QP was prepared for this p: the feedback alone, which needs no warm start (so the controller
+        makes none: shifting the plan and its multipliers cost the step as much as the feedback, paced, issue 32).
+        None when there is no prepared QP or its feedback failed: ``solve`` then goes on from what was taken here.
+        The outcome's multipliers are None (the feedback leaves them as they were)."""
+        if self.buffers is None:
+            return None
+        qp, info, wait = self._take(p)
+        outcome = None if qp is None else self.feedback(qp, p, None, None)
+        if outcome is None:
+            self._taken = (qp, info, wait)
+            return None
+        outcome.wait_s = wait
+        outcome.stats.update(info, background_wait_s=wait)
+        return outcome
+
+    def _take(self, p: np.ndarray) -> tuple[CondensedQp | None, dict, float]:
+        """(the QP prepared for p or None, the background's figures, the wall seconds waited for it); what
+        ``prepared_feedback`` took already when it failed."""
+        if self._taken is not None:
+            taken, self._taken = self._taken, None
+            return taken
+        wait_start = time.perf_counter()
+        qp, info = self.advanced.take(p)
+        return qp, info, time.perf_counter() - wait_start
+
     def solve(self, w0: np.ndarray, p: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
               lam_w0: np.ndarray | None, lam_g0: np.ndarray | None) -> SolveOutcome:
         """The feedback step on the QP prepared for this p; asrti's step when there is none."""
         if self.buffers is None or lam_w0 is None or lam_g0 is None:
+            self._taken = None  # (asrti's step takes the background plan itself)
             return super().solve(w0, p, lbw, ubw, lam_w0, lam_g0)
-        wait_start = time.perf_counter()
-        qp, info = self.advanced.take(p)
-        wait = time.perf_counter() - wait_start
+        qp, info, wait = self._take(p)
         outcome = None if qp is None else self.feedback(qp, p, lam_w0, lam_g0)
         start = None
         if outcome is None:  # no prepared QP, or it failed: one SQP iteration from the best plan there is
@@ -194,11 +220,17 @@ class NrtiBackend(AsrtiBackend):
         outcome.stats.update(info, background_wait_s=wait)
         return outcome
 
+    def reset(self) -> None:
+        """Drop the job in flight, and what ``prepared_feedback`` took."""
+        self._taken = None
+        super().reset()
+
     def solve_plan(self, qp: CondensedQp) -> np.ndarray:
         """The prepared plan in the controller's layout."""
         return self.advanced.preparation.solve.sqp.from_aug(qp.w_aug)
 
-    def feedback(self, qp: CondensedQp, p: np.ndarray, lam_w0: np.ndarray, lam_g0: np.ndarray) -> SolveOutcome | None:
+    def feedback(self, qp: CondensedQp, p: np.ndarray, lam_w0: np.ndarray | None,
+                 lam_g0: np.ndarray | None) -> SolveOutcome | None:
         """One native call: the box QP for the measured state, the plan from its input steps (None: failed)."""
         b = self.buffers
         np.subtract(p[_X0], qp.w_aug[0:NX], out=b.dz0[0:NX])
