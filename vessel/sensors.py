@@ -111,6 +111,27 @@ def rotation_body_to_ned(phi: float, theta: float, psi: float) -> np.ndarray:
                      [-st, ct * sf, ct * cf]])
 
 
+def body_velocity_from_ned(phi: float, theta: float, psi: float, north: float, east: float,
+                           down: float) -> tuple[float, float, float]:
+    """R_zyx(φ, θ, ψ)ᵀ·(north, east, down): a NED vector in the body frame, in plain floats (the control step's path:
+    a numpy 3×3 and its product cost more than the sums, paced; the same numbers to within rounding)."""
+    cf, sf, ct, st, cp, sp = (math.cos(phi), math.sin(phi), math.cos(theta), math.sin(theta),
+                              math.cos(psi), math.sin(psi))
+    return (cp * ct * north + sp * ct * east - st * down,
+            (-sp * cf + cp * st * sf) * north + (cp * cf + sf * st * sp) * east + ct * sf * down,
+            (sp * sf + cp * cf * st) * north + (-cp * sf + st * sp * cf) * east + ct * cf * down)
+
+
+def ned_velocity_from_body(phi: float, theta: float, psi: float, u: float, v: float,
+                           w: float) -> tuple[float, float, float]:
+    """R_zyx(φ, θ, ψ)·(u, v, w): a body vector in NED, in plain floats (see ``body_velocity_from_ned``)."""
+    cf, sf, ct, st, cp, sp = (math.cos(phi), math.sin(phi), math.cos(theta), math.sin(theta),
+                              math.cos(psi), math.sin(psi))
+    return (cp * ct * u + (-sp * cf + cp * st * sf) * v + (sp * sf + cp * cf * st) * w,
+            sp * ct * u + (cp * cf + sf * st * sp) * v + (-cp * sf + st * sp * cf) * w,
+            -st * u + ct * sf * v + ct * cf * w)
+
+
 def specific_force_from_acceleration(accel_ned: np.ndarray, attitude: np.ndarray,
                                      g: float = GRAVITY) -> np.ndarray:
     """Body specific force f_b = Rᵀ·(a − g_ned) of a point with NED acceleration ``accel_ned`` (m/s²).

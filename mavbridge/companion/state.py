@@ -23,7 +23,7 @@ import numpy as np
 
 from mavbridge.waves.source import MotionSample
 from vessel.geo import ned_from_latlon
-from vessel.sensors import rotation_body_to_ned
+from vessel.sensors import body_velocity_from_ned
 
 GRAVITY_MSS = 9.80665  # ArduPilot's milli-g scale for SCALED_IMU / RAW_IMU
 IMU_MESSAGES = ("SCALED_IMU", "RAW_IMU", "SCALED_IMU2")
@@ -182,7 +182,7 @@ class StateEstimate:
         phi, theta, psi, p, q, r = self.attitude.tolist()
         lag_s = min(max((self.attitude_ms - self.position_ms) / 1000.0, 0.0), 0.5)  # type: ignore[operator]
         (north, east, down), (vn, ve, vd) = self.position_ned.tolist(), self.velocity_ned.tolist()
-        u, v, w = (rotation_body_to_ned(phi, theta, psi).T @ self.velocity_ned).tolist()  # numpy's sums, as before
+        u, v, w = body_velocity_from_ned(phi, theta, psi, vn, ve, vd)
         return np.array([north + vn * lag_s, east + ve * lag_s, down + vd * lag_s, phi, theta, psi, u, v, w, p, q, r])
 
     def motion_sample(self) -> MotionSample:

@@ -12,6 +12,8 @@ from vessel.sensors import (
     GRAVITY,
     SensorModel,
     SensorParams,
+    body_velocity_from_ned,
+    ned_velocity_from_body,
     rotation_body_to_ned,
     specific_force_from_acceleration,
 )
@@ -104,3 +106,14 @@ def test_gps_rate_and_lag_as_configured() -> None:
 def test_bad_parameter_names_the_field() -> None:
     with pytest.raises(ConfigError, match="gps_hz"):
         SensorParams(gps_hz=-1.0)
+
+
+def test_the_float_rotations_are_the_matrix_and_its_transpose() -> None:
+    """The control step's plain-float rotations (state vector, the hull on its mean surface) against the matrix."""
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        phi, theta, psi = rng.uniform(-math.pi, math.pi, 3)
+        vec = rng.normal(0.0, 3.0, 3)
+        R = rotation_body_to_ned(phi, theta, psi)
+        assert np.allclose(ned_velocity_from_body(phi, theta, psi, *vec), R @ vec, rtol=0.0, atol=1e-12)
+        assert np.allclose(body_velocity_from_ned(phi, theta, psi, *vec), R.T @ vec, rtol=0.0, atol=1e-12)
