@@ -36,7 +36,6 @@ import pickle
 import select
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import time
@@ -55,9 +54,10 @@ from mavbridge.waves.source import (
     MotionSample,
     WaveEstimate,
     answers_of,
+    batched,
     decode_answers,
     pack_sample,
-    unpack_sample,
+    unbatched,
 )
 
 MAX_MESSAGE = 1 << 16  # bytes: an answer is under a kilobyte
@@ -66,7 +66,6 @@ WAIT_S = 5.0  # unpaced (lockstep, replays): how long answers and room for a sam
 STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot time) stand in for late ones
 DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds hundreds)
 BATCH = 16  # paced: samples held for one message at most (steps ask every 2; before engaging the gate asks every 2)
-ENTRY = struct.Struct("<I")  # a batch's entries: each sample's length, then the sample as ``pack_sample`` made it
 CLOSE_WAIT_S = 2.0  # close: how long the child may take to end before it is killed
 SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
 FAULTS = ("late", "stale", "stopped", "dropped")
@@ -87,21 +86,28 @@ def _called(message: bytes) -> Any:
         return exc
 
 
-def batched(packed: list[bytes]) -> bytes:
-    """Samples packed by ``pack_sample`` as one message: b"B", then each one's length and bytes (``ENTRY``)."""
-    return b"B" + b"".join(ENTRY.pack(len(one)) + one for one in packed)
-
-
-def unbatched(message: bytes) -> list[MotionSample]:
-    """The samples of one message: a sample (b"S", b"P") or a batch (``batched``)."""
-    if message[:1] != b"B":
-        return [unpack_sample(message)]
-    samples, at = [], 1
-    while at < len(message):
-        (size,) = ENTRY.unpack_from(message, at)
-        samples.append(unpack_sample(message[at + ENTRY.size:at + ENTRY.size + size]))
-        at += ENTRY.size + size
-    return samples
+def start_child(settings: EstimatorSettings) -> tuple[socket.socket, subprocess.Popen, str]:
+    """(our end of the socket pair, non-blocking: a paced step never waits to send; the child; its estimator's name)
+    once the child has built its estimator from ``settings``: a fresh interpreter, not a fork of one with threads
+    (nrti's worker). RuntimeError (the child ended or killed) if it is not ready within START_TIMEOUT_S."""
+    ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+    child = subprocess.Popen([sys.executable, "-m", __name__, str(theirs.fileno())], pass_fds=(theirs.fileno(),),
+                             stdin=subprocess.DEVNULL)
+    theirs.close()
+    try:
+        ours.sendall(pickle.dumps(settings))
+        ready = select.select([ours], [], [], START_TIMEOUT_S)[0] and ours.recv(MAX_MESSAGE)
+        if not ready:
+            raise EOFError
+    except (EOFError, OSError):
+        if child.poll() is None:
+            child.kill()
+        code = child.wait(CLOSE_WAIT_S)
+        ours.close()
+        raise RuntimeError(f"the wave estimator's process did not start within {START_TIMEOUT_S:g} s"
+                           f"{_exit(code)}") from None
+    ours.setblocking(False)
+    return ours, child, ready[1:].decode()
 
 
 def serve(sock: socket.socket) -> None:
@@ -136,6 +142,35 @@ def serve(sock: socket.socket) -> None:
 
 
 @dataclass
+class Faults:
+    """The estimator process's faults, counted; those of SAID said when they start and again at most once every
+    SAY_EVERY_S while they go on (wall clock), and after a stale spell that answers come again."""
+
+    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(FAULTS, 0))
+    _said_at: dict[str, float] = field(default_factory=dict)  # when each fault was last said (wall)
+    _stale_said: bool = False  # a stale spell was said: say when answers come again
+
+    def count(self, kind: str, say: Callable[[str], None], exit_text: str) -> None:
+        """One fault of ``kind``; said through ``say`` if due (``exit_text``: the child's exit code, if it ended)."""
+        self.counts[kind] += 1
+        now = time.monotonic()
+        if kind not in SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
+            return
+        self._said_at[kind] = now
+        self._stale_said |= kind == "stale"
+        what = {"stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
+                "stopped": f"stopped{exit_text}: no new estimate for the rest of the run",
+                "dropped": "had no room for a sample: dropped"}[kind]
+        say(f"{what} ({self.counts[kind]} so far)")
+
+    def recovered(self, say: Callable[[str], None]) -> None:
+        """Answers came in time: said once after a stale spell was said."""
+        if self._stale_said:
+            self._stale_said = False
+            say("answers again")
+
+
+@dataclass
 class EstimatorProcess:
     """A ``WaveSource`` whose estimator runs in a child process (see the module docstring); ``close`` ends it."""
 
@@ -143,11 +178,9 @@ class EstimatorProcess:
     wait_s: float = WAIT_S  # 0: paced, never wait (see the module docstring)
     log: Callable[[str], None] = print
     name: str = "estimated"
-    faults: dict[str, int] = field(init=False, default_factory=lambda: dict.fromkeys(FAULTS, 0))
-    _said_at: dict[str, float] = field(init=False, default_factory=dict)  # when each fault was last said (wall)
+    _faults: Faults = field(init=False, default_factory=lambda: Faults())
     _answers: Answers = field(init=False, default=NO_ANSWERS)
-    _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=lambda: deque(maxlen=2))
-    # answers received, not yet used (count, message): only the newest as of sent − 1 and the one for sent matter
+    _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=lambda: deque(maxlen=2))  # (count, answers)
     _sent: int = field(init=False, default=0)  # samples sent
     _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
     _held: list[bytes] = field(init=False, default_factory=list)  # paced: samples packed, not sent yet (``flush``)
@@ -157,27 +190,16 @@ class EstimatorProcess:
     _floor: int = field(init=False, default=0)  # samples sent when the last step asked: answered by now, or late
     _calls: int = field(init=False, default=0)
     _closing: bool = field(init=False, default=False)
-    _stale_said: bool = field(init=False, default=False)  # a stale spell was said: say when answers come again
 
     def __post_init__(self) -> None:
-        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        self._sock = ours  # a fresh interpreter, not a fork of one with threads (nrti's worker):
-        self._child = subprocess.Popen([sys.executable, "-m", __name__, str(theirs.fileno())],
-                                       pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
-        theirs.close()
+        self._sock, self._child, self.name = start_child(self.settings)
         self._poll = select.poll()
-        self._poll.register(ours, select.POLLIN)
-        try:
-            ours.sendall(pickle.dumps(self.settings))
-            ready = self._ready(START_TIMEOUT_S, write=False) and ours.recv(MAX_MESSAGE)
-            if not ready:
-                raise EOFError
-        except (EOFError, OSError):
-            self.close()
-            raise RuntimeError(f"the wave estimator's process did not start within {START_TIMEOUT_S:g} s"
-                               f"{_exit(self._child.poll())}") from None
-        self.name = ready[1:].decode()
-        ours.setblocking(False)  # a paced step never waits to send
+        self._poll.register(self._sock, select.POLLIN)
+
+    @property
+    def faults(self) -> dict[str, int]:
+        """Each fault's count (FAULTS)."""
+        return self._faults.counts
 
     @property
     def pid(self) -> int:
@@ -288,9 +310,8 @@ class EstimatorProcess:
 
     def _choose(self, wanted: int, answers: Answers, recovered: bool = False) -> Answers:
         """The step's answers, kept for its other questions; says when answers come again after a stale spell."""
-        if recovered and self._stale_said:
-            self._stale_said = False
-            self.log(f"waves ({self.name}): the estimator's process answers again")
+        if recovered:
+            self._faults.recovered(self._say)
         self._chosen = (wanted, answers)
         return answers
 
@@ -360,18 +381,11 @@ class EstimatorProcess:
                 self._fault("stopped")
 
     def _fault(self, kind: str) -> None:
-        """Count a fault; say it (if one of SAID) when it starts, and again at most once every SAY_EVERY_S while it
-        goes on."""
-        self.faults[kind] += 1
-        now = time.monotonic()
-        if kind not in SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
-            return
-        self._said_at[kind] = now
-        self._stale_said |= kind == "stale"
-        what = {"stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
-                "stopped": f"stopped{_exit(self._child.poll())}: no new estimate for the rest of the run",
-                "dropped": "had no room for a sample: dropped"}[kind]
-        self.log(f"waves ({self.name}): the estimator's process {what} ({self.faults[kind]} so far)")
+        """Count a fault, and say it as ``Faults`` does."""
+        self._faults.count(kind, self._say, _exit(self._child.poll()))
+
+    def _say(self, text: str) -> None:
+        self.log(f"waves ({self.name}): the estimator's process {text}")
 
 
 if __name__ == "__main__":  # the child (``EstimatorProcess`` starts it with its end of the socket pair); the

@@ -18,8 +18,9 @@ failure: it answers with an unusable ``SolveOutcome``.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Protocol, Self
 
 import numpy as np
 
@@ -70,3 +71,39 @@ class NmpcBackend(Protocol):
     def close(self) -> None:
         """Free solver instances and workers; calling it again does nothing."""
         ...
+
+
+class BackendLifetime:
+    """A controller's hold on its backend: ``close()`` (or leaving a ``with`` block) stops the worker and frees the
+    solvers, once; a controller dropped without ``close()`` still stops its worker (the finalizer holds the backend
+    only); a closed controller refuses to solve (``_check_open``)."""
+
+    _backend: NmpcBackend
+    _closed: bool
+    _finalizer: weakref.finalize
+
+    def _own_backend(self, backend: NmpcBackend) -> None:
+        self._backend, self._closed = backend, False
+        self._finalizer = weakref.finalize(self, backend.close)
+
+    def close(self) -> None:
+        """Stop the background worker and free the solver instances; calling it again does nothing."""
+        if self._closed:
+            return
+        self._closed = True
+        self._finalizer()  # backend.close(), once
+
+    @property
+    def closed(self) -> bool:
+        """True after ``close()``."""
+        return self._closed
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RuntimeError(f"{type(self).__name__}: solve after close()")

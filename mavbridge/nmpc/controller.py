@@ -17,13 +17,12 @@ from __future__ import annotations
 
 import math
 import time
-import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from mavbridge.nmpc.backend import NmpcBackend, SolveOutcome
+from mavbridge.nmpc.backend import BackendLifetime, NmpcBackend, SolveOutcome
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.functions import ProblemFunctions, problem_functions
 from mavbridge.nmpc.inputs import InputSpace, input_space
@@ -122,7 +121,7 @@ def shift_duals(layout: Layout, lam_w: np.ndarray | None,
     return layout.shift(lam_w), np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
 
 
-class RollAwareNmpc(SeaInputs):
+class RollAwareNmpc(SeaInputs, BackendLifetime):
     """The paper's roll-aware NMPC for the Otter; ``solve`` once per control period.
 
     Each controller owns its backend (solver instances, the asrti worker); only immutable CasADi Functions
@@ -144,39 +143,12 @@ class RollAwareNmpc(SeaInputs):
         self._step = self._functions.step
         self.layout = self._functions.layout
         self._sea = SeaKnowledge(self.config, self._functions.fixed_waves, self.waves)
-        self._backend: NmpcBackend = make_backend(self._functions, self.config)
+        self._own_backend(make_backend(self._functions, self.config))
         self._prepared_feedback = getattr(self._backend, "prepared_feedback", None)  # nrti: see ``_feedback_only``
-        self._closed = False
-        # A controller dropped without close() still stops its worker (the finalizer holds the backend only).
-        self._finalizer = weakref.finalize(self, self._backend.close)
         self.inputs: InputSpace = input_space(self.config, self.params)
         self._lbw, self._ubw = input_bounds(self.config, self.layout, self.inputs)
         self._safe = self.inputs.clip(self.inputs.from_tau(np.array([self.config.safe_surge_n, 0.0])))
         self.reset()
-
-    # --- lifetime -------------------------------------------------------------------------------------
-
-    def close(self) -> None:
-        """Stop the background worker and free the solver instances; calling it again does nothing."""
-        if self._closed:
-            return
-        self._closed = True
-        self._finalizer()  # backend.close(), once
-
-    @property
-    def closed(self) -> bool:
-        """True after ``close()``."""
-        return self._closed
-
-    def __enter__(self) -> RollAwareNmpc:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _check_open(self) -> None:
-        if self._closed:
-            raise RuntimeError("RollAwareNmpc: solve after close()")
 
     def reset(self) -> None:
         """Forget the previous plan, multipliers and last input (a new run starts from a cold start)."""

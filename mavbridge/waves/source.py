@@ -52,6 +52,7 @@ class MotionSample:
 
 
 SAMPLE = struct.Struct("<17d")  # t, attitude 3, rates 3, position 3, velocity 3, has IMU, specific force 3
+ENTRY = struct.Struct("<I")  # a batch's entries (``batched``): each sample's length, then the sample
 
 
 def pack_sample(sample: MotionSample) -> bytes:
@@ -80,6 +81,23 @@ def unpack_sample(data: bytes) -> MotionSample:
     v = SAMPLE.unpack(data[1:])
     return MotionSample(v[0], np.array(v[1:4]), np.array(v[4:7]), np.array(v[7:10]), np.array(v[10:13]),
                         np.array(v[14:17]) if v[13] else None)
+
+
+def batched(packed: list[bytes]) -> bytes:
+    """Samples packed by ``pack_sample`` as one message: b"B", then each one's length and bytes (``ENTRY``)."""
+    return b"B" + b"".join(ENTRY.pack(len(one)) + one for one in packed)
+
+
+def unbatched(message: bytes) -> list[MotionSample]:
+    """The samples of one message: a sample (b"S", b"P") or a batch (``batched``)."""
+    if message[:1] != b"B":
+        return [unpack_sample(message)]
+    samples, at = [], 1
+    while at < len(message):
+        (size,) = ENTRY.unpack_from(message, at)
+        samples.append(unpack_sample(message[at + ENTRY.size:at + ENTRY.size + size]))
+        at += ENTRY.size + size
+    return samples
 
 
 def sea_spread(source: object, explained: bool) -> np.ndarray | None:
