@@ -35,12 +35,10 @@ import argparse
 import gc
 import math
 import os
-import subprocess
-import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager, nullcontext
+from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +53,7 @@ from mavbridge.companion.output_paths import RcOverride
 from mavbridge.companion.outputs import RcSetup
 from mavbridge.companion.state import StateEstimate
 from mavbridge.companion.wave_gate import WaveGate, make_wave_source
+from mavbridge.lab.machine import cold_line, collections_timed, load, spinners
 from mavbridge.link.connection import Link
 from mavbridge.link.streams import request_streams
 from mavbridge.preflight.rules import Context
@@ -249,45 +248,6 @@ def replay(rec: Recording, step: CompanionStep, watch_s: float, duration_s: floa
     return out
 
 
-@contextmanager
-def spinners(count: int) -> Iterator[None]:
-    """``count`` processes that burn a CPU each at normal priority, stopped by their handles."""
-    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"],  # SCHED_OTHER whatever the bench's is
-                              preexec_fn=lambda: os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0)))
-             for _ in range(count)]
-    try:
-        time.sleep(1.0)  # let them take the CPUs
-        yield
-    finally:
-        for proc in procs:
-            proc.kill()
-            proc.wait()
-
-
-def load() -> str:
-    """The 1-minute load average."""
-    return f"{os.getloadavg()[0]:.1f}"
-
-
-@contextmanager
-def collections_timed() -> Iterator[list[float]]:
-    """The wall ms of every cyclic garbage collection while inside (is the collector in the step's tail?)."""
-    spans: list[float] = []
-    started = [0.0]
-
-    def timed(phase: str, _info: dict) -> None:
-        if phase == "start":
-            started[0] = time.perf_counter()
-        else:
-            spans.append((time.perf_counter() - started[0]) * 1e3)
-
-    gc.callbacks.append(timed)
-    try:
-        yield spans
-    finally:
-        gc.callbacks.remove(timed)
-
-
 def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: argparse.Namespace,
                   scenario: Any, realtime: bool = False) -> dict[str, Any]:
     """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not); with
@@ -373,6 +333,7 @@ def main() -> None:
         rec = record(args.watch + args.duration + 1, args.seed, Path(work))
     print(f"{len(rec.messages)} messages; {os.cpu_count()} CPUs; load {load()}; solver {args.solver}; "
           f"replayed at speedup 1, {args.duration:g} s per condition", flush=True)
+    print(cold_line(), flush=True)  # (how this computer's figures compare with another's: see mavbridge.lab.machine)
     conditions = {"quiet": ("quiet", nullcontext),
                   "spinners": (f"{args.spinners} spinners", lambda: spinners(args.spinners))}
     rows = [run_condition(*conditions[name], rec, args, scenario) for name in chosen if name in conditions]
