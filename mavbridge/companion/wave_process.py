@@ -3,11 +3,11 @@
 In the companion's process the estimator's per-sample work and its fit stages (a fraction of a millisecond
 every 0.09 s of samples) were the larger part of the step's time and most of its tail. ``EstimatorProcess`` is
 a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter: ``python -m`` this module), on
-a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at all). ``observe`` sends the sample
-as one message (``pack_sample``; a few microseconds; paced, it never waits); the child takes each in order and
-sends back its answers after it (``encode_answers``): the estimate, the latest fit and both slope spreads. Paced,
-the samples are sent together instead (``flush``: one message, b"B", when a step asks, or every BATCH samples), and
-the child answers once, after the last: a socket call each costs the step tens of microseconds paced (issue 32). Between
+a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at all). Unpaced, ``observe`` sends the
+sample as one message (``pack_sample``); paced, it holds it, and the samples go together (``flush``: one message,
+b"B", never waited for) when a step asks, or every BATCH: a socket call costs a paced step tens of microseconds. The
+child takes them in order and answers after each message (``encode_answers``): the estimate, the latest fit and
+both slope spreads. Between
 samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
 still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
 
@@ -65,7 +65,7 @@ START_TIMEOUT_S = 60.0  # the child imports numpy and the estimator: seconds on 
 WAIT_S = 5.0  # unpaced (lockstep, replays): how long answers and room for a sample are waited for at most
 STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot time) stand in for late ones
 DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds hundreds)
-BATCH = 16  # paced: samples held for one message at most (steps ask every 2; before engaging the gate asks every 2)
+BATCH = 16  # paced: samples held for one message at most (steps ask every 2; nobody asks while the pilot has the boat)
 CLOSE_WAIT_S = 2.0  # close: how long the child may take to end before it is killed
 SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
 FAULTS = ("late", "stale", "stopped", "dropped")
@@ -96,7 +96,9 @@ def start_child(settings: EstimatorSettings) -> tuple[socket.socket, subprocess.
     theirs.close()
     try:
         ours.sendall(pickle.dumps(settings))
-        ready = select.select([ours], [], [], START_TIMEOUT_S)[0] and ours.recv(MAX_MESSAGE)
+        waiting = select.poll()
+        waiting.register(ours, select.POLLIN)
+        ready = waiting.poll(START_TIMEOUT_S * 1000.0) and ours.recv(MAX_MESSAGE)
         if not ready:
             raise EOFError
     except (EOFError, OSError):
@@ -150,16 +152,17 @@ class Faults:
     _said_at: dict[str, float] = field(default_factory=dict)  # when each fault was last said (wall)
     _stale_said: bool = False  # a stale spell was said: say when answers come again
 
-    def count(self, kind: str, say: Callable[[str], None], exit_text: str) -> None:
-        """One fault of ``kind``; said through ``say`` if due (``exit_text``: the child's exit code, if it ended)."""
-        self.counts[kind] += 1
+    def count(self, kind: str, say: Callable[[str], None], exit_text: Callable[[], str], times: int = 1) -> None:
+        """``times`` faults of ``kind``; said through ``say`` if due (``exit_text``: the child's exit code, if it ended,
+        asked only then)."""
+        self.counts[kind] += times
         now = time.monotonic()
         if kind not in SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
             return
         self._said_at[kind] = now
         self._stale_said |= kind == "stale"
         what = {"stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
-                "stopped": f"stopped{exit_text}: no new estimate for the rest of the run",
+                "stopped": f"stopped{exit_text()}: no new estimate for the rest of the run",
                 "dropped": "had no room for a sample: dropped"}[kind]
         say(f"{what} ({self.counts[kind]} so far)")
 
@@ -209,6 +212,8 @@ class EstimatorProcess:
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the estimator: paced (``wait_s`` 0) held for the next ``flush``, else sent now after
         any held ones (dropped, and said, if the child has no room for it in time)."""
+        if self.wait_s > 0.0 and self._held:
+            self.flush()  # (held while paced: sent first, and the new one alone, so that it is answered as itself)
         self._held.append(pack_sample(sample))
         if math.isfinite(sample.t_s):
             self._held_t = sample.t_s
@@ -222,10 +227,10 @@ class EstimatorProcess:
         """Send the samples held as one message (dropped, and said, if the child has no room for it in time)."""
         if not self._held:
             return
-        held, self._held = self._held, []
-        if self._send(held[0] if len(held) == 1 else batched(held), "dropped"):
+        held, self._held, held_t, self._held_t = self._held, [], self._held_t, -math.inf
+        if self._send(held[0] if len(held) == 1 else batched(held), "dropped", len(held)):
             self._sent += len(held)
-            self._sent_t = self._held_t if math.isfinite(self._held_t) else self._sent_t
+            self._sent_t = held_t if math.isfinite(held_t) else self._sent_t
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The wave to plan against (None while not confident, or without answers); see ``answers``."""
@@ -282,10 +287,9 @@ class EstimatorProcess:
         self._sock.close()
 
     def answers(self) -> Answers:
-        """The estimator's answers as of every sample but the newest (see the module docstring), waited for at
-        most ``wait_s``; late or stale ones as the module docstring says. Asked once per sample count: every
-        question of a step gets the same answers. Paced, the answers are read only until those as of the last step's
-        samples have come (the newer ones cannot have: those samples are sent now)."""
+        """The answers as of every sample but the newest, waited for ``wait_s`` at most (see the module docstring);
+        the same to every question of a step. Paced, read only until those as of the samples sent before it came."""
+        before = self._sent  # (the last step's samples, or after a spell without questions, the last batch's)
         self.flush()
         wanted = max(self._sent - 1, 0)
         if self._chosen[0] == wanted:
@@ -293,7 +297,7 @@ class EstimatorProcess:
         floor, self._floor = min(self._floor, wanted), self._sent
         deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
-            self._take_waiting(until=wanted if self.wait_s > 0.0 else floor)
+            self._take_waiting(until=wanted if self.wait_s > 0.0 else max(floor, before))
             if self._current(wanted).samples == wanted:
                 return self._choose(wanted, self._answers, recovered=True)
             left = deadline - time.perf_counter()
@@ -330,9 +334,8 @@ class EstimatorProcess:
         return bool(self._poll.poll(max(timeout_s, 0.0) * 1000.0))
 
     def _take_waiting(self, until: int | None = None) -> tuple[bytes, Any] | None:
-        """Read the messages waiting, without blocking: answers kept (unpacked only when asked for); a call's
-        (tag, result) returned (None if none came). ``until``: only until answers as of that many samples or more are
-        kept (none read if they are already): a read that finds nothing costs the step as much as one that does."""
+        """Read the messages waiting, without blocking: answers kept (unpacked when asked for), a call's (tag, result)
+        returned; ``until``: only until answers as of that many samples are kept (an empty read costs as a full one)."""
         result = None
         have = self._kept[-1][0] if self._kept else -1 if self._answers is NO_ANSWERS else self._answers.samples
         if until is not None and have >= until:
@@ -354,9 +357,9 @@ class EstimatorProcess:
                     break
         return result
 
-    def _send(self, data: bytes, full: str | None) -> bool:
+    def _send(self, data: bytes, full: str | None, samples: int = 1) -> bool:
         """Send one message; with the socket full, wait ``wait_s`` at most for room (reading the answers that
-        hold it up meanwhile); False when there is none (the fault ``full`` counted, if named)."""
+        hold it up meanwhile); False when there is none (the fault ``full`` counted once per sample, if named)."""
         deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
             try:
@@ -366,7 +369,7 @@ class EstimatorProcess:
                 left = deadline - time.perf_counter()
                 if left <= 0 or not self._ready(left, write=True):
                     if full is not None:
-                        self._fault(full)
+                        self._fault(full, samples)
                     return False
                 self._take_waiting()
             except OSError:
@@ -380,9 +383,9 @@ class EstimatorProcess:
             if not self._closing:
                 self._fault("stopped")
 
-    def _fault(self, kind: str) -> None:
+    def _fault(self, kind: str, times: int = 1) -> None:
         """Count a fault, and say it as ``Faults`` does."""
-        self._faults.count(kind, self._say, _exit(self._child.poll()))
+        self._faults.count(kind, self._say, lambda: _exit(self._child.poll()), times)
 
     def _say(self, text: str) -> None:
         self.log(f"waves ({self.name}): the estimator's process {text}")

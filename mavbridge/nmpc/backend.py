@@ -10,7 +10,11 @@ and the input limits. A backend owns its solver instances and their lifetime:
   solve, as after a failure);
 * ``advance(w_plan, p, tau)`` — the step's input ``tau`` has been applied: work ahead for the next
   period (asrti starts its background solve here; a preparation phase would go here too);
-* ``reset()`` — forget any work ahead (a new run); ``close()`` — free solvers and workers, idempotent.
+* ``reset()`` — forget any work ahead (a new run); ``close()`` — free solvers and workers, idempotent;
+* optionally ``prepared_feedback(p)`` — the step on work prepared for exactly this p, needing no warm guess (nrti:
+  the native feedback), or None; the controller then makes the warm guess and calls ``solve``.
+
+``BackendLifetime`` is the controller's side of that lifetime: ``close()``, ``with``, and refusing after close.
 
 p is laid out as ``layout.PARAMS``; w as ``layout.Layout``. A backend never raises for a solver
 failure: it answers with an unusable ``SolveOutcome``.

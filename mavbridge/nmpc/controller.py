@@ -1,4 +1,5 @@
-"""RollAwareNmpc: owns its solver backend, warm-starts it each period, and always answers with an input.
+"""RollAwareNmpc: owns its solver backend, warm-starts it each period (nrti: only when its prepared QP is not
+enough, see ``_feedback_only``), and always answers with an input.
 
 The built problem (immutable CasADi Functions) comes from the per-process cache in ``functions``; the
 backend — solver instances, the asrti worker — is this controller's own and ends with ``close()``. The

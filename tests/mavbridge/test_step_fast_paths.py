@@ -183,28 +183,44 @@ def test_the_loop_finds_the_interpreter_set_for_it() -> None:
     assert done.stdout.split() == ["True", "True", "True"], done.stderr
 
 
-def _nrti_run(feedback_only: bool, deadline_s: float | None = None) -> list[tuple]:
-    """(τ, plan, status, fallback, the stored multipliers every third step) of 12 paced-like nrti steps, the 5th and
-    9th without a prepared QP (its job dropped), with or without the controller's feedback-only step
-    (``RollAwareNmpc._feedback_only``)."""
+def _nrti_run(feedback_only: bool, deadline_s: float | None = None) -> tuple[list[tuple], int, int]:
+    """((τ, plan, status, fallback, the stored multipliers at steps 6 and 15) of 16 paced-like nrti steps, how many
+    took the feedback-only step, the native feedback's calls), with or without it (``RollAwareNmpc._feedback_only``):
+    steps 7 and 12 without a prepared QP (its job dropped: an SQP step from the warm start), step 10 with the native
+    feedback failing on its QP (an SQP step from the prepared plan). Steps 1-6 leave six shifts to be made (more
+    than the horizon + 1 ``_stored_duals`` makes) of multipliers not yet shifted to their end (nrti passes them on:
+    after as many shifts as the horizon they no longer change)."""
     sea = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2, phase_rad=0.3)
-    out = []
-    with RollAwareNmpc(NmpcConfig(horizon=8, solver="nrti"), otter_parameters(), sea) as nmpc:
+    out, fast, calls = [], [0], [0]
+    with RollAwareNmpc(NmpcConfig(horizon=4, solver="nrti"), otter_parameters(), sea) as nmpc:
+        backend, failing = nmpc._backend, [False]
         assert nmpc._prepared_feedback is not None
-        if not feedback_only:
-            nmpc._prepared_feedback = None  # every step through the backend's full solve, warm start made
+        feedback = backend.feedback
+
+        def tried(*args: object) -> object:
+            calls[0] += 1
+            return None if failing[0] else feedback(*args)
+        backend.feedback = tried
+        prepared = nmpc._prepared_feedback
+
+        def counted(p: np.ndarray) -> object:
+            outcome = prepared(p)
+            fast[0] += outcome is not None
+            return outcome
+        nmpc._prepared_feedback = counted if feedback_only else None  # None: every step the full one
         x = np.zeros(12)
         x[5], x[6] = math.pi / 2, 1.0
         nmpc.prepare(x, 0.0, (85.0, 75.0))
-        for k in range(12):
-            if k in (4, 8):
-                nmpc._backend.advanced.cancel()  # no prepared QP: an SQP step from the warm start (shifted duals)
+        for k in range(16):
+            if k in (7, 12):
+                backend.advanced.cancel()
+            failing[0] = k == 10
             result = nmpc.solve(x, 0.1 * k, (85.0, 75.0), deadline_s=deadline_s, defer_advance=True)
             nmpc.advance()
-            duals = [d.copy() for d in nmpc._stored_duals()] if k % 3 == 2 else []  # (made now: shifts left made)
+            duals = [d.copy() for d in nmpc._stored_duals()] if k in (6, 15) else []  # (the shifts left made now)
             out.append((result.tau, result.states, result.status, result.fallback, duals))
             x = result.states[1] + 0.01  # (not quite the plan: the feedback has something to do)
-    return out
+    return out, fast[0], calls[0]
 
 
 @needs_cc
@@ -212,11 +228,13 @@ def _nrti_run(feedback_only: bool, deadline_s: float | None = None) -> list[tupl
 def test_the_feedback_only_step_plans_as_the_full_one(deadline_s: float | None) -> None:
     """nrti's step makes no warm start while its QP was prepared (issue 32: shifting the plan and its multipliers
     cost as much as the feedback, paced); the multipliers' shifts are made when a later step needs them: the same
-    commands and plans bit for bit, with steps that needed them between, and with every answer late (the previous
-    plan's next input)."""
-    fast, full = _nrti_run(True, deadline_s), _nrti_run(False, deadline_s)
+    commands, plans and multipliers bit for bit, with steps that needed them between, a failed feedback tried once,
+    and with every answer late (the previous plan's next input)."""
+    (fast, fast_steps, fast_calls), (full, none, full_calls) = _nrti_run(True, deadline_s), _nrti_run(False, deadline_s)
+    assert fast_steps == 13 and none == 0  # all but the two without a QP and the failed feedback
+    assert fast_calls == full_calls == 15  # prepare's, and every step with a QP once (a failed one not again)
     statuses = [status for _, _, status, *_ in full]
-    assert statuses.count("NRTI") >= 8 and any(s != "NRTI" for s in statuses), statuses  # both kinds of step
+    assert statuses.count("NRTI") == 13 and all(statuses[k].startswith("RTI") for k in (7, 10, 12)), statuses
     for k, (a, b) in enumerate(zip(fast, full, strict=True)):
         (tau_a, plan_a, status_a, late_a, duals_a), (tau_b, plan_b, status_b, late_b, duals_b) = a, b
         assert status_a == status_b and (late_a is None) == (late_b is None), k  # (its text has the wall time)

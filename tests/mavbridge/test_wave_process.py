@@ -281,3 +281,47 @@ def test_paced_samples_nobody_asks_for_go_in_batches_and_their_answers_are_read(
         assert not any(source.faults.values()), source.faults
     finally:
         source.close()
+
+
+def test_a_step_after_a_spell_without_questions_gets_the_last_batchs_answers() -> None:
+    """While the pilot has the boat nobody asks; the samples go in batches of BATCH. The first step after that must
+    read on to the answers as of the last batch sent, not stop at an older one (it would be over a second old:
+    stale, and no roll term on the step that engages)."""
+    lines: list[str] = []
+    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0, log=lines.append)
+    try:
+        samples = _samples(40.0)
+        for i, sample in enumerate(samples[:40]):  # steps asking every other sample
+            source.observe(sample)
+            if i % 2:
+                source.answers()
+                assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid
+        for sample in samples[40:40 + BATCH * 12 + 10]:  # then nobody asks: 12 batches sent, 10 samples held
+            source.observe(sample)
+        last_batch = 40 + BATCH * 12
+        assert source._sent == last_batch and len(source._held) == 10
+        while not (source._kept and source._kept[-1][0] >= last_batch - BATCH):  # the one before it read, and
+            assert source._ready(SYNC_S, write=False)  # ... (answers come in order) only that one:
+            source._take_waiting(until=last_batch - BATCH)
+        assert source._ready(SYNC_S, write=False)  # the last batch's answers wait, unread
+        got = source.answers()
+        assert got.samples == last_batch, got.samples
+        assert source.faults == {"late": 1, "stale": 0, "stopped": 0, "dropped": 0}, source.faults  # (1: the first)
+        assert lines == []
+    finally:
+        source.close()
+
+
+def test_samples_held_while_paced_go_first_when_it_waits_again() -> None:
+    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)
+    try:
+        samples = _samples(5.0)
+        for sample in samples[:3]:
+            source.observe(sample)  # held
+        source.wait_s = SYNC_S  # (lockstep from here: every answer waited for)
+        source.observe(samples[3])  # the three held go first, as one message; this one alone, answered as itself
+        assert source.answers().samples == 3 and not any(source.faults.values()), source.faults
+        source.observe(samples[4])
+        assert source.answers().samples == 4 and not any(source.faults.values()), source.faults
+    finally:
+        source.close()

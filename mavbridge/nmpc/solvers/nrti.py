@@ -153,7 +153,7 @@ class NrtiBackend(AsrtiBackend):
         super().__init__(functions, cfg)
         lib, self.native = native_library()
         self.buffers: FeedbackBuffers | None = None
-        self._taken: tuple[CondensedQp | None, dict, float] | None = None  # see ``prepared_feedback``
+        self._taken: tuple[np.ndarray, CondensedQp | None, dict, float] | None = None  # see ``prepared_feedback``
         if lib is None:
             say_once(f"nrti: {self.native}; running as asrti (slower)")
             return
@@ -186,18 +186,14 @@ class NrtiBackend(AsrtiBackend):
         qp, info, wait = self._take(p)
         outcome = None if qp is None else self.feedback(qp, p, None, None)
         if outcome is None:
-            self._taken = (qp, info, wait)
+            self._taken = (p, qp, info, wait)  # (its feedback, if any, was tried: ``solve`` does not try it again)
             return None
         outcome.wait_s = wait
         outcome.stats.update(info, background_wait_s=wait)
         return outcome
 
     def _take(self, p: np.ndarray) -> tuple[CondensedQp | None, dict, float]:
-        """(the QP prepared for p or None, the background's figures, the wall seconds waited for it); what
-        ``prepared_feedback`` took already when it failed."""
-        if self._taken is not None:
-            taken, self._taken = self._taken, None
-            return taken
+        """(the QP prepared for p or None, the background's figures, the wall seconds waited for it)."""
         wait_start = time.perf_counter()
         qp, info = self.advanced.take(p)
         return qp, info, time.perf_counter() - wait_start
@@ -208,8 +204,10 @@ class NrtiBackend(AsrtiBackend):
         if self.buffers is None or lam_w0 is None or lam_g0 is None:
             self._taken = None  # (asrti's step takes the background plan itself)
             return super().solve(w0, p, lbw, ubw, lam_w0, lam_g0)
-        qp, info, wait = self._take(p)
-        outcome = None if qp is None else self.feedback(qp, p, lam_w0, lam_g0)
+        taken, self._taken = self._taken, None
+        tried = taken is not None and taken[0] is p  # ``prepared_feedback`` took for this very p: its feedback failed
+        qp, info, wait = taken[1:] if tried else self._take(p)
+        outcome = None if qp is None or tried else self.feedback(qp, p, lam_w0, lam_g0)
         start = None
         if outcome is None:  # no prepared QP, or it failed: one SQP iteration from the best plan there is
             start = w0 if qp is None else self.solve_plan(qp)
