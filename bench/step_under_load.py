@@ -173,7 +173,8 @@ class Timings:
 PARTS = (("state", "on_message", "handling: the state"), ("delay", "on_message", "handling: the delay clock"),
          ("gate", "observe", "handling: the estimator's samples"), ("delay", "compensate", "the clock (state's age)"),
          ("gate", "step", "the wave hand-over"), ("delay", "predict", "the prediction over the delay"),
-         ("nmpc", "solve", "the NMPC's solve"), ("nmpc._backend", "solve", "  its backend"),
+         ("nmpc", "solve", "the NMPC's solve"), ("nmpc._backend", "solve", "  its backend (a full step)"),
+         ("nmpc", "_prepared_feedback", "  its prepared feedback (nrti)"),
          ("nmpc._backend.advanced", "take", "    the background plan taken"),
          ("nmpc._backend", "feedback", "    the native feedback"), ("output", "compute", "the RC command"),
          ("nmpc", "advance", "the next preparation started"))  # (owner on CompanionStep, method, label)
