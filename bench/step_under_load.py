@@ -1,7 +1,7 @@
 """Benchmark: the companion's whole control step on a quiet computer and beside two CPU spinners, side by side.
 
 Run: OMP_NUM_THREADS=1 python bench/step_under_load.py [--duration 60] [--realtime] [--conditions NAME,...]
-     [--watch 60] [--seed 1] [--spinners 2] [--estimator process|inline] [--parts] [--no-rest]
+     [--watch 60] [--seed 1] [--spinners 2] [--estimator process|inline] [--parts] [--no-rest] [--cold]
 
 The step is `mavbridge run`'s, made of its own parts as it builds them: the state from the autopilot's
 messages (``StateEstimate``), every ATTITUDE to the wave estimator through the ``WaveGate`` (``make_wave_source``:
@@ -53,7 +53,7 @@ from mavbridge.companion.output_paths import RcOverride
 from mavbridge.companion.outputs import RcSetup
 from mavbridge.companion.state import StateEstimate
 from mavbridge.companion.wave_gate import WaveGate, make_wave_source
-from mavbridge.lab.machine import cold_line, collections_timed, load, spinners
+from mavbridge.lab.machine import cold_line, cold_table, collections_timed, load, spinners
 from mavbridge.link.connection import Link
 from mavbridge.link.streams import request_streams
 from mavbridge.preflight.rules import Context
@@ -323,7 +323,12 @@ def main() -> None:
     p.add_argument("--conditions", default=None, metavar="NAME,...",
                    help="which of quiet,spinners,realtime to run (default quiet,spinners, and realtime with "
                         "--realtime); e.g. --conditions realtime --duration 600 for the 10 minutes alone")
+    p.add_argument("--cold", action="store_true", help="only print this computer's cold factor after gaps of "
+                   "0.2 to 100 ms, asleep and spinning (mavbridge.lab.machine.cold_table), and stop")
     args = p.parse_args()
+    if args.cold:
+        print("\n".join(cold_table()))
+        return
     chosen = (args.conditions or "quiet,spinners" + (",realtime" if args.realtime else "")).split(",")
     if not set(chosen) <= {"quiet", "spinners", "realtime"}:
         p.error(f"--conditions: {args.conditions!r}: names are quiet, spinners, realtime")

@@ -80,16 +80,33 @@ def _timed_piece(values: list[float]) -> float:
     return (time.perf_counter_ns() - start) / 1e3
 
 
-def cold_factor(asleep_s: float = 0.1, times: int = 20) -> tuple[float, float]:
-    """(µs of the piece run again at once, µs after ``asleep_s`` asleep), medians over ``times`` of each (about
-    ``times`` × ``asleep_s`` seconds in all)."""
+def _spin(seconds: float) -> None:
+    """Burn this CPU for ``seconds`` (touching next to nothing: the clock)."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        pass
+
+
+def cold_factor(asleep_s: float = 0.1, times: int = 20, spin: bool = False) -> tuple[float, float]:
+    """(µs of the piece run again at once, µs after ``asleep_s`` asleep, or spinning with ``spin``), medians over
+    ``times`` of each (about ``times`` × ``asleep_s`` seconds in all)."""
     values = [0.1 * k for k in range(17)]
     hot, cold = [], []
     for _ in range(times):
-        time.sleep(asleep_s)
+        (_spin if spin else time.sleep)(asleep_s)
         cold.append(_timed_piece(values))
         hot.append(min(_timed_piece(values) for _ in range(5)))
     return float(np.median(hot)), float(np.median(cold))
+
+
+def cold_table(gaps_s: tuple[float, ...] = (0.0002, 0.001, 0.003, 0.01, 0.1)) -> list[str]:
+    """Lines: the piece's cost after each gap, asleep and spinning (is it the sleep, or the time?)."""
+    lines = [f"{'gap ms':>8} {'hot µs':>8} {'asleep µs':>10} {'spinning µs':>12}"]
+    for gap in gaps_s:
+        hot, asleep = cold_factor(gap, times=20)
+        _, spinning = cold_factor(gap, times=20, spin=True)
+        lines.append(f"{gap * 1e3:>8.1f} {hot:>8.1f} {asleep:>10.1f} {spinning:>12.1f}")
+    return lines
 
 
 def cold_line(asleep_s: float = 0.1) -> str:

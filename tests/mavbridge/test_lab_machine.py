@@ -8,7 +8,7 @@ import math
 import os
 import time
 
-from mavbridge.lab.machine import cold_factor, cold_line, collections_timed, spinners
+from mavbridge.lab.machine import cold_factor, cold_line, cold_table, collections_timed, spinners
 
 
 def _cpu_s_of_children() -> float:
@@ -39,3 +39,11 @@ def test_the_cold_factor_measures_both_costs() -> None:
     assert math.isfinite(hot) and math.isfinite(cold) and hot > 0.0 and cold > 0.0
     line = cold_line(asleep_s=0.002)
     assert line.startswith("this computer: ") and "ms asleep" in line and "× hot" in line
+
+
+def test_the_cold_table_has_a_row_of_three_costs_per_gap() -> None:
+    lines = cold_table((0.0002, 0.001))
+    assert len(lines) == 3 and lines[0].split()[0] == "gap"
+    for line, gap_ms in zip(lines[1:], (0.2, 1.0), strict=True):
+        values = [float(v) for v in line.split()]
+        assert values[0] == gap_ms and all(math.isfinite(v) and v > 0.0 for v in values[1:])
