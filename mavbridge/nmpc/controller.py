@@ -122,6 +122,24 @@ def shift_duals(layout: Layout, lam_w: np.ndarray | None,
     return layout.shift(lam_w), np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
 
 
+def shift_duals_by(layout: Layout, lam_w: np.ndarray | None, lam_g: np.ndarray | None,
+                   stages: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``shift_duals`` made ``stages`` times, at once (bit for bit): stage i takes stage i + stages, the last ones
+    repeated; the initial-state block takes the negated gap that the last of those shifts moved into it."""
+    if lam_w is None or lam_g is None:
+        return None, None
+    if stages <= 0:
+        return lam_w, lam_g
+    P, m = layout.horizon, NX + NU
+    X = np.concatenate([lam_w[:P * m].reshape(P, m)[:, :NX], lam_w[P * m:].reshape(1, NX)])
+    U = lam_w[:P * m].reshape(P, m)[:, NX:]
+    ahead = np.arange(P + 1) + stages
+    X, U = X[np.minimum(ahead, P)], U[np.minimum(ahead[:P], P - 1)]
+    gaps = lam_g[NX:].reshape(P, NX)
+    return (np.concatenate([np.hstack([X[:P], U]).ravel(), X[P]]),
+            np.concatenate([-gaps[min(stages - 1, P - 1)], gaps[np.minimum(ahead[:P], P - 1)].ravel()]))
+
+
 class RollAwareNmpc(SeaInputs, BackendLifetime):
     """The paper's roll-aware NMPC for the Otter; ``solve`` once per control period.
 
@@ -230,10 +248,9 @@ class RollAwareNmpc(SeaInputs, BackendLifetime):
         return guess, lam_w, lam_g
 
     def _stored_duals(self) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """The stored multipliers with the shifts the prepared feedback's steps left to be made (``_feedback_only``).
-        After horizon + 1 shifts they no longer change (every stage is the last one's): at most that many are made."""
-        for _ in range(min(self._dual_shifts, self.layout.horizon + 1)):
-            self._lam_w, self._lam_g = shift_duals(self.layout, self._lam_w, self._lam_g)
+        """The stored multipliers with the shifts the prepared feedback's steps left to be made (``_feedback_only``),
+        made at once: a step after a long run of them costs no more than one shift."""
+        self._lam_w, self._lam_g = shift_duals_by(self.layout, self._lam_w, self._lam_g, self._dual_shifts)
         self._dual_shifts = 0
         return self._lam_w, self._lam_g
 

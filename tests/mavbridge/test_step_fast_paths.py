@@ -16,7 +16,7 @@ from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.companion.state import imu_specific_force
 from mavbridge.companion.wave_gate import WaveGate
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc, compile_native_function
-from mavbridge.nmpc.controller import shift_duals
+from mavbridge.nmpc.controller import shift_duals, shift_duals_by
 from mavbridge.nmpc.layout import Layout
 from mavbridge.nmpc.sea_spread import slope_factor
 from mavbridge.nmpc.solvers.codegen import compiler
@@ -187,9 +187,9 @@ def _nrti_run(feedback_only: bool, deadline_s: float | None = None) -> tuple[lis
     """((τ, plan, status, fallback, the stored multipliers at steps 6 and 15) of 16 paced-like nrti steps, how many
     took the feedback-only step, the native feedback's calls), with or without it (``RollAwareNmpc._feedback_only``):
     steps 7 and 12 without a prepared QP (its job dropped: an SQP step from the warm start), step 10 with the native
-    feedback failing on its QP (an SQP step from the prepared plan). Steps 1-6 leave six shifts to be made (more
-    than the horizon + 1 ``_stored_duals`` makes) of multipliers not yet shifted to their end (nrti passes them on:
-    after as many shifts as the horizon they no longer change)."""
+    feedback failing on its QP (an SQP step from the prepared plan). Steps 1-6 leave six shifts to be made at once
+    (more than the horizon) of multipliers not yet shifted to their end (nrti passes them on: after as many shifts
+    as the horizon they no longer change)."""
     sea = RegularWaves(1.75, 35.0, 6.0, -math.pi / 2, phase_rad=0.3)
     out, fast, calls = [], [0], [0]
     with RollAwareNmpc(NmpcConfig(horizon=4, solver="nrti"), otter_parameters(), sea) as nmpc:
@@ -244,14 +244,18 @@ def test_the_feedback_only_step_plans_as_the_full_one(deadline_s: float | None) 
     assert all(late is not None for *_, late, _ in fast) == (deadline_s is not None)
 
 
-def test_the_multipliers_stop_changing_after_horizon_and_one_shifts() -> None:
-    """Why ``_stored_duals`` makes at most horizon + 1 of the shifts left to it (a long run of feedback-only steps)."""
-    nmpc_layout = Layout(6)
+def test_shifting_the_multipliers_k_stages_at_once_is_shifting_them_k_times() -> None:
+    """``_stored_duals`` makes the shifts left to it in one go (``shift_duals_by``): the same numbers, bit for bit,
+    for any count, beyond the horizon too (where they no longer change)."""
+    layout = Layout(6)
     rng = np.random.default_rng(3)
-    lam_w, lam_g = rng.normal(size=nmpc_layout.n_w), rng.normal(size=12 * 7)
-    shifted = [(lam_w, lam_g)]
-    for _ in range(6 + 5):
-        shifted.append(shift_duals(nmpc_layout, *shifted[-1]))
-    assert not np.array_equal(shifted[6][1], shifted[5][1])  # still moving before
-    for later in shifted[7:]:
-        assert all(np.array_equal(a, b) for a, b in zip(later, shifted[7], strict=True))
+    lam_w, lam_g = rng.normal(size=layout.n_w), rng.normal(size=12 * 7)
+    stepwise = [(lam_w, lam_g)]
+    for _ in range(6 + 4):
+        stepwise.append(shift_duals(layout, *stepwise[-1]))
+    for k, (want_w, want_g) in enumerate(stepwise):
+        got_w, got_g = shift_duals_by(layout, lam_w, lam_g, k)
+        assert np.array_equal(got_w, want_w) and np.array_equal(got_g, want_g), k
+    assert not np.array_equal(stepwise[6][1], stepwise[5][1])  # still moving at the horizon ...
+    assert all(np.array_equal(stepwise[7][1], later[1]) for later in stepwise[8:])  # ... and then no longer
+    assert shift_duals_by(layout, None, lam_g, 3) == (None, None) == shift_duals(layout, None, lam_g)
