@@ -4,9 +4,9 @@
 * ``load``: the 1-minute load average, printed before and after;
 * ``collections_timed``: every pass of the garbage collector while inside (is it in the step's tail?);
 * ``cold_factor``: how much dearer the same small piece of Python is after the process has slept a control period
-  than run again at once. A paced step runs once every 100 ms; on a computer whose caches (and branch predictors,
-  and a virtual machine's translations) have been taken by others meanwhile, every part of it costs several times
-  its hot cost. The factor says how a step's figures on one computer compare with another's.
+  than at its fastest run again at once. A paced step runs once every 100 ms; on a computer whose caches (and
+  branch predictors, and a virtual machine's translations) are taken by others meanwhile, every part of it costs
+  several times its hot cost. Measured on two computers, the factors say how their step figures compare.
 """
 
 from __future__ import annotations
@@ -88,8 +88,8 @@ def _spin(seconds: float) -> None:
 
 
 def cold_factor(asleep_s: float = 0.1, times: int = 20, spin: bool = False) -> tuple[float, float]:
-    """(µs of the piece run again at once, µs after ``asleep_s`` asleep, or spinning with ``spin``), medians over
-    ``times`` of each (about ``times`` × ``asleep_s`` seconds in all)."""
+    """(µs of the piece at its fastest run again at once (of five), µs after ``asleep_s`` asleep, or spinning with
+    ``spin``), medians over ``times`` of each (about ``times`` × ``asleep_s`` seconds in all)."""
     values = [0.1 * k for k in range(17)]
     hot, cold = [], []
     for _ in range(times):
@@ -112,5 +112,5 @@ def cold_table(gaps_s: tuple[float, ...] = (0.0002, 0.001, 0.003, 0.01, 0.1)) ->
 def cold_line(asleep_s: float = 0.1) -> str:
     """One line: the piece's cost hot and after a control period asleep, and their ratio."""
     hot, cold = cold_factor(asleep_s)
-    return (f"this computer: a piece of a step's Python costs {hot:.1f} µs run again at once, {cold:.1f} µs after "
+    return (f"this computer: a piece of a step's Python costs {hot:.1f} µs at its fastest, {cold:.1f} µs after "
             f"{asleep_s * 1e3:.0f} ms asleep ({cold / hot:.1f}× hot)")

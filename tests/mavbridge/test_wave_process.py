@@ -303,6 +303,7 @@ def test_a_step_after_a_spell_without_questions_gets_the_last_batchs_answers() -
         while not (source._kept and source._kept[-1][0] >= last_batch - BATCH):  # the one before it read, and
             assert source._ready(SYNC_S, write=False)  # ... (answers come in order) only that one:
             source._take_waiting(until=last_batch - BATCH)
+        assert source._kept[-1][0] < last_batch  # (not read yet: observe's read came before them)
         assert source._ready(SYNC_S, write=False)  # the last batch's answers wait, unread
         got = source.answers()
         assert got.samples == last_batch, got.samples
@@ -319,7 +320,7 @@ def test_samples_held_while_paced_go_first_when_it_waits_again() -> None:
         for sample in samples[:3]:
             source.observe(sample)  # held
         source.wait_s = SYNC_S  # (lockstep from here: every answer waited for)
-        source.observe(samples[3])  # the three held go first, as one message; this one alone, answered as itself
+        source.observe(samples[3])  # the three held go first; this one alone, answered as itself
         assert source.answers().samples == 3 and not any(source.faults.values()), source.faults
         source.observe(samples[4])
         assert source.answers().samples == 4 and not any(source.faults.values()), source.faults
