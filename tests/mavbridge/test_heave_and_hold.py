@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from mavbridge.companion.flight import build_nmpc
 from mavbridge.companion.wave_gate import WaveGate
 from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc.model_state import on_mean_surface, resolve_heave_feedback
-from mavbridge.waves.source import ScenarioTruth, WaveEstimate
+from mavbridge.waves.source import MotionSample, ScenarioTruth, WaveEstimate
 from mavbridge.waves.steadiness import SolutionSteadiness
 from tests.mavbridge.wave_sources import ToldSource
 from vessel import CalmWater
@@ -134,3 +135,29 @@ def test_steadiness_after_a_gap_or_a_nan_is_earned_again() -> None:
         steady.update(50.0 + i * 0.1, 1.05, 0.0)
     assert steady.update(90.0, math.nan, 0.0) == 0.0
     assert math.isfinite(steady.update(90.1, 1.05, 0.0)) and steady.value < 0.5
+
+
+class _SlowToObserve(ToldSource):
+    """A source whose every sample costs a known wall time (at least ``observe_s``)."""
+
+    observe_s: float = 0.005
+
+    def observe(self, sample: MotionSample) -> None:
+        time.sleep(self.observe_s)
+
+
+def test_the_samples_of_a_spell_without_steps_are_no_steps_cost(scenario: Scenario) -> None:
+    """The gate counts the samples' cost since the last step in the next step's (metrics.json's estimator_ms); after a
+    spell without steps (the pilot had the boat) that spell's samples are not one step's cost."""
+    gate = WaveGate(_SlowToObserve(None), lambda line: None)
+    sample = MotionSample(0.0, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+    with build_nmpc(scenario, ScenarioTruth(CalmWater())) as nmpc:
+        gate.step(nmpc, 10.0)
+        for _ in range(2):  # a period's two samples
+            gate.observe(sample)
+        gate.step(nmpc, 10.1)
+        assert gate.cost_ms[-1] >= 2 * 5.0  # (each slept at least 5 ms)
+        for _ in range(100):  # 5 s with the pilot: 0.5 s of samples' cost at least
+            gate.observe(sample)
+        gate.step(nmpc, 15.1)
+        assert gate.cost_ms[-1] < 250.0, gate.cost_ms
