@@ -39,6 +39,13 @@ def child() -> Iterator[EstimatorProcess]:
     source.close()
 
 
+@pytest.fixture
+def paced() -> Iterator[EstimatorProcess]:
+    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)  # paced: it never waits
+    yield source
+    source.close()
+
+
 def test_its_answers_are_the_estimators_own_one_sample_behind(child: EstimatorProcess) -> None:
     inline = WindowEstimator()
     confident = 0
@@ -236,93 +243,82 @@ def test_paced_answers_as_of_the_last_steps_samples_are_in_time() -> None:
         source.close()
 
 
-def test_paced_samples_go_to_the_child_together_when_a_step_asks() -> None:
+def test_paced_samples_go_to_the_child_together_when_a_step_asks(paced: EstimatorProcess) -> None:
     """Paced, a period's samples are held and sent as one message when the step asks (a socket call costs the step
     tens of microseconds paced); the child answers once, after the last, and those answers are the estimator's own
     as of the previous step's samples."""
-    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)
+    source = paced
     inline, confident = WindowEstimator(), 0
-    try:
-        samples = _samples(40.0)
-        for i, sample in enumerate(samples):
-            source.observe(sample)
-            if i % 2 == 0:
-                assert len(source._held) == 1 and source._sent == i  # held, not sent
-                continue
-            got = source.estimate(sample.t_s)  # the step: both samples go now; answers as of the last step's
-            assert source._held == [] and source._sent == i + 1
-            asked = source.answers().samples
-            assert asked == max(i - 1, 0) or (i == 1 and asked == 0), (i, asked)
-            want = inline.estimate(samples[i - 2].t_s) if i > 1 else None
-            assert got == want, (i, got, want)
-            confident += got is not None
-            inline.observe(samples[i - 1])
-            inline.observe(sample)
-            assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # in order: this batch is answered
-        source._take_waiting()
-        assert [count for count, _ in source._kept] == [len(samples)]  # one answer a batch: none as of an odd count
-        assert confident > 50, confident
-        assert source.faults == {"late": 1, "stale": 0, "stopped": 0, "dropped": 0}  # (the first step: none yet)
-    finally:
-        source.close()
+    samples = _samples(40.0)
+    for i, sample in enumerate(samples):
+        source.observe(sample)
+        if i % 2 == 0:
+            assert len(source._held) == 1 and source._sent == i  # held, not sent
+            continue
+        got = source.estimate(sample.t_s)  # the step: both samples go now; answers as of the last step's
+        assert source._held == [] and source._sent == i + 1
+        asked = source.answers().samples
+        assert asked == max(i - 1, 0) or (i == 1 and asked == 0), (i, asked)
+        want = inline.estimate(samples[i - 2].t_s) if i > 1 else None
+        assert got == want, (i, got, want)
+        confident += got is not None
+        inline.observe(samples[i - 1])
+        inline.observe(sample)
+        assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # in order: this batch is answered
+    source._take_waiting()
+    assert [count for count, _ in source._kept] == [len(samples)]  # one answer a batch: none as of an odd count
+    assert confident > 50, confident
+    assert source.faults == {"late": 1, "stale": 0, "stopped": 0, "dropped": 0}  # (the first step: none yet)
 
 
-def test_paced_samples_nobody_asks_for_go_in_batches_and_their_answers_are_read() -> None:
-    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)
-    try:
-        samples = _samples(30.0)
-        for sample in samples[:BATCH * 3 + 5]:
-            source.observe(sample)
-        assert source._sent == BATCH * 3 and len(source._held) == 5
-        assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # (a call sends the held samples first)
-        assert source._sent == BATCH * 3 + 5 and source._held == []
-        source._take_waiting()
-        assert len(source._kept) <= 2 and source._kept[-1][0] == BATCH * 3 + 5
-        assert not any(source.faults.values()), source.faults
-    finally:
-        source.close()
+def test_paced_samples_nobody_asks_for_go_in_batches_and_their_answers_are_read(paced: EstimatorProcess) -> None:
+    source = paced
+    samples = _samples(30.0)
+    for sample in samples[:BATCH * 3 + 5]:
+        source.observe(sample)
+    assert source._sent == BATCH * 3 and len(source._held) == 5
+    assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # (a call sends the held samples first)
+    assert source._sent == BATCH * 3 + 5 and source._held == []
+    source._take_waiting()
+    assert len(source._kept) <= 2 and source._kept[-1][0] == BATCH * 3 + 5
+    assert not any(source.faults.values()), source.faults
 
 
-def test_a_step_after_a_spell_without_questions_gets_the_last_batchs_answers() -> None:
+def test_a_step_after_a_spell_without_questions_gets_the_last_batchs_answers(paced: EstimatorProcess) -> None:
     """While the pilot has the boat nobody asks; the samples go in batches of BATCH. The first step after that must
     read on to the answers as of the last batch sent, not stop at an older one (it would be over a second old:
     stale, and no roll term on the step that engages)."""
     lines: list[str] = []
-    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0, log=lines.append)
-    try:
-        samples = _samples(40.0)
-        for i, sample in enumerate(samples[:40]):  # steps asking every other sample
-            source.observe(sample)
-            if i % 2:
-                source.answers()
-                assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid
-        for sample in samples[40:40 + BATCH * 12 + 10]:  # then nobody asks: 12 batches sent, 10 samples held
-            source.observe(sample)
-        last_batch = 40 + BATCH * 12
-        assert source._sent == last_batch and len(source._held) == 10
-        while not (source._kept and source._kept[-1][0] >= last_batch - BATCH):  # the one before it read, and
-            assert source._ready(SYNC_S, write=False)  # ... (answers come in order) only that one:
-            source._take_waiting(until=last_batch - BATCH)
-        assert source._kept[-1][0] < last_batch  # (not read yet: observe's read came before them)
-        assert source._ready(SYNC_S, write=False)  # the last batch's answers wait, unread
-        got = source.answers()
-        assert got.samples == last_batch, got.samples
-        assert source.faults == {"late": 1, "stale": 0, "stopped": 0, "dropped": 0}, source.faults  # (1: the first)
-        assert lines == []
-    finally:
-        source.close()
+    source = paced
+    source.use_log(lines.append)
+    samples = _samples(40.0)
+    for i, sample in enumerate(samples[:40]):  # steps asking every other sample
+        source.observe(sample)
+        if i % 2:
+            source.answers()
+            assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid
+    for sample in samples[40:40 + BATCH * 12 + 10]:  # then nobody asks: 12 batches sent, 10 samples held
+        source.observe(sample)
+    last_batch = 40 + BATCH * 12
+    assert source._sent == last_batch and len(source._held) == 10
+    while not (source._kept and source._kept[-1][0] >= last_batch - BATCH):  # the one before it read, and
+        assert source._ready(SYNC_S, write=False)  # ... (answers come in order) only that one:
+        source._take_waiting(until=last_batch - BATCH)
+    assert source._kept[-1][0] < last_batch  # (not read yet: observe's read came before them)
+    assert source._ready(SYNC_S, write=False)  # the last batch's answers wait, unread
+    got = source.answers()
+    assert got.samples == last_batch, got.samples
+    assert source.faults == {"late": 1, "stale": 0, "stopped": 0, "dropped": 0}, source.faults  # (1: the first)
+    assert lines == []
 
 
-def test_samples_held_while_paced_go_first_when_it_waits_again() -> None:
-    source = EstimatorProcess(EstimatorSettings(), wait_s=0.0)
-    try:
-        samples = _samples(5.0)
-        for sample in samples[:3]:
-            source.observe(sample)  # held
-        source.wait_s = SYNC_S  # (lockstep from here: every answer waited for)
-        source.observe(samples[3])  # the three held go first; this one alone, answered as itself
-        assert source.answers().samples == 3 and not any(source.faults.values()), source.faults
-        source.observe(samples[4])
-        assert source.answers().samples == 4 and not any(source.faults.values()), source.faults
-    finally:
-        source.close()
+def test_samples_held_while_paced_go_first_when_it_waits_again(paced: EstimatorProcess) -> None:
+    source = paced
+    samples = _samples(5.0)
+    for sample in samples[:3]:
+        source.observe(sample)  # held
+    source.wait_s = SYNC_S  # (lockstep from here: every answer waited for)
+    source.observe(samples[3])  # the three held go first; this one alone, answered as itself
+    assert source.answers().samples == 3 and not any(source.faults.values()), source.faults
+    source.observe(samples[4])
+    assert source.answers().samples == 4 and not any(source.faults.values()), source.faults
