@@ -116,10 +116,7 @@ def rollout(step: Any, layout: Layout, x0: np.ndarray, t: float, u: np.ndarray, 
 def shift_duals(layout: Layout, lam_w: np.ndarray | None,
                 lam_g: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The multipliers of a plan shifted by one stage (None when there are none)."""
-    if lam_w is None or lam_g is None:
-        return None, None
-    gaps = lam_g[NX:].reshape(layout.horizon, NX)
-    return layout.shift(lam_w), np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
+    return shift_duals_by(layout, lam_w, lam_g, 1)
 
 
 def shift_duals_by(layout: Layout, lam_w: np.ndarray | None, lam_g: np.ndarray | None,

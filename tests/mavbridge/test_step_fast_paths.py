@@ -250,6 +250,10 @@ def test_shifting_the_multipliers_k_stages_at_once_is_shifting_them_k_times() ->
     layout = Layout(6)
     rng = np.random.default_rng(3)
     lam_w, lam_g = rng.normal(size=layout.n_w), rng.normal(size=12 * 7)
+    gaps = lam_g[12:].reshape(6, 12)  # one shift by hand: stage k takes stage k + 1, the last repeated
+    once_g = np.concatenate([-gaps[0], gaps[1:].ravel(), gaps[-1]])
+    assert np.array_equal(shift_duals(layout, lam_w, lam_g)[1], once_g)
+    assert np.array_equal(shift_duals(layout, lam_w, lam_g)[0], layout.shift(lam_w))
     stepwise = [(lam_w, lam_g)]
     for _ in range(6 + 4):
         stepwise.append(shift_duals(layout, *stepwise[-1]))
