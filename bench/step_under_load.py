@@ -18,7 +18,8 @@ waited for), then the cold solve, then ``--duration`` paced seconds (the estimat
 
 A step's time is its control step plus the message handling since the previous one (the companion's whole work
 per period). "command" is the control step until the command is ready to send: as in the run, the next period's
-preparation (nrti's background job) is started after it (``solve(defer_advance=True)``, then ``advance()``).
+preparation (nrti's background job) is started after it (``solve(defer_advance=True)``, then ``advance()``),
+and the period's samples go to the estimator's process after it too (``WaveGate.command_sent``).
 Missed ticks: ticks the loop reached a period or more late (skipped, as the companion skips them), the ticks the
 recording has no ATTITUDE for apart ("gaps"). Conditions, each on fresh parts: quiet; two spinners (``while True:
 pass``) beside it; with ``--realtime`` also the spinners with the bench under ``mavbridge.cli.realtime``
@@ -149,6 +150,7 @@ class CompanionStep:
         self.delay.sent(plan_s, result.tau)
         self.output.compute(result, now_ms)
         command_ready = time.perf_counter()
+        self.gate.command_sent()
         self.nmpc.advance()
         self.solve_ms.append(result.wall_time_s * 1e3)
         self.roll_term += bool(getattr(result, "roll_term_active", False))
@@ -177,6 +179,7 @@ PARTS = (("state", "on_message", "handling: the state"), ("delay", "on_message",
          ("nmpc", "_prepared_feedback", "  its prepared feedback (nrti)"),
          ("nmpc._backend.advanced", "take", "    the background plan taken"),
          ("nmpc._backend", "feedback", "    the native feedback"), ("output", "compute", "the RC command"),
+         ("gate", "command_sent", "the samples sent after the command"),
          ("nmpc", "advance", "the next preparation started"))  # (owner on CompanionStep, method, label)
 
 

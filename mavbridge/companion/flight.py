@@ -266,6 +266,7 @@ class Companion:
         self.delay.sent(plan_s, result.tau)
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
+        self.gate.command_sent()  # the period's samples to the estimator's process, once the command is out
         self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
         if columns is None:  # not finite: neutral was sent instead
             if result.success:  # a failed solve is counted by the recorder already

@@ -124,6 +124,15 @@ class WaveGate:
             self.last = shown
         return shown.row() if shown is not None else {}
 
+    def command_sent(self) -> None:
+        """The step's command is out: the samples the source holds go to it now (an estimator in a process of its own
+        holds a period's, paced), off the command's path; their cost counts in the next step's."""
+        flush = getattr(self.source, "flush", None)
+        if flush is not None:
+            start = time.perf_counter()
+            flush()
+            self._observe_s += time.perf_counter() - start
+
     def _field(self, est: WaveEstimate | None) -> Any:
         """The estimate as the NMPC's wave field; None (no roll term) when there is none or it is outside the
         wave model's ranges (e.g. a breaking steepness), said once per run."""

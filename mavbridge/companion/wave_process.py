@@ -5,16 +5,17 @@ every 0.09 s of samples) were the larger part of the step's time and most of its
 a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter: ``python -m`` this module), on
 a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at all). Unpaced, ``observe`` sends the
 sample as one message (``pack_sample``); paced, it holds it, and the samples go together (``flush``: one message,
-b"B", never waited for) when a step asks, or every BATCH: a socket call costs a paced step tens of microseconds. The
-child takes them in order and answers after each message (``encode_answers``): the estimate, the latest fit and
-both slope spreads. Between
-samples the child works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome
-still takes effect at its due sample time, so the answers are the estimator's whenever the child found the time.
+b"B", never waited for) once a step's command is out (the ``WaveGate``'s ``command_sent``), or every BATCH: a socket
+call costs a paced step tens of microseconds, and the command need not wait for it. The child takes them in order
+and answers after each message (``encode_answers``): the estimate, the latest fit and both slope spreads. Between
+samples it works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome still takes
+effect at its due sample time, so the answers are the estimator's whenever the child found the time.
 
-A step asks (``answers``) once for the answers as of every sample but the newest (its own ATTITUDE, sent just
-before: waiting for the child to take it would put that wake-up back into the step). Paced, answers as of the
-previous step's samples are in time: the loop reads a period's messages together (``DelayCompensator.pause_s``),
-and they go to the child together when the step asks; the step reads answers only until those have come.
+A step asks (``answers``) once for the answers as of every sample but the newest (its own ATTITUDE: waiting for
+the child to take it would put that wake-up back into the step). Paced, answers as of the previous step's samples
+are in time: the loop reads a period's messages together (``DelayCompensator.pause_s``), they go to the child
+together after the step's command, and the next step reads answers only until those have come (a step whose
+samples were not sent after its command has them sent at the next question: a ``late`` fault).
 
 How long the companion waits for the child (``wait_s``): paced (`mavbridge run` without ``--lockstep``) never,
 so a step never waits for another process (and which answers it gets can then depend on timing); in lockstep
@@ -46,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.companion.notices import EstimatorFaults
 from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.source import (
     COUNT,
@@ -67,9 +69,6 @@ STALE_S = 1.0  # answers older than the newest sample by at most this (autopilot
 DRAIN_EVERY = 16  # samples: between steps' questions, answers are read this often (the socket holds hundreds)
 BATCH = 16  # paced: samples held at most (steps ask every 2; nobody, once the sea is known before engaging)
 CLOSE_WAIT_S = 2.0  # close: how long the child may take to end before it is killed
-SAY_EVERY_S = 60.0  # a fault that keeps happening is said again at most this often (wall clock)
-FAULTS = ("late", "stale", "stopped", "dropped")
-SAID = ("stale", "stopped", "dropped")  # the faults said in the run log (``late`` is only counted)
 
 
 def _exit(code: int | None) -> str:
@@ -144,33 +143,24 @@ def serve(sock: socket.socket) -> None:
 
 
 @dataclass
-class Faults:
-    """The estimator process's faults, counted; those of SAID said when they start and again at most once every
-    SAY_EVERY_S while they go on (wall clock), and after a stale spell that answers come again."""
+class HeldSamples:
+    """Paced: the samples packed and not sent yet; they go together (``EstimatorProcess.flush``)."""
 
-    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(FAULTS, 0))
-    _said_at: dict[str, float] = field(default_factory=dict)  # when each fault was last said (wall)
-    _stale_said: bool = False  # a stale spell was said: say when answers come again
+    packed: list[bytes] = field(default_factory=list)
+    newest_t: float = -math.inf  # the newest finite time among them (autopilot s)
+    asked: bool = False  # a step asked while they were held (they go once its command is out)
 
-    def count(self, kind: str, say: Callable[[str], None], exit_text: Callable[[], str], times: int = 1) -> None:
-        """``times`` faults of ``kind``; said through ``say`` if due (``exit_text``: the child's exit code, if it ended,
-        asked only then)."""
-        self.counts[kind] += times
-        now = time.monotonic()
-        if kind not in SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
-            return
-        self._said_at[kind] = now
-        self._stale_said |= kind == "stale"
-        what = {"stale": f"has not answered for over {STALE_S:g} s of autopilot time: no new estimate",
-                "stopped": f"stopped{exit_text()}: no new estimate for the rest of the run",
-                "dropped": "had no room for a sample: dropped"}[kind]
-        say(f"{what} ({self.counts[kind]} so far)")
+    def add(self, sample: MotionSample) -> None:
+        """One more, packed."""
+        self.packed.append(pack_sample(sample))
+        if math.isfinite(sample.t_s):
+            self.newest_t = sample.t_s
 
-    def recovered(self, say: Callable[[str], None]) -> None:
-        """Answers came in time: said once after a stale spell was said."""
-        if self._stale_said:
-            self._stale_said = False
-            say("answers again")
+    def take(self) -> tuple[list[bytes], float]:
+        """(the samples packed, the newest finite time among them), none held from now."""
+        taken = self.packed, self.newest_t
+        self.packed, self.newest_t, self.asked = [], -math.inf, False
+        return taken
 
 
 @dataclass
@@ -181,13 +171,12 @@ class EstimatorProcess:
     wait_s: float = WAIT_S  # 0: paced, never wait (see the module docstring)
     log: Callable[[str], None] = print
     name: str = "estimated"
-    _faults: Faults = field(init=False, default_factory=lambda: Faults())
+    _faults: EstimatorFaults = field(init=False, default_factory=lambda: EstimatorFaults(STALE_S))
     _answers: Answers = field(init=False, default=NO_ANSWERS)
     _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=lambda: deque(maxlen=2))  # (count, answers)
     _sent: int = field(init=False, default=0)  # samples sent
     _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
-    _held: list[bytes] = field(init=False, default_factory=list)  # paced: samples packed, not sent yet (``flush``)
-    _held_t: float = field(init=False, default=-math.inf)  # the newest finite time among them (autopilot s)
+    _held: HeldSamples = field(init=False, default_factory=lambda: HeldSamples())  # paced: not sent yet (``flush``)
     _stopped: bool = field(init=False, default=False)
     _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
     _floor: int = field(init=False, default=0)  # samples sent when the last step asked: answered by now, or late
@@ -196,28 +185,22 @@ class EstimatorProcess:
 
     def __post_init__(self) -> None:
         self._sock, self._child, self.name = start_child(self.settings)
+        self.pid = self._child.pid  # the child's process id
         self._poll = select.poll()
         self._poll.register(self._sock, select.POLLIN)
 
     @property
     def faults(self) -> dict[str, int]:
-        """Each fault's count (FAULTS)."""
+        """Each fault's count (``notices.ESTIMATOR_FAULTS``)."""
         return self._faults.counts
-
-    @property
-    def pid(self) -> int:
-        """The child's process id."""
-        return self._child.pid
 
     def observe(self, sample: MotionSample) -> None:
         """One motion sample to the estimator: paced (``wait_s`` 0) held for the next ``flush``, else sent now after
         any held ones (dropped, and said, if the child has no room for it in time)."""
-        if self.wait_s > 0.0 and self._held:
+        if self.wait_s > 0.0 and self._held.packed:
             self.flush()  # (held while paced: sent first, and the new one alone, so that it is answered as itself)
-        self._held.append(pack_sample(sample))
-        if math.isfinite(sample.t_s):
-            self._held_t = sample.t_s
-        if self.wait_s <= 0.0 and len(self._held) < BATCH:
+        self._held.add(sample)
+        if self.wait_s <= 0.0 and len(self._held.packed) < BATCH:
             return
         self.flush()
         if self.wait_s <= 0.0 or self._sent % DRAIN_EVERY == 0:  # answers read now and then between steps' questions
@@ -225,12 +208,11 @@ class EstimatorProcess:
 
     def flush(self) -> None:
         """Send the samples held as one message (dropped, and said, if the child has no room for it in time)."""
-        if not self._held:
-            return
-        held, self._held, held_t, self._held_t = self._held, [], self._held_t, -math.inf
-        if self._send(held[0] if len(held) == 1 else batched(held), "dropped", len(held)):
-            self._sent += len(held)
-            self._sent_t = held_t if math.isfinite(held_t) else self._sent_t
+        if self._held.packed:
+            held, held_t = self._held.take()
+            if self._send(held[0] if len(held) == 1 else batched(held), "dropped", len(held)):
+                self._sent += len(held)
+                self._sent_t = held_t if math.isfinite(held_t) else self._sent_t
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The wave to plan against (None while not confident, or without answers); see ``answers``."""
@@ -288,13 +270,20 @@ class EstimatorProcess:
 
     def answers(self) -> Answers:
         """The answers as of every sample but the newest, waited for ``wait_s`` at most (see the module docstring);
-        the same to every question of a step. Paced, read only until those as of the samples sent before it came."""
-        before = self._sent  # (the last step's samples, or after a spell without questions, the last batch's)
-        self.flush()
-        wanted = max(self._sent - 1, 0)
+        the same to every question of a step. Paced, read only until those as of the samples sent before it came;
+        the step's own samples stay held until its command is out (``flush``)."""
+        wanted = max(self._sent + len(self._held.packed) - 1, 0)  # (counting the held: they go before the next step)
         if self._chosen[0] == wanted:
             return self._chosen[1]
-        floor, self._floor = min(self._floor, wanted), self._sent
+        before = self._sent  # (the last step's samples, or after a spell without questions, the last batch's)
+        if self._held.asked:  # the last step's samples did not go after its command: they go now, a period late
+            self._floor = min(self._floor, before)  # (answers as of what that step had sent are the ones due now)
+            self._fault("late")
+            self.flush()
+        if self.wait_s > 0.0:
+            self.flush()  # (samples held while paced: waited for now, with the rest)
+        floor, self._floor = min(self._floor, wanted), self._sent + len(self._held.packed)
+        self._held.asked = bool(self._held.packed)
         deadline = time.perf_counter() + self.wait_s
         while not self._stopped:
             self._take_waiting(until=wanted if self.wait_s > 0.0 else max(floor, before))
@@ -305,7 +294,7 @@ class EstimatorProcess:
                 break
         if self._stopped:
             return self._choose(wanted, NO_ANSWERS)
-        age = self._sent_t - self._answers.t_s
+        age = max(self._sent_t, self._held.newest_t) - self._answers.t_s  # (as of the newest sample, sent or held)
         if self._answers is not NO_ANSWERS and self._answers.samples >= floor and 0.0 <= age <= STALE_S:
             return self._choose(wanted, self._answers, recovered=True)  # as of the last step's samples: in time
         fresh = 0.0 <= age <= STALE_S or self._answers is NO_ANSWERS  # (nothing yet: late, not stale)
@@ -384,7 +373,7 @@ class EstimatorProcess:
                 self._fault("stopped")
 
     def _fault(self, kind: str, times: int = 1) -> None:
-        """Count a fault, and say it as ``Faults`` does."""
+        """Count a fault, and say it as ``EstimatorFaults`` does."""
         self._faults.count(kind, self._say, lambda: _exit(self._child.poll()), times)
 
     def _say(self, text: str) -> None:

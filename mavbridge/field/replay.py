@@ -114,6 +114,7 @@ class Flight:
             self.nmpc.prepare(x, t, target)
             self.prepared = True
         result = self.nmpc.solve(x, t, target)
+        self.gate.command_sent()  # (as the companion, once its command is out)
         self.solve_ms.append(result.wall_time_s * 1e3)
         self.rows.append(self._row(t, x, result, wave))
 

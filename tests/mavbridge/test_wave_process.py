@@ -234,6 +234,7 @@ def test_paced_answers_as_of_the_last_steps_samples_are_in_time() -> None:
             source.observe(samples[40])  # a period's two samples, read together before the step
             source.observe(samples[41])
             assert source.answers().samples == 40 and not any(source.faults.values()), source.faults
+            source.flush()  # (the step's command is out: its samples go)
             source.observe(samples[42])
             source.observe(samples[43])
             assert source.answers().samples == 40 and source.faults["late"] == 1, source.faults  # not as of 42
@@ -243,20 +244,22 @@ def test_paced_answers_as_of_the_last_steps_samples_are_in_time() -> None:
         source.close()
 
 
-def test_paced_samples_go_to_the_child_together_when_a_step_asks(paced: EstimatorProcess) -> None:
-    """Paced, a period's samples are held and sent as one message when the step asks (a socket call costs the step
-    tens of microseconds paced); the child answers once, after the last, and those answers are the estimator's own
-    as of the previous step's samples."""
+def test_paced_samples_go_to_the_child_together_after_the_steps_command(paced: EstimatorProcess) -> None:
+    """Paced, a period's samples are held and sent as one message once the step's command is out (``flush``: a
+    socket call costs a paced step tens of microseconds, and the command need not wait for it); the child answers
+    once, after the last, and those answers are the estimator's own as of the previous step's samples."""
     source = paced
     inline, confident = WindowEstimator(), 0
     samples = _samples(40.0)
     for i, sample in enumerate(samples):
         source.observe(sample)
         if i % 2 == 0:
-            assert len(source._held) == 1 and source._sent == i  # held, not sent
+            assert len(source._held.packed) == 1 and source._sent == i  # held, not sent
             continue
-        got = source.estimate(sample.t_s)  # the step: both samples go now; answers as of the last step's
-        assert source._held == [] and source._sent == i + 1
+        got = source.estimate(sample.t_s)  # the step: answers as of the last step's samples; its own still held
+        assert len(source._held.packed) == 2 and source._sent == i - 1
+        source.flush()  # the command is out: both samples go now
+        assert source._held.packed == [] and source._sent == i + 1
         asked = source.answers().samples
         assert asked == max(i - 1, 0) or (i == 1 and asked == 0), (i, asked)
         want = inline.estimate(samples[i - 2].t_s) if i > 1 else None
@@ -276,9 +279,9 @@ def test_paced_samples_nobody_asks_for_go_in_batches_and_their_answers_are_read(
     samples = _samples(30.0)
     for sample in samples[:BATCH * 3 + 5]:
         source.observe(sample)
-    assert source._sent == BATCH * 3 and len(source._held) == 5
+    assert source._sent == BATCH * 3 and len(source._held.packed) == 5
     assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # (a call sends the held samples first)
-    assert source._sent == BATCH * 3 + 5 and source._held == []
+    assert source._sent == BATCH * 3 + 5 and source._held.packed == []
     source._take_waiting()
     assert len(source._kept) <= 2 and source._kept[-1][0] == BATCH * 3 + 5
     assert not any(source.faults.values()), source.faults
@@ -296,11 +299,12 @@ def test_a_step_after_a_spell_without_questions_gets_the_last_batchs_answers(pac
         source.observe(sample)
         if i % 2:
             source.answers()
+            source.flush()
             assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid
     for sample in samples[40:40 + BATCH * 12 + 10]:  # then nobody asks: 12 batches sent, 10 samples held
         source.observe(sample)
     last_batch = 40 + BATCH * 12
-    assert source._sent == last_batch and len(source._held) == 10
+    assert source._sent == last_batch and len(source._held.packed) == 10
     while not (source._kept and source._kept[-1][0] >= last_batch - BATCH):  # the one before it read, and
         assert source._ready(SYNC_S, write=False)  # ... (answers come in order) only that one:
         source._take_waiting(until=last_batch - BATCH)
@@ -322,3 +326,37 @@ def test_samples_held_while_paced_go_first_when_it_waits_again(paced: EstimatorP
     assert source.answers().samples == 3 and not any(source.faults.values()), source.faults
     source.observe(samples[4])
     assert source.answers().samples == 4 and not any(source.faults.values()), source.faults
+
+
+def test_a_steps_samples_not_sent_after_its_command_go_at_the_next_question_late(paced: EstimatorProcess) -> None:
+    """Should a step's samples not go after its command (``flush`` not called), the next step's question sends
+    them: its answers are as of what had gone before (the ones due), and the lost period is a ``late`` fault."""
+    source = paced
+    samples = _samples(5.0)
+    for sample in samples[:2]:
+        source.observe(sample)
+    source.answers()  # a step (none yet: late) ...
+    source.flush()  # ... whose command went out
+    assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid  # (its samples answered)
+    source.observe(samples[2])
+    source.observe(samples[3])
+    assert source.answers().samples == 2 and source.faults["late"] == 1, source.faults  # in time; no flush after it
+    source.observe(samples[4])
+    source.observe(samples[5])
+    assert source.answers().samples == 2 and source.faults["late"] == 2, source.faults  # its samples a period late
+    assert source._sent == 6 and source._held.packed == []  # (all four went at this question)
+    assert source.call(os.getpid, timeout_s=SYNC_S) == source.pid
+    source.observe(samples[6])
+    source.observe(samples[7])
+    assert source.answers().samples == 6 and source.faults["late"] == 2, source.faults  # back in step
+
+
+def test_the_gate_sends_the_held_samples_once_the_command_is_out(paced: EstimatorProcess) -> None:
+    """``WaveGate.command_sent`` (called by the companion after each command) sends the period's samples; their cost
+    is the next step's."""
+    gate = WaveGate(paced, log=lambda _line: None)
+    for sample in _samples(1.0)[:2]:
+        gate.observe(sample)
+    assert len(paced._held.packed) == 2 and paced._sent == 0
+    gate.command_sent()
+    assert paced._held.packed == [] and paced._sent == 2 and gate._observe_s > 0.0
