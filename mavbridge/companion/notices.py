@@ -2,8 +2,7 @@
 
 Two things a user must see while they happen, not only in the summary: that the companion is waiting for the
 pilot (it never engages on finding the boat armed in its mode), and that the controller cannot keep up with
-its period (control ticks skipped: the boat is flown on older plans than the scenario asks for). And the wave
-estimator's process's faults (``EstimatorFaults``): counted, and those that change the plan said when they start.
+its period (control ticks skipped: the boat is flown on older plans than the scenario asks for).
 """
 
 from __future__ import annotations
@@ -17,9 +16,6 @@ from mavbridge.companion.rover_modes import mode_name
 
 INTERVAL_S = 10.0  # wall seconds between two lines of one kind
 KEEP_UP_WARN_SHARE = 0.01  # skipped ticks from this share on make the summary's warning
-SAY_EVERY_S = 60.0  # an estimator fault that keeps happening is said again at most this often (wall clock)
-ESTIMATOR_FAULTS = ("late", "stale", "stopped", "dropped")
-ESTIMATOR_SAID = ("stale", "stopped", "dropped")  # the faults said in the run log (``late`` is only counted)
 
 
 @dataclass
@@ -85,35 +81,3 @@ def keep_up_summary(skipped: int, steps: int, late: int = 0) -> str | None:
         return f"note: {counted}"
     return (f"warning: the controller could not keep up: {counted}; the figures above are not the scenario's "
             f"controller at its period")
-
-
-@dataclass
-class EstimatorFaults:
-    """The wave estimator process's faults (``companion.wave_process``), counted; those of ESTIMATOR_SAID said when
-    they start and again at most once every SAY_EVERY_S while they go on (wall clock), and after a stale spell that
-    answers come again."""
-
-    stale_s: float  # autopilot s: answers older than this are stale (said in the stale line)
-    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(ESTIMATOR_FAULTS, 0))
-    _said_at: dict[str, float] = field(default_factory=dict)  # when each fault was last said (wall)
-    _stale_said: bool = False  # a stale spell was said: say when answers come again
-
-    def count(self, kind: str, say: Callable[[str], None], exit_text: Callable[[], str], times: int = 1) -> None:
-        """``times`` faults of ``kind``; said through ``say`` if due (``exit_text``: the child's exit code, if it ended,
-        asked only then)."""
-        self.counts[kind] += times
-        now = time.monotonic()
-        if kind not in ESTIMATOR_SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
-            return
-        self._said_at[kind] = now
-        self._stale_said |= kind == "stale"
-        what = {"stale": f"has not answered for over {self.stale_s:g} s of autopilot time: no new estimate",
-                "stopped": f"stopped{exit_text()}: no new estimate for the rest of the run",
-                "dropped": "had no room for a sample: dropped"}[kind]
-        say(f"{what} ({self.counts[kind]} so far)")
-
-    def recovered(self, say: Callable[[str], None]) -> None:
-        """Answers came in time: said once after a stale spell was said."""
-        if self._stale_said:
-            self._stale_said = False
-            say("answers again")

@@ -24,7 +24,7 @@ from mavbridge.companion.supervisor import Supervisor
 from mavbridge.link.connection import Link, mavlink
 from mavbridge.link.streams import imu_rate, measure_rates, request_streams
 from mavbridge.nmpc import RollAwareNmpc
-from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource, sea_spread
+from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource, sea_spread, send_held
 from vessel.config import ConfigError
 
 MODE_HEARTBEAT_WAIT_S = 5.0  # wall seconds the first lockstep tick waits for the heartbeat in the new mode
@@ -41,6 +41,7 @@ def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, f
     """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
     returns the estimate's log columns."""
     estimate = waves.estimate(t_s)
+    send_held(waves)  # (the samples asked about go now, as after a step's command)
     try:
         nmpc.set_wave(estimate.field() if estimate is not None else None)
     except (ConfigError, ValueError):  # a wave the model refuses (breaking, not finite): no roll term, no crash

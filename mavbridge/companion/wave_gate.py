@@ -7,8 +7,8 @@ and the estimate. The source's measured sea statistics (the estimator's ``spread
 covariance its wave does not explain) go to ``set_sea_spread``, the expected-roll term; while they act
 without a confident wave (an irregular sea) that is said once too, and counted. The log row is the
 source's ``latest`` fit even when it is not confident (the estimator's own figures), else the confident
-estimate's. The estimator's cost (every ``observe`` since
-the last step plus the step's ``estimate``) is timed per control step, so it counts in the step time.
+estimate's. The estimator's cost (every ``observe`` since the last step, the samples sent after its command
+(``command_sent``), and the step's ``estimate``) is timed per control step, so it counts in the step time.
 """
 
 from __future__ import annotations
@@ -23,7 +23,15 @@ from typing import Any
 
 import numpy as np
 
-from mavbridge.waves.source import EstimateHold, MotionSample, WaveEstimate, WaveSource, sea_spread, spread_line
+from mavbridge.waves.source import (
+    EstimateHold,
+    MotionSample,
+    WaveEstimate,
+    WaveSource,
+    sea_spread,
+    send_held,
+    spread_line,
+)
 from vessel.config import ConfigError
 
 _WAVE_BITS = struct.Struct("<6d")  # an estimate's wave numbers, the key of the field made of them
@@ -57,7 +65,7 @@ class WaveGate:
     first_step_s: float | None = None
     first_confident_s: float | None = None
     last: WaveEstimate | None = None
-    cost_ms: list[float] = field(default_factory=list)  # per control step: observes since the last + estimate
+    cost_ms: list[float] = field(default_factory=list)  # per control step: observes, send since the last + estimate
     samples: int = 0  # motion samples observed
     imu_samples: int = 0  # of them, with an IMU specific force (the heave the estimator sees)
     _observe_s: float = 0.0
@@ -100,6 +108,7 @@ class WaveGate:
         self._watched_t = t_s
         start = time.perf_counter()
         est = self.source.estimate(t_s)
+        send_held(self.source)  # (the samples asked about go now: no step's command comes to send them)
         if est is None:
             return
         self.watched_confident_s = t_s
@@ -125,13 +134,11 @@ class WaveGate:
         return shown.row() if shown is not None else {}
 
     def command_sent(self) -> None:
-        """The step's command is out: the samples the source holds go to it now (an estimator in a process of its own
-        holds a period's, paced), off the command's path; their cost counts in the next step's."""
-        flush = getattr(self.source, "flush", None)
-        if flush is not None:
-            start = time.perf_counter()
-            flush()
-            self._observe_s += time.perf_counter() - start
+        """The step's command is out: the samples the source holds go to it now (``send_held``), off the command's
+        path; their cost counts in the next step's."""
+        start = time.perf_counter()
+        send_held(self.source)
+        self._observe_s += time.perf_counter() - start
 
     def _field(self, est: WaveEstimate | None) -> Any:
         """The estimate as the NMPC's wave field; None (no roll term) when there is none or it is outside the

@@ -5,7 +5,8 @@ every 0.09 s of samples) were the larger part of the step's time and most of its
 a ``WaveSource`` whose estimator lives in a child process (a fresh interpreter: ``python -m`` this module), on
 a Unix socket pair of datagrams (SOCK_SEQPACKET: every message whole or not at all). Unpaced, ``observe`` sends the
 sample as one message (``pack_sample``); paced, it holds it, and the samples go together (``flush``: one message,
-b"B", never waited for) once a step's command is out (the ``WaveGate``'s ``command_sent``), or every BATCH: a socket
+b"B", never waited for) once a step's command is out (the ``WaveGate``'s ``command_sent``), after a question that is
+no step's (the watch before engaging, the cold solve: ``send_held``), before a ``call``, or every BATCH: a socket
 call costs a paced step tens of microseconds, and the command need not wait for it. The child takes them in order
 and answers after each message (``encode_answers``): the estimate, the latest fit and both slope spreads. Between
 samples it works the fit's stages ahead of time (``WindowEstimator.work_ahead``); a stage's outcome still takes
@@ -47,12 +48,12 @@ from typing import Any
 
 import numpy as np
 
-from mavbridge.companion.notices import EstimatorFaults
 from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.source import (
     COUNT,
     NO_ANSWERS,
     Answers,
+    EstimatorFaults,
     MotionSample,
     WaveEstimate,
     answers_of,
@@ -148,7 +149,7 @@ class HeldSamples:
 
     packed: list[bytes] = field(default_factory=list)
     newest_t: float = -math.inf  # the newest finite time among them (autopilot s)
-    asked: bool = False  # a step asked while they were held (they go once its command is out)
+    asked: bool = False  # a question came while they were held (they go once the step's command is out)
 
     def add(self, sample: MotionSample) -> None:
         """One more, packed."""
@@ -176,22 +177,23 @@ class EstimatorProcess:
     _kept: deque[tuple[int, bytes]] = field(init=False, default_factory=lambda: deque(maxlen=2))  # (count, answers)
     _sent: int = field(init=False, default=0)  # samples sent
     _sent_t: float = field(init=False, default=-math.inf)  # the newest one's time (autopilot s)
-    _held: HeldSamples = field(init=False, default_factory=lambda: HeldSamples())  # paced: not sent yet (``flush``)
+    _held: HeldSamples = field(init=False, default_factory=HeldSamples)  # paced: not sent yet (``flush``)
     _stopped: bool = field(init=False, default=False)
     _chosen: tuple[int, Answers] = field(init=False, default=(-1, NO_ANSWERS))  # a step's answers, asked once
-    _floor: int = field(init=False, default=0)  # samples sent when the last step asked: answered by now, or late
+    _floor: int = field(init=False, default=0)  # samples sent or held when the last step asked: answered by now
     _calls: int = field(init=False, default=0)
     _closing: bool = field(init=False, default=False)
 
     def __post_init__(self) -> None:
         self._sock, self._child, self.name = start_child(self.settings)
         self.pid = self._child.pid  # the child's process id
+        self._faults.prefix = f"waves ({self.name}): the estimator's process "
         self._poll = select.poll()
         self._poll.register(self._sock, select.POLLIN)
 
     @property
     def faults(self) -> dict[str, int]:
-        """Each fault's count (``notices.ESTIMATOR_FAULTS``)."""
+        """Each fault's count (``waves.source.ESTIMATOR_FAULTS``)."""
         return self._faults.counts
 
     def observe(self, sample: MotionSample) -> None:
@@ -213,6 +215,8 @@ class EstimatorProcess:
             if self._send(held[0] if len(held) == 1 else batched(held), "dropped", len(held)):
                 self._sent += len(held)
                 self._sent_t = held_t if math.isfinite(held_t) else self._sent_t
+            else:  # (a step that asked counted on them: what has gone is what can be answered)
+                self._floor = min(self._floor, self._sent)
 
     def estimate(self, t_s: float) -> WaveEstimate | None:
         """The wave to plan against (None while not confident, or without answers); see ``answers``."""
@@ -304,7 +308,7 @@ class EstimatorProcess:
     def _choose(self, wanted: int, answers: Answers, recovered: bool = False) -> Answers:
         """The step's answers, kept for its other questions; says when answers come again after a stale spell."""
         if recovered:
-            self._faults.recovered(self._say)
+            self._faults.recovered(self.log)
         self._chosen = (wanted, answers)
         return answers
 
@@ -374,10 +378,7 @@ class EstimatorProcess:
 
     def _fault(self, kind: str, times: int = 1) -> None:
         """Count a fault, and say it as ``EstimatorFaults`` does."""
-        self._faults.count(kind, self._say, lambda: _exit(self._child.poll()), times)
-
-    def _say(self, text: str) -> None:
-        self.log(f"waves ({self.name}): the estimator's process {text}")
+        self._faults.count(kind, self.log, lambda: _exit(self._child.poll()), times)
 
 
 if __name__ == "__main__":  # the child (``EstimatorProcess`` starts it with its end of the socket pair); the

@@ -14,6 +14,10 @@ on what the estimated statistics can give; named as simulation truth in the run'
 A ``WaveEstimate`` is one regular component on the autopilot's clock, NED frame, positions relative to
 home: ζ(N, E, t) = (H/2)·sin(ω t − k (N cos χ + E sin χ) + ε), t in autopilot seconds (time_boot_ms/1000).
 ``None`` from ``estimate`` means "no confident estimate": the controller then flies without its roll term.
+
+Also here, free of the companion's imports since the estimator's own process imports this module: what goes
+between the companion and that process (``pack_sample``, ``batched``, ``encode_answers``), ``send_held``, and the
+process's faults (``EstimatorFaults``).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ import math
 import pickle
 import struct
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from numbers import Real
 from typing import Any, Protocol
@@ -311,3 +316,49 @@ def decode_answers(message: bytes) -> Answers:
 def _flat(covariance: np.ndarray | None) -> tuple[float, ...] | None:
     """A 2×2 covariance as four plain floats, row by row (None stays None)."""
     return None if covariance is None else tuple(np.asarray(covariance, float).ravel().tolist())
+
+
+def send_held(source: WaveSource) -> None:
+    """The samples ``source`` holds go to it now (an estimator in a process of its own holds a paced period's, to
+    send them together); nothing for a source that holds none."""
+    flush = getattr(source, "flush", None)
+    if flush is not None:
+        flush()
+
+
+SAY_EVERY_S = 60.0  # an estimator process's fault that keeps happening is said again at most this often (wall clock)
+ESTIMATOR_FAULTS = ("late", "stale", "stopped", "dropped")
+ESTIMATOR_SAID = ("stale", "stopped", "dropped")  # the faults said in the run log (``late`` is only counted)
+
+
+@dataclass
+class EstimatorFaults:
+    """The wave estimator process's faults (``companion.wave_process``), counted; those of ESTIMATOR_SAID said when
+    they start and again at most once every SAY_EVERY_S while they go on (wall clock), and after a stale spell that
+    answers come again."""
+
+    stale_s: float  # autopilot s: answers older than this are stale (said in the stale line)
+    prefix: str = ""  # what each line starts with (which process)
+    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(ESTIMATOR_FAULTS, 0))
+    _said_at: dict[str, float] = field(default_factory=dict)  # when each fault was last said (wall)
+    _stale_said: bool = False  # a stale spell was said: say when answers come again
+
+    def count(self, kind: str, say: Callable[[str], None], exit_text: Callable[[], str], times: int = 1) -> None:
+        """``times`` faults of ``kind``; said through ``say`` if due (``exit_text``: the child's exit code, if it ended,
+        asked only then)."""
+        self.counts[kind] += times
+        now = time.monotonic()
+        if kind not in ESTIMATOR_SAID or now - self._said_at.get(kind, -math.inf) < SAY_EVERY_S:
+            return
+        self._said_at[kind] = now
+        self._stale_said |= kind == "stale"
+        what = {"stale": f"has not answered for over {self.stale_s:g} s of autopilot time: no new estimate",
+                "stopped": f"stopped{exit_text()}: no new estimate for the rest of the run",
+                "dropped": "had no room for a sample: dropped"}[kind]
+        say(f"{self.prefix}{what} ({self.counts[kind]} so far)")
+
+    def recovered(self, say: Callable[[str], None]) -> None:
+        """Answers came in time: said once after a stale spell was said."""
+        if self._stale_said:
+            self._stale_said = False
+            say(f"{self.prefix}answers again")

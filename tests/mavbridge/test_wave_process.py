@@ -360,3 +360,29 @@ def test_the_gate_sends_the_held_samples_once_the_command_is_out(paced: Estimato
     assert len(paced._held.packed) == 2 and paced._sent == 0
     gate.command_sent()
     assert paced._held.packed == [] and paced._sent == 2 and gate._observe_s > 0.0
+
+
+def _answered(source: EstimatorProcess) -> None:
+    """Wait until the child has answered every sample sent (without sending the held ones, as ``call`` would)."""
+    while not (source._kept and source._kept[-1][0] >= source._sent):
+        assert source._ready(SYNC_S, write=False), "the child did not answer"
+        source._take_waiting()
+
+
+def test_the_watch_before_engaging_sends_what_it_asked_about(paced: EstimatorProcess) -> None:
+    """Before engaging the gate asks every 0.1 s whether the sea is known (until it is), and no step's command
+    follows to send the samples: the watch sends them itself. Its answers are then as of every sample sent before it
+    asked, and none is late."""
+    gate = WaveGate(paced, log=lambda _line: None)
+    asked: list[tuple[int, int]] = []  # (samples sent before the question, samples its answers are as of)
+    for sample in _samples(20.0)[:300]:
+        gate.observe(sample)
+        before = paced._sent
+        gate.watch(sample.t_s)
+        if paced._sent > before:  # it asked: what it asked about has gone
+            assert paced._held.packed == []
+            asked.append((before, paced._chosen[1].samples))
+            _answered(paced)
+    assert gate.watched_confident_s is not None and len(asked) >= 20, len(asked)
+    assert all(got == before for before, got in asked), asked
+    assert not any(paced.faults.values()), paced.faults
