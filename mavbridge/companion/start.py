@@ -41,13 +41,13 @@ def wave_step(waves: WaveSource, nmpc: RollAwareNmpc, t_s: float) -> dict[str, f
     """Ask the wave source for the wave at autopilot time ``t_s`` and hand it to the NMPC (None: no roll term);
     returns the estimate's log columns."""
     estimate = waves.estimate(t_s)
-    send_held(waves)  # (the samples asked about go now, as after a step's command)
     try:
         nmpc.set_wave(estimate.field() if estimate is not None else None)
     except (ConfigError, ValueError):  # a wave the model refuses (breaking, not finite): no roll term, no crash
         nmpc.set_wave(None)
         estimate = None
     nmpc.set_sea_spread(sea_spread(waves, estimate is not None))
+    send_held(waves)  # (the samples asked about go now, as after a step's command)
     return estimate.row() if estimate is not None else {}
 
 

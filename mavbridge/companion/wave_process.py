@@ -277,7 +277,8 @@ class EstimatorProcess:
         the same to every question of a step. Paced, read only until those as of the samples sent before it came;
         the step's own samples stay held until its command is out (``flush``)."""
         wanted = max(self._sent + len(self._held.packed) - 1, 0)  # (counting the held: they go before the next step)
-        if self._chosen[0] == wanted:
+        key = self._sent + len(self._held.packed) + self.faults["dropped"]  # samples observed: a step's own are new
+        if self._chosen[0] == key:
             return self._chosen[1]
         before = self._sent  # (the last step's samples, or after a spell without questions, the last batch's)
         if self._held.asked:  # the last step's samples did not go after its command: they go now, a period late
@@ -292,24 +293,24 @@ class EstimatorProcess:
         while not self._stopped:
             self._take_waiting(until=wanted if self.wait_s > 0.0 else max(floor, before))
             if self._current(wanted).samples == wanted:
-                return self._choose(wanted, self._answers, recovered=True)
+                return self._choose(key, self._answers, recovered=True)
             left = deadline - time.perf_counter()
             if left <= 0 or not self._ready(left, write=False):
                 break
         if self._stopped:
-            return self._choose(wanted, NO_ANSWERS)
+            return self._choose(key, NO_ANSWERS)
         age = max(self._sent_t, self._held.newest_t) - self._answers.t_s  # (as of the newest sample, sent or held)
         if self._answers is not NO_ANSWERS and self._answers.samples >= floor and 0.0 <= age <= STALE_S:
-            return self._choose(wanted, self._answers, recovered=True)  # as of the last step's samples: in time
+            return self._choose(key, self._answers, recovered=True)  # as of the last step's samples: in time
         fresh = 0.0 <= age <= STALE_S or self._answers is NO_ANSWERS  # (nothing yet: late, not stale)
         self._fault("late" if fresh else "stale")
-        return self._choose(wanted, self._answers if fresh else NO_ANSWERS)
+        return self._choose(key, self._answers if fresh else NO_ANSWERS)
 
-    def _choose(self, wanted: int, answers: Answers, recovered: bool = False) -> Answers:
+    def _choose(self, key: int, answers: Answers, recovered: bool = False) -> Answers:
         """The step's answers, kept for its other questions; says when answers come again after a stale spell."""
         if recovered:
             self._faults.recovered(self.log)
-        self._chosen = (wanted, answers)
+        self._chosen = (key, answers)
         return answers
 
     def _current(self, wanted: int) -> Answers:

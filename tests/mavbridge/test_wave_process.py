@@ -17,8 +17,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from mavbridge.companion.flight import build_nmpc
+from mavbridge.companion.start import wave_step
 from mavbridge.companion.wave_gate import WaveGate, make_wave_source
 from mavbridge.companion.wave_process import BATCH, STALE_S, EstimatorProcess
+from mavbridge.lab.scenario import Scenario
 from mavbridge.waves import EstimatorSettings, WindowEstimator
 from mavbridge.waves.kinematic import KinematicBoat, motion_samples
 from mavbridge.waves.source import Answers, MotionSample, WaveEstimate, decode_answers, encode_answers
@@ -386,3 +389,44 @@ def test_the_watch_before_engaging_sends_what_it_asked_about(paced: EstimatorPro
     assert gate.watched_confident_s is not None and len(asked) >= 20, len(asked)
     assert all(got == before for before, got in asked), asked
     assert not any(paced.faults.values()), paced.faults
+
+
+def test_the_cold_solve_sends_what_it_asked_about(paced: EstimatorProcess) -> None:
+    """The cold solve before the loop (``start.wave_step``) asks with no command after it: it sends what it asked
+    about, so the first step's answers are as of those samples, with no fault."""
+    scenario = Scenario(name="balanced")
+    samples = _samples(5.0)
+    with build_nmpc(replace(scenario, controller=scenario.controller.replace(horizon=5)), paced) as nmpc:
+        for sample in samples[:3]:
+            paced.observe(sample)
+        wave_step(paced, nmpc, samples[2].t_s)  # (late: nothing answered yet)
+    assert paced._held.packed == [] and paced._sent == 3
+    _answered(paced)
+    faults = dict(paced.faults)
+    for sample in samples[3:5]:
+        paced.observe(sample)
+    assert paced.answers().samples == 3 and paced.faults == faults, paced.faults
+
+
+def test_a_batch_dropped_after_a_step_leaves_no_late_fault_behind(paced: EstimatorProcess) -> None:
+    """A step's samples the child had no room for after its command are dropped (and counted so); the next step
+    must neither wait for answers as of them, which can never come (a late fault), nor take the last step's answers
+    again for its own (a drop leaves as many sent as before)."""
+    source, samples = paced, iter(_samples(120.0))
+    os.kill(source.pid, signal.SIGSTOP)  # the socket fills
+    try:
+        while not source.faults["dropped"]:
+            source.observe(next(samples))
+        for _ in range(2):  # a step while it is full: its question, then its samples after its command
+            source.observe(next(samples))
+        source.answers()
+        dropped, late = source.faults["dropped"], source.faults["late"]
+        source.flush()
+        assert source.faults["dropped"] == dropped + 2, source.faults
+    finally:
+        os.kill(source.pid, signal.SIGCONT)
+    _answered(source)
+    sent = source._sent
+    for _ in range(2):
+        source.observe(next(samples))
+    assert source.answers().samples == sent and source.faults["late"] == late, source.faults
