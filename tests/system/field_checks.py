@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 
 from mavbridge.cli import main
+from mavbridge.link.connection import mavlink
+from mavbridge.link.streams import STREAMS_HZ
 
 ARRIVAL = re.compile(r"^replay: the last waypoint reached at t = ([0-9.]+) s of the log$", re.M)
 
@@ -28,7 +30,10 @@ def check_demo_reports(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
     A loaded machine makes the companion skip ticks (72 % of them at load 7): its last control step can then be
     seconds before the tick that saw the arrival, and the replay, which steps every tick of the log's clock, can
     see the boat dip inside the acceptance radius (2 m) at a tick the companion skipped: it reaches the waypoint
-    no later than the companion did, and within the few seconds a burst of skipped ticks spans."""
+    no later than the companion did, and within the few seconds a burst of skipped ticks spans. Or one ATTITUDE
+    later: the companion's step takes every message of its read, and a position received just after the step's
+    ATTITUDE in the same read can put the boat inside the radius there, where the replay, stepping at that
+    ATTITUDE, sees it at the next (seen once in CI: the companion at 206.21 s, the replay at 206.26 s)."""
     metrics = json.loads((run / "companion" / "metrics.json").read_text())
     engaged, arrived = metrics["engaged_at_s"], metrics["engaged_at_s"] + metrics["time_to_waypoint_s"]
     with (run / "companion" / "companion.csv").open(newline="") as handle:
@@ -49,4 +54,5 @@ def check_demo_reports(run: Path, capsys: pytest.CaptureFixture[str]) -> None:
     start = min(arrived - 8.0, last_step - 1.0)
     assert main(["replay", str(companion_log), "--from", f"{start:.1f}", "--out", str(run / "replay")]) == 0
     found = ARRIVAL.search(capsys.readouterr().out)
-    assert found and arrived - 3.0 <= float(found.group(1)) <= arrived + 1e-6, (found, last_step, arrived)
+    one_attitude_s = 1.0 / STREAMS_HZ[mavlink.MAVLINK_MSG_ID_ATTITUDE]
+    assert found and arrived - 3.0 <= float(found.group(1)) <= arrived + one_attitude_s + 1e-6, (found, arrived)
