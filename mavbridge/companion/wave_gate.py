@@ -103,6 +103,8 @@ class WaveGate:
         knows the sea yet, said once, with the estimate, when it first does: the skipper learns what the boat has
         seen before handing it over."""
         self._observe_s = 0.0  # what the source cost while watching is not a control step's
+        if t_s < self._watched_t:  # the autopilot's clock went back (a reboot): asked again from now on
+            self._watched_t = -math.inf
         if self.watched_confident_s is not None or t_s - self._watched_t < WATCH_EVERY_S:
             return
         self._watched_t = t_s

@@ -125,6 +125,18 @@ def test_a_held_wave_is_dropped_when_the_autopilot_clock_goes_back(scenario: Sce
         assert not nmpc.roll_term_active
 
 
+def test_the_watch_asks_again_after_the_autopilot_clock_goes_back() -> None:
+    """Before engaging the gate asks every 0.1 s whether the sea is known; after a reboot (the clock starts again
+    near 0) it must not wait for the new clock to pass the old one to ask again."""
+    lines: list[str] = []
+    source = ToldSource(None)
+    gate = WaveGate(source, lines.append)
+    gate.watch(3600.0)  # asked: not known yet
+    source.answer = WaveEstimate(1.75, 6.0, 35.0, -math.pi / 2, 0.3, 0.9)
+    gate.watch(5.0)  # the autopilot rebooted: asked again, and known
+    assert gate.watched_confident_s == 5.0 and len(lines) == 1 and "before engaging" in lines[0], lines
+
+
 def test_steadiness_after_a_gap_or_a_nan_is_earned_again() -> None:
     steady = SolutionSteadiness()
     for i in range(300):
