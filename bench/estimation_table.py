@@ -1,7 +1,7 @@
 """The wave estimator's first confident answer on the realistic hull: how soon, and how true (issue 29).
 
 Used by ``bench/wave_estimation.py`` (its default table). Per sea × motion × seed: the in-process plant
-(``mavbridge.waves.inloop.SensedTauPlant``: the Otter's rigid body heaving with the sea, the default sensors at
+(``mavbridge.waves.inloop.SensedPlant``: the Otter's rigid body heaving with the sea, the default sensors at
 20 Hz, the sea's phase hidden) floats 30 s unwatched, then the companion's estimator (``make_estimator`` with the
 hull's calibrated response, as ``mavbridge run`` builds it) watches it drifting, or under way at a constant surge
 force with its heading held by a PD yaw moment. The table gives the seconds of watching until the first
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mavbridge.waves import make_estimator
-from mavbridge.waves.inloop import SensedTauPlant, calibrated_settings, estimate_metrics, sensor_model
+from mavbridge.waves.inloop import SensedPlant, calibrated_settings, estimate_metrics, sensor_model
 from vessel import RegularWaves, otter_parameters
 from vessel.dynamics import OceanCurrent
 
@@ -58,7 +58,7 @@ def first_answer(sea_name: str, surge_n: float, heading_deg: float, seed: int) -
     sea = RegularWaves(height, length, period, math.radians(direction), phase_rad=phase)
     x0 = np.zeros(12)
     x0[5] = psi_ref = math.radians(heading_deg)
-    plant = SensedTauPlant(params, sea, OceanCurrent(), x0, 0.1, 0.01, True, sensor_model("default", seed),
+    plant = SensedPlant(params, sea, OceanCurrent(), x0, 0.1, 0.01, True, sensor_model("default", seed),
                            _Unwatched())
     t = -30.0
     while t < 0:

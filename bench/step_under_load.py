@@ -112,7 +112,7 @@ class CompanionStep:
         self.gate = WaveGate(waves, lambda _line: None, hold_s=scenario.estimation.hold_s)
         self.delay = make_compensator(config, nmpc)
         ctx = Context(config.system_id, "rc_override", self.period_s, scenario.waypoint.acceptance_radius_m)
-        self.output = RcOverride(scenario.params(), ctx, lambda _line: None)
+        self.output = RcOverride(scenario.model_params(), ctx, lambda _line: None)
         self.output.setup = RcSetup()  # what prepare() reads from this simulator (Rover's RC defaults)
         self.solve_ms: list[float] = []
         self.child_cpu_s = 0.0  # the estimator's process's CPU time when the paced steps began (s)
@@ -257,7 +257,7 @@ def run_condition(name: str, around: Callable[[], Any], rec: Recording, args: ar
     """One condition on fresh parts (its own estimator and NMPC), inside ``around()`` (the spinners or not); with
     ``realtime`` the estimator's process (if it has one) gets the companion's settings a priority lower, as
     `mavbridge run --realtime` gives them."""
-    waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.params(),
+    waves = make_wave_source("estimated", scenario.sea.waves(), 1.0, 0.0, scenario.model_params(),
                              process=args.estimator == "process")
     try:
         if realtime:

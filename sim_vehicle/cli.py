@@ -134,8 +134,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--scenario",
         type=Path,
         metavar="FILE",
-        help="scenario YAML: vessel parameter set, sea state and start pose (heading, offset from home, "
-        "velocity); --waves/--sea/--current given too override its sea",
+        help="scenario YAML: the plant's vessel, sea state and start pose (heading, offset from home, "
+        "velocity); --waves/--sea/--current given too override its sea, --vessel its vessel",
+    )
+    p.add_argument(
+        "--vessel",
+        metavar="SET|FILE",
+        help="the simulated boat's hull: a named set (published, corrected) or a vessel YAML file {base, "
+             "<OtterParameters field>: value} (default: the scenario's vessel, else published); the companion is "
+             "never told it",
     )
     p.add_argument(
         "--sea",
@@ -313,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         home = args.home or Home()
         with naming("--scenario"):  # before writing
-            world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state)
+            world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state, args.vessel)
         outputs = [] if args.no_out else (args.out or [_output(o) for o in DEFAULT_OUTPUTS])
         check_outputs(outputs)
         if args.serial is not None:

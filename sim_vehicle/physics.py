@@ -5,14 +5,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from sim_vehicle.rover.control import NavState
 from sim_vehicle.rover.mixer import output_to_shaft_speed
 from sim_vehicle.scenario import seeded_waves
-from sim_vehicle.sensing import Sensing
+from sim_vehicle.sensing import WIND_PARAMS, Sensing
 from vessel import Plant, World
+from vessel.sea.wind import Wind
 
 PHYSICS_DT_S = 0.01
 
@@ -27,20 +29,31 @@ class Physics:
     sensing: Sensing | None = None  # what the autopilot senses; None: the true state (see attach_sensing)
 
     @classmethod
-    def create(cls, world: World, seed: int | None = None, surface_heave: bool = False) -> Physics:
+    def create(cls, world: World, seed: int | None = None, surface_heave: bool = False,
+               wind: Wind | None = None) -> Physics:
         """An Otter stepped at 100 Hz in the world's sea, from the world's start (propellers stopped).
 
         ``seed`` gives the sea its hidden phase origin (``scenario.seeded_waves``; None: the sea as
-        written, phase 0 at boot); ``surface_heave`` makes the hull heave with the surface.
+        written, phase 0 at boot); ``surface_heave`` makes the hull heave with the surface; ``wind`` is the
+        SIM_WIND_* parameters' (``wind_of``).
         """
         params = world.params()
         waves = world.sea.waves(params)
         if seed is not None:
             waves = seeded_waves(waves, seed)
         plant = Plant(params, waves, world.sea.current(), dt=PHYSICS_DT_S, integrator="rk4",
-                      x0=world.plant_state(), surface_heave=surface_heave)
+                      x0=world.plant_state(), surface_heave=surface_heave, wind=wind)
         limits = params.matrices()
         return cls(plant, float(limits.n_max), float(limits.n_min))
+
+    def set_wind(self, wind: Wind | None) -> None:
+        """A new wind from the next step on (SIM_WIND_* changed): the plant is built again around the same state,
+        time and sea (a fraction of a second of building, between two steps), and the sensors follow it."""
+        old = self.plant
+        self.plant = Plant(old.params, old.waves, old.current, dt=old.dt, integrator=old.integrator, x0=old.state,
+                           t0=old.time, surface_heave=old.surface_heave, wind=wind)
+        if self.sensing is not None:
+            self.sensing.rebind(self.plant)
 
     def attach_sensing(self, read: Callable[[str], float], ideal: bool, seed: int) -> None:
         """Sensors on the plant, set by the SIM_* parameters ``read(name)``; ``ideal`` forces exact readings."""
@@ -60,6 +73,29 @@ class Physics:
         slope = waves.slope_along_travel(north, east, t) if hasattr(waves, "slope_along_travel") else 0.0
         slope_n, slope_e = waves.slope_angles(north, east, t)
         return float(waves.elevation(north, east, t)), float(slope), float(slope_n), float(slope_e)
+
+
+def wind_setting(read: Callable[[str], float]) -> tuple[float, float, float]:
+    """(SIM_WIND_SPD m/s, SIM_WIND_DIR deg from, SIM_WIND_TURB m/s) as the parameters hold them."""
+    return read("SIM_WIND_SPD"), read("SIM_WIND_DIR"), read("SIM_WIND_TURB")
+
+
+def wind_of(setting: tuple[float, float, float], seed: int = 0) -> Wind | None:
+    """The wind the SIM_WIND_* parameters describe (speed and turbulence clamped to their ranges), None: still air."""
+    speed, from_deg, turbulence = setting
+    speed = min(max(speed, 0.0), 40.0) if math.isfinite(speed) else 0.0
+    turbulence = min(max(turbulence, 0.0), 20.0) if math.isfinite(turbulence) else 0.0
+    from_rad = math.radians(math.remainder(from_deg, 360.0)) if math.isfinite(from_deg) else 0.0
+    wind = Wind(speed, from_rad, turbulence, seed=seed)
+    return None if wind.calm else wind
+
+
+def seed_wind_parameters(world: World, params: Any) -> None:
+    """The world's wind as the SIM_WIND_* parameters' starting values, where a parameter file left them at 0."""
+    sea = world.sea
+    for name, value in zip(WIND_PARAMS, (sea.wind_speed_mps, sea.wind_from_deg, sea.wind_gust_mps), strict=True):
+        if params[name] == 0.0 and value != 0.0:
+            params.set(name, value, save=False)
 
 
 def ned_velocity(x: np.ndarray) -> tuple[float, float, float]:

@@ -26,6 +26,7 @@ from vessel.sea.irregular import IrregularWaves
 from vessel.sea.irregular_sea import IrregularSea, parse_sea_spec
 from vessel.sea.state import SeaState, Start
 from vessel.sea.waves import RegularWaves, WaveField
+from vessel.vessel_spec import load_vessel
 from vessel.world import World, load_world, sea_preset, world_preset
 
 TIME_ORIGIN_MAX_S = 3600.0  # an irregular sea's hidden time origin is drawn from [0, this)
@@ -97,8 +98,9 @@ def parse_current(text: str, base: SeaState) -> SeaState:
 
 
 def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current: str | None,
-              home: Home, sea_state: int | None = None) -> World:
-    """The world the simulator runs in, from the flags as given (None: not given); one-line ConfigErrors."""
+              home: Home, sea_state: int | None = None, vessel: str | None = None) -> World:
+    """The world the simulator runs in, from the flags as given (None: not given); one-line ConfigErrors.
+    ``vessel`` (``--vessel``: a named set or a vessel file) replaces the scenario's plant."""
     if scenario is not None:
         world = load_world(scenario)
         if waves is not None:
@@ -112,4 +114,6 @@ def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current
         world = dataclasses.replace(world, sea=parse_sea_state(sea_state, world.sea))
     if current is not None:
         world = dataclasses.replace(world, sea=parse_current(current, world.sea))
+    if vessel is not None:
+        world = dataclasses.replace(world, vessel=load_vessel(vessel, "--vessel"))
     return world

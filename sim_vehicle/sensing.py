@@ -37,6 +37,12 @@ SIM_PARAMS: tuple[tuple[str, str], ...] = (
 """(parameter name, ``SensorParams`` field): the simulator's sensor parameters, units as the field's."""
 
 
+WIND_PARAMS: tuple[str, ...] = ("SIM_WIND_SPD", "SIM_WIND_DIR", "SIM_WIND_TURB")
+"""ArduPilot SITL's wind: mean speed (m/s), the direction it blows from (deg, 0 = from North) and turbulence, here
+the gusts' standard deviation (m/s). They start at the world's wind (``sea.wind_*``) unless a parameter file sets
+them, and a change takes effect at the next physics step."""
+
+
 def sim_param_defaults() -> list[tuple[str, float]]:
     """(name, default) of each SIM_ sensor parameter: the realistic defaults of ``SensorParams``."""
     defaults = SensorParams()
@@ -64,6 +70,11 @@ class Sensing:
         self.model: SensorModel | None = None
         self.reading: SensorReading | None = None
         self.fix_received_s = 0.0  # when the latest GPS fix arrived (GPS_RAW_INT's time_usec, as Rover's)
+
+    def rebind(self, plant: Plant) -> None:
+        """Read ``plant`` from now on (the same boat, built again: a new wind); the sensors' state is kept."""
+        self.plant = plant
+        self.imu = ImuModel.for_plant(plant)
 
     @property
     def ideal(self) -> bool:

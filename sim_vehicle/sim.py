@@ -17,7 +17,7 @@ from sim_vehicle.clock import Pacer
 from sim_vehicle.lockstep import DEFAULT_TIMEOUT_S
 from sim_vehicle.mavlink.gcs import Gcs
 from sim_vehicle.mavlink.telemetry import Telemetry
-from sim_vehicle.physics import PHYSICS_DT_S, Physics, nav_state
+from sim_vehicle.physics import PHYSICS_DT_S, Physics, nav_state, seed_wind_parameters, wind_of, wind_setting
 from sim_vehicle.rover.battery import Battery
 from sim_vehicle.rover.mission import MissionStore
 from sim_vehicle.rover.modes import Mode
@@ -71,6 +71,7 @@ class Simulator:
         self.params = opts.params
         self.home = opts.home
         self.store = MissionStore(opts.mission_store)
+        seed_wind_parameters(opts.world, self.params)  # the world's wind as SIM_WIND_*'s starting values
         self.boot_unix_us = int(time.time() * 1e6)
         self.logs = SimLogs(opts.log_dir, self.unix_us)
         self.running = True
@@ -85,7 +86,9 @@ class Simulator:
         opts = self.opts
         self.boots += 1
         started = time.monotonic()
-        self.physics = Physics.create(opts.world, opts.seed, opts.surface_heave)
+        self.wind = wind_setting(self.params.__getitem__)
+        self.physics = Physics.create(opts.world, opts.seed, opts.surface_heave,
+                                      wind_of(self.wind, opts.world.sea.wind_seed))
         self.physics.attach_sensing(self.params.__getitem__, opts.ideal_sensors, opts.noise_seed)
         self.startup_s = time.monotonic() - started  # an irregular plant compiles (vessel.jit) before time starts
         if self.boots == 1:
@@ -132,6 +135,10 @@ class Simulator:
         outputs = self.vehicle.update(nav_state(plant.state), now, PHYSICS_DT_S)
         self.n_cmd = self.physics.shaft_commands(outputs)
         self.battery.update(outputs, PHYSICS_DT_S)
+        if wind_setting(self.params.__getitem__) != self.wind:  # SIM_WIND_* set: the wind changes now
+            self.wind = wind_setting(self.params.__getitem__)
+            self.physics.set_wind(wind_of(self.wind, self.opts.world.sea.wind_seed))
+            plant = self.physics.plant
         x = plant.step(self.n_cmd)
         if self.physics.sensing is not None:
             self.physics.sensing.update()

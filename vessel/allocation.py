@@ -36,8 +36,10 @@ def thrust_to_tau(params: OtterParameters, thrust_left: Any, thrust_right: Any) 
 
 
 def shaft_speeds_to_tau(params: OtterParameters, n_left: Any, n_right: Any) -> tuple[Any, Any]:
-    """(τ_X N, τ_N N·m) produced by the two shaft speeds (rad/s)."""
-    return thrust_to_tau(params, propeller_thrust(params, n_left), propeller_thrust(params, n_right))
+    """(τ_X N, τ_N N·m) produced by the two shaft speeds (rad/s), each propeller's thrust scaled by its
+    ``propeller_scale`` (1, 1 as modelled)."""
+    port, starboard = params.propeller_scale
+    return thrust_to_tau(params, port * propeller_thrust(params, n_left), starboard * propeller_thrust(params, n_right))
 
 
 def _float_shaft_speed(k_pos: float, k_neg: float, n_min: float, n_max: float, thrust: float) -> float:
@@ -56,8 +58,9 @@ def tau_to_shaft_speeds(params: OtterParameters, tau_x: float, tau_n: float) -> 
     mats = params.matrices()
     limits = (float(mats.k_pos), float(mats.k_neg), float(mats.n_min), float(mats.n_max))
     differential = tau_n / params.pontoon_offset
-    left = _float_shaft_speed(*limits, float(0.5 * (tau_x + differential)))
-    right = _float_shaft_speed(*limits, float(0.5 * (tau_x - differential)))
+    port, starboard = params.propeller_scale  # a weaker propeller is asked for more (then saturates sooner)
+    left = _float_shaft_speed(*limits, float(0.5 * (tau_x + differential)) / port)
+    right = _float_shaft_speed(*limits, float(0.5 * (tau_x - differential)) / starboard)
     return left, right
 
 
@@ -66,4 +69,7 @@ def tau_limits(params: OtterParameters) -> tuple[float, float, float]:
     mats = params.matrices()
     forward = mats.k_pos * mats.n_max**2
     reverse = mats.k_neg * mats.n_min**2
-    return 2 * forward, 2 * reverse, params.pontoon_offset * (forward + reverse)
+    port, starboard = params.propeller_scale
+    weaker = min(port, starboard)  # the yaw moment both ways: the weaker propeller limits one of them
+    yaw = params.pontoon_offset * weaker * (forward + reverse)
+    return (port + starboard) * forward, (port + starboard) * reverse, yaw

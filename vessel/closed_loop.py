@@ -33,7 +33,8 @@ class TauPlant:
     """The rigid-body model driven by (τ_X, τ_N), RK4 at dt, input held over one control period."""
 
     def __init__(self, world: World, period_s: float, dt_s: float) -> None:
-        ode = rigid_body_ode(world.params(), world.sea.waves(), world.sea.current())
+        params = world.params()
+        ode = rigid_body_ode(params, world.sea.waves(params), world.sea.current(), wind=world.sea.wind())
         self.dt = dt_s
         self.substeps = substeps_per_period(period_s, dt_s)
         self._period = rk4_step(ode, self.dt).mapaccum(self.substeps)
@@ -64,8 +65,9 @@ class PropellerPlant:
     """:class:`~vessel.plant.Plant` (shaft dynamics, saturation) driven by the shaft-speed commands."""
 
     def __init__(self, world: World, period_s: float, dt_s: float) -> None:
-        self.plant = Plant(world.params(), world.sea.waves(), world.sea.current(), dt=dt_s, integrator="rk4",
-                           x0=world.plant_state())
+        params = world.params()
+        self.plant = Plant(params, world.sea.waves(params), world.sea.current(), dt=dt_s, integrator="rk4",
+                           x0=world.plant_state(), wind=world.sea.wind())
         self.substeps = substeps_per_period(period_s, dt_s)
 
     @property

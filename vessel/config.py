@@ -117,6 +117,8 @@ def _convert(value: Any, hint: Any, where: str, meta: Mapping[str, Any]) -> Any:
             return None
         non_none = [a for a in args if a is not type(None)]
         return _convert(value, non_none[0], where, meta)
+    if hasattr(hint, "from_config"):  # a type with its own forms (e.g. a vessel: a name, a mapping or a file)
+        return hint.from_config(value, where)
     if dataclasses.is_dataclass(hint):
         return from_mapping(hint, value, where)
     if hint in SCALARS:
@@ -198,6 +200,8 @@ def read_yaml(path: str | Path) -> Any:
 
 def to_mapping(obj: Any) -> Any:
     """A plain dict/list version of a dataclass tree, for saving the resolved configuration."""
+    if hasattr(obj, "to_config"):  # a type that writes itself as its loader reads it
+        return obj.to_config()
     if dataclasses.is_dataclass(obj):
         return {f.name: to_mapping(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
     if isinstance(obj, (list, tuple)):

@@ -30,6 +30,7 @@ from vessel.allocation import saturate_shaft_speed, shaft_speeds_to_tau
 from vessel.config import bounded
 from vessel.params import OtterParameters
 from vessel.sea.waves import CalmWater, WaveField, surface_relative_attitude
+from vessel.sea.wind import Wind, wind_force
 
 NX_PLANT = 14
 NX_RIGID = 12
@@ -133,10 +134,11 @@ def _surface_heave_terms(waves: WaveField, eta: ca.SX, nu: ca.SX, t: ca.SX) -> t
 
 def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanCurrent,
                       eta: ca.SX, nu: ca.SX, tau_x: ca.SX, tau_n: ca.SX, t: ca.SX,
-                      surface_heave: bool = False) -> ca.SX:
+                      surface_heave: bool = False, wind: Wind | None = None) -> ca.SX:
     """ν̇ (body frame) for generalised surge force τ_X (N) and yaw moment τ_N (N·m) at time t (s).
 
     ``surface_heave``: heave restoring on z + ζ at the boat (follows the sea) instead of z (the paper).
+    ``wind``: its load on the topsides (``vessel.sea.wind``); None: still air, the paper's model.
     """
     mats = params.matrices()
     phi, theta, psi = eta[3], eta[4], eta[5]
@@ -162,6 +164,9 @@ def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanC
     y_cf, n_cf = _crossflow(params, nu_r[1], nu_r[5])
 
     tau = ca.vertcat(tau_x, y_cf, 0, 0, 0, tau_n + n_cf)
+    if wind is not None:
+        w_x, w_y, w_k, w_n = wind_force(params, wind, psi, nu[0], nu[1], t)
+        tau += ca.vertcat(w_x, w_y, 0, w_k, 0, w_n)
     if params.payload_load_term:
         R_beta = rotation_body_to_ned(beta_phi, beta_theta, psi)
         f_payload = R_beta.T @ ca.DM([0, 0, params.payload_mass * params.g])
@@ -176,7 +181,8 @@ def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanC
 
 
 def plant_ode(params: OtterParameters, waves: WaveField | None = None,
-              current: OceanCurrent | None = None, surface_heave: bool = False) -> ca.Function:
+              current: OceanCurrent | None = None, surface_heave: bool = False,
+              wind: Wind | None = None) -> ca.Function:
     """The simulator's plant: (x[14], n_cmd[2] rad/s, t s) -> ẋ[14], with first-order shaft dynamics.
 
     ``surface_heave`` makes heave follow the sea (see the module docstring); off is the paper's model.
@@ -188,7 +194,7 @@ def plant_ode(params: OtterParameters, waves: WaveField | None = None,
     t = ca.SX.sym("t")
     n = x[12:14]
     tau_x, tau_n = shaft_speeds_to_tau(params, n[0], n[1])
-    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau_x, tau_n, t, surface_heave)
+    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau_x, tau_n, t, surface_heave, wind)
     n_sat = saturate_shaft_speed(params, n)
     n_dot = (n_cmd - n_sat) / params.prop_time_constant
     xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot, n_dot)
@@ -198,7 +204,8 @@ def plant_ode(params: OtterParameters, waves: WaveField | None = None,
 
 
 def rigid_body_ode(params: OtterParameters, waves: WaveField | None = None,
-                   current: OceanCurrent | None = None, surface_heave: bool = False) -> ca.Function:
+                   current: OceanCurrent | None = None, surface_heave: bool = False,
+                   wind: Wind | None = None) -> ca.Function:
     """The NMPC's model, as in the paper: (x[12], tau[2] = (τ_X N, τ_N N·m), t s) -> ẋ[12].
 
     ``surface_heave`` makes heave follow the sea (see the module docstring); off is the paper's model.
@@ -208,7 +215,7 @@ def rigid_body_ode(params: OtterParameters, waves: WaveField | None = None,
     x = ca.SX.sym("x", NX_RIGID)
     tau = ca.SX.sym("tau", 2)
     t = ca.SX.sym("t")
-    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau[0], tau[1], t, surface_heave)
+    nu_dot = body_acceleration(params, waves, current, x[0:6], x[6:12], tau[0], tau[1], t, surface_heave, wind)
     xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot)
     if surface_heave:
         xdot = ca.cse(xdot)  # merge the trig terms ∂ζ/∂t, ∂²ζ/∂t² repeat

@@ -26,6 +26,7 @@ from vessel.mathops import is_symbolic, ops
 from vessel.params import OtterParameters
 from vessel.plant import Plant
 from vessel.sea.waves import CalmWater, WaveField
+from vessel.sea.wind import Wind
 
 
 def gravity_body(phi: Any, theta: Any, g: float) -> tuple[Any, Any, Any]:
@@ -51,12 +52,13 @@ def specific_force(nu: Any, nu_dot: Any, phi: Any, theta: Any, g: float) -> Any:
 
 
 def imu_function(params: OtterParameters, waves: WaveField | None = None,
-                 current: OceanCurrent | None = None, surface_heave: bool = False) -> ca.Function:
+                 current: OceanCurrent | None = None, surface_heave: bool = False,
+                 wind: Wind | None = None) -> ca.Function:
     """(x[14], t s) -> imu[6] = (f_x, f_y, f_z m/s², p, q, r rad/s), body FRD, from the plant's own ẋ.
 
-    ``surface_heave`` must match the plant's (``Plant.surface_heave``): it changes ẇ.
+    ``surface_heave`` and ``wind`` must match the plant's (``Plant.surface_heave``, ``Plant.wind``): they change ν̇.
     """
-    ode = plant_ode(params, waves or CalmWater(), current or OceanCurrent(), surface_heave)
+    ode = plant_ode(params, waves or CalmWater(), current or OceanCurrent(), surface_heave, wind)
     x = ca.SX.sym("x", NX_PLANT)
     t = ca.SX.sym("t")
     xdot = ode(x, ca.DM.zeros(2), t)  # shaft commands only move ṅ, which the IMU does not see
@@ -79,8 +81,8 @@ class ImuModel:
     """The ideal IMU of one plant configuration, evaluated through CasADi's buffer interface (≈ 1 µs)."""
 
     def __init__(self, params: OtterParameters, waves: WaveField | None = None,
-                 current: OceanCurrent | None = None, surface_heave: bool = False) -> None:
-        self._function = imu_function(params, waves, current, surface_heave)
+                 current: OceanCurrent | None = None, surface_heave: bool = False, wind: Wind | None = None) -> None:
+        self._function = imu_function(params, waves, current, surface_heave, wind)
         self._x = np.zeros(NX_PLANT)
         self._t = np.zeros(1)
         self._out = np.zeros(6)
@@ -92,8 +94,8 @@ class ImuModel:
 
     @classmethod
     def for_plant(cls, plant: Plant) -> ImuModel:
-        """The IMU of this plant's vessel, sea, current and heave model."""
-        return cls(plant.params, plant.waves, plant.current, plant.surface_heave)
+        """The IMU of this plant's vessel, sea, current, heave model and wind."""
+        return cls(plant.params, plant.waves, plant.current, plant.surface_heave, plant.wind)
 
     def measure(self, x: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(specific force m/s², body rates rad/s), both body FRD, at plant state x[14] and time t (s)."""

@@ -83,6 +83,17 @@ class OtterParameters:
     added_mass_fractions: tuple[float, float, float, float, float, float] = bounded(
         (0.1, 1.5, 1.0, 0.2, 0.8, 1.7), 0.0, 10.0, "",
         "X_u̇/m, Y_v̇/m, Z_ẇ/m (hull mass), K_ṗ/Ig11, M_q̇/Ig22, N_ṙ/Ig33")
+    propeller_scale: tuple[float, float] = bounded((1.0, 1.0), 0.1, 2.0, "",
+                                                   "thrust of the port and starboard propeller against the law "
+                                                   "above (1: as modelled; 0.85: a fouled or weaker motor)")
+    shaft_speed_limit_rpm: float | None = bounded(None, 100.0, 5000.0, "rpm", "forward shaft-speed saturation of "
+                                                  "the throttle map (null: where the bollard pull is reached, "
+                                                  "992 rpm published); reverse scales with it")
+    wind_area_front: float = bounded(0.15, 0.0, 50.0, "m²", "frontal projected area above water A_F")
+    wind_area_side: float = bounded(0.35, 0.0, 100.0, "m²", "lateral projected area above water A_L")
+    wind_coefficients: tuple[float, float, float] = bounded((0.5, 0.875, 0.15), -5.0, 5.0, "",
+                                                            "C_X, C_Y, C_N of the wind load (vessel.sea.wind)")
+    wind_pressure_height: float = bounded(0.3, 0.0, 5.0, "m", "height of the lateral wind load above CO (heel)")
     munk_moment: bool = True
     payload_load_term: bool = True
     inertia_double_shift: bool = True
@@ -188,6 +199,9 @@ def derive_matrices(p: OtterParameters) -> OtterMatrices:
     k_pos, k_neg = p.thrust_coeff_forward, p.thrust_coeff_reverse
     n_max = math.sqrt(0.5 * p.bollard_pull_forward_kgf * p.g / k_pos)
     n_min = -math.sqrt(0.5 * p.bollard_pull_reverse_kgf * p.g / k_neg)
+    if p.shaft_speed_limit_rpm is not None:  # a throttle map that saturates elsewhere: both ends scale alike
+        scale = p.shaft_speed_limit_rpm * math.pi / 30.0 / n_max
+        n_max, n_min = n_max * scale, n_min * scale
     return OtterMatrices(m_total=m_total, r_g=r_g, r_p=r_p, Ig=Ig, M_RB=M_RB, M_A=M_A, M=M,
                          M_inv=np.linalg.inv(M), D=D, G=G, H_rg=H_rg, draft=draft, volume=volume,
                          gm_transverse=gm_t, gm_longitudinal=gm_l, n_max=n_max, n_min=n_min,

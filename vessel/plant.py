@@ -19,6 +19,7 @@ from vessel.dynamics import NX_PLANT, OceanCurrent, kinematics, plant_ode
 from vessel.jit import compiled, worth_compiling
 from vessel.params import OtterParameters
 from vessel.sea.waves import CalmWater, WaveField
+from vessel.sea.wind import Wind
 
 Integrator = Literal["rk4", "euler"]
 INTEGRATORS: tuple[str, ...] = ("rk4", "euler")
@@ -52,12 +53,13 @@ def semi_implicit_euler_step(ode: ca.Function, dt: float, nx_eta: int = 6, nx_nu
 
 
 def plant_step(params: OtterParameters, waves: WaveField, current: OceanCurrent, dt: float,
-               integrator: Integrator = "rk4", surface_heave: bool = False) -> ca.Function:
+               integrator: Integrator = "rk4", surface_heave: bool = False, wind: Wind | None = None) -> ca.Function:
     """(x[14], n_cmd[2], t) -> x[14] one step later, shaft speeds kept within [n_min, n_max].
 
     ``surface_heave``: heave restoring on z + ζ (the hull follows the sea); off is the paper's model.
+    ``wind``: the wind's load (None: still air).
     """
-    ode = plant_ode(params, waves, current, surface_heave)
+    ode = plant_ode(params, waves, current, surface_heave, wind)
     step = rk4_step(ode, dt) if integrator == "rk4" else semi_implicit_euler_step(ode, dt)
     x = ca.SX.sym("x", NX_PLANT)
     u = ca.SX.sym("u", 2)
@@ -73,7 +75,7 @@ class Plant:
     def __init__(self, params: OtterParameters, waves: WaveField | None = None,
                  current: OceanCurrent | None = None, dt: float = 0.01, integrator: Integrator = "rk4",
                  x0: np.ndarray | None = None, t0: float = 0.0, surface_heave: bool = False,
-                 compile_step: bool | None = None) -> None:
+                 compile_step: bool | None = None, wind: Wind | None = None) -> None:
         if not dt > 0:
             raise ConfigError(f"dt: {dt!r} s is outside the allowed range > 0 s")
         if integrator not in INTEGRATORS:
@@ -84,7 +86,8 @@ class Plant:
         self.dt = float(dt)
         self.integrator = integrator
         self.surface_heave = surface_heave  # heave follows the sea (off: the paper's model)
-        self._function = plant_step(params, self.waves, self.current, dt, integrator, surface_heave)
+        self.wind = wind
+        self._function = plant_step(params, self.waves, self.current, dt, integrator, surface_heave, wind)
         # compile_step: None = compile large steps (irregular seas) when a C compiler exists; see vessel.jit
         if compile_step or (compile_step is None and worth_compiling(self._function)):
             self._function = compiled(self._function)

@@ -1,4 +1,4 @@
-"""One world: the physical world of a run — vessel parameter set, sea (waves + current), start pose.
+"""One world: the physical world of a run — the plant's vessel, sea (waves, current, wind), start pose.
 
 The simulator (``sim-vehicle --waves/--scenario``), the in-process experiment plants and the plots all
 read the world from here, and the NMPC's simulation truth is the same ``World.sea``. Named presets are
@@ -23,9 +23,10 @@ from typing import Any
 import numpy as np
 
 from vessel.config import ConfigError, from_mapping, read_yaml, to_mapping
-from vessel.params import PARAMETER_SETS, OtterParameters, otter_parameters
+from vessel.params import PARAMETER_SETS, OtterParameters
 from vessel.sea.irregular_sea import IrregularSea
 from vessel.sea.state import SeaState, Start
+from vessel.vessel_spec import VesselSpec, relative_to
 
 WORLD_SECTIONS: tuple[str, ...] = ("vessel", "sea", "start")
 """The top-level scenario sections that describe the world (read by the simulator and mavbridge)."""
@@ -48,17 +49,17 @@ SEA_PRESETS: Mapping[str, SeaState] = MappingProxyType({
 class World:
     """The physical world of one run; the default is the paper's (published Otter, paper's sea, East)."""
 
-    vessel: str = PARAMETER_SETS[0]
+    vessel: VesselSpec = dataclasses.field(default_factory=VesselSpec)
     sea: SeaState = dataclasses.field(default_factory=lambda: SEA_PRESETS["paper"])
     start: Start = dataclasses.field(default_factory=Start)
 
     def __post_init__(self) -> None:
-        if self.vessel not in PARAMETER_SETS:
-            raise ConfigError(f"vessel: {self.vessel!r} is not one of {', '.join(PARAMETER_SETS)}")
+        if not isinstance(self.vessel, VesselSpec):  # World("corrected") and World({...}) read as in a file
+            object.__setattr__(self, "vessel", VesselSpec.from_config(self.vessel, "vessel"))
 
     def params(self) -> OtterParameters:
-        """The vessel's parameter set."""
-        return otter_parameters(self.vessel)
+        """The plant's parameter set (the boat itself; the controller's model is its own setting)."""
+        return self.vessel.params()
 
     def rigid_state(self) -> np.ndarray:
         """The 12 rigid-body states at the start (η NED and rad, ν body)."""
@@ -168,9 +169,7 @@ def world_from_mapping(data: Mapping[str, Any], where: str) -> World:
     """
     check_sections(data, where)
     prefix = f"{where}: " if where else ""
-    vessel = data.get("vessel", World.vessel)
-    if not isinstance(vessel, str) or vessel not in PARAMETER_SETS:
-        raise ConfigError(f"{prefix}vessel: {vessel!r} is not one of {', '.join(PARAMETER_SETS)}")
+    vessel = VesselSpec.from_config(data.get("vessel", PARAMETER_SETS[0]), f"{prefix}vessel")
     sea = _sea(data["sea"], prefix) if "sea" in data else SEA_PRESETS["paper"]
     start = from_mapping(Start, data.get("start"), f"{prefix}start")
     return World(vessel, sea, start)
@@ -200,4 +199,5 @@ def load_world(path: str | Path) -> World:
     data = read_scenario_file(path)
     if is_run_set(data):
         raise ConfigError(f"{path}: a set of runs; give the simulator a single-run scenario")
-    return world_from_mapping(data, str(path))
+    with relative_to(path):
+        return world_from_mapping(data, str(path))

@@ -54,8 +54,9 @@ count = whole_number(0)
 positive = whole_number(1)
 
 
-def single_scenario(path: str | None, solver: str | None) -> Any:
-    """The one run a --scenario file defines (default: the paper's Balanced run), with --solver applied."""
+def single_scenario(path: str | None, solver: str | None, model: Any = None) -> Any:
+    """The one run a --scenario file defines (default: the paper's Balanced run), with --solver applied, and the
+    companion's ``model`` (its config's, a ``VesselSpec``) over the scenario's ``controller.model`` when given."""
     from mavbridge.lab.scenario import Scenario, load_scenarios
 
     if path:
@@ -68,6 +69,8 @@ def single_scenario(path: str | None, solver: str | None) -> Any:
         scenario = Scenario(name="balanced")
     if solver:
         scenario = dataclasses.replace(scenario, controller=scenario.controller.replace(solver=solver))
+    if model is not None:
+        scenario = dataclasses.replace(scenario, controller=scenario.controller.replace(model=model))
     return scenario
 
 
@@ -133,3 +136,9 @@ def link_flags(args: argparse.Namespace) -> dict[str, tuple[str, Any]]:
             "command_retries": ("--command-retries", args.command_retries),
             "param_budget_s": ("--param-budget", args.param_budget),
             "signing_passphrase_file": ("--signing-passphrase-file", args.signing_passphrase_file)}
+
+
+def model_line(scenario: Any) -> str:
+    """What `run` and `check` say of the hull they fly: the controller's model, never the boat's."""
+    return (f"model: {scenario.controller.model} (the hull the NMPC predicts with; the boat's own is not known: "
+            f"current and steady loads are estimated in flight)")

@@ -15,6 +15,7 @@ from mavbridge.cli.args import (
     SOLVER_HELP,
     config_from_flags,
     link_flags,
+    model_line,
     parse_north_east,
     positive_metres,
     refuse_form_without_guided,
@@ -151,10 +152,11 @@ def run_command(args: argparse.Namespace) -> int:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
                           f"from home, farther than --max-range {config.max_range_m:g} m")
     refuse_if_taken(config.connect)  # before seconds of building: a second companion on a port stops at once
-    scenario = single_scenario(args.scenario, args.solver)
+    scenario = single_scenario(args.scenario, args.solver, config.model)
     out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S"))
+    print(model_line(scenario), flush=True)
     waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
-                             scenario.params(), process=config.estimator_process,
+                             scenario.model_params(), process=config.estimator_process,
                              wait_s=LOCKSTEP_WAIT_S if config.lockstep else 0.0)
     try:
         with build_nmpc(scenario, waves, config.lockstep) as nmpc:  # seconds of building, before any link is open

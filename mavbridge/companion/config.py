@@ -3,6 +3,7 @@ validated on load, with the command-line flags applied on top."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ from mavbridge.link.signing import LinkSettings
 from mavbridge.nmpc.config import choice
 from vessel.config import ConfigError, bounded, from_mapping, in_file, read_yaml
 from vessel.geo import DEFAULT_MAX_RANGE_M
+from vessel.vessel_spec import VesselSpec, relative_to
 
 ARRIVAL_ACTIONS = ("hold", "release")
 
@@ -73,6 +75,11 @@ class CompanionConfig(LinkSettings):
                              "to; never fatal (see deploy/README.md for the service's limits)")
     realtime_priority: int = bounded(10, 1, 98, "", "SCHED_FIFO priority with realtime (above normal processes, "
                                      "below the kernel's interrupt threads at 50 by default)")
+    model: VesselSpec | None = dataclasses.field(default=None, metadata={"doc": "the hull the NMPC predicts with: a "
+                                                 "named set (published, corrected), a mapping {base, <OtterParameters "
+                                                 "field>: value} or a vessel YAML file (relative to this file; what "
+                                                 "`mavbridge identify` writes); null: the scenario's controller.model "
+                                                 "(default published). Never the boat's true hull: nobody knows it"})
 
     def __post_init__(self) -> None:
         if self.wave_roll_sign not in (-1.0, 1.0):
@@ -94,6 +101,7 @@ def load_companion_config(path: str | Path | None, **overrides: Any) -> Companio
     if not path:
         return from_mapping(CompanionConfig, data, "configuration")
     try:
-        return from_mapping(CompanionConfig, data, "")
+        with relative_to(path):  # a vessel file named by model: is found beside this file
+            return from_mapping(CompanionConfig, data, "")
     except ConfigError as exc:
         raise in_file(path, exc) from None

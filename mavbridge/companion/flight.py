@@ -84,7 +84,7 @@ def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) ->
                                                                                    heaves))
     estimate = waves.estimate(0.0)
     field = estimate.field() if estimate is not None else CalmWater()
-    nmpc = RollAwareNmpc(controller, scenario.params(), field, scenario.sea.current())
+    nmpc = RollAwareNmpc(controller, scenario.model_params(), field)  # its model alone: no plant, current, wind
     if not lockstep:
         nmpc.pace(controller.period_s)
     return nmpc
@@ -193,7 +193,7 @@ class Companion:
         self.period_ms = round(self.period_s * 1000)
         ctx = Context(config.system_id, config.output, self.period_s, scenario.waypoint.acceptance_radius_m,
                       config.attitude_form)
-        self.output = make_output(config.output, dry_run, scenario.params(), ctx, config.lookahead_steps, log,
+        self.output = make_output(config.output, dry_run, scenario.model_params(), ctx, config.lookahead_steps, log,
                                   config.attitude_form)
         self.commands = CommandChannel(self.output, log)
         self.supervisor = Supervisor(self.output.required_mode, config.link_timeout_s, dry_run)

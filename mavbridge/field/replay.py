@@ -220,7 +220,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     origin, points = _waypoints(req, trial)
     period_s = scenario.controller.period_s
     ctx = Context(config.system_id, config.output, period_s, scenario.waypoint.acceptance_radius_m)
-    output = make_output(config.output, True, scenario.params(), ctx, config.lookahead_steps, say,
+    output = make_output(config.output, True, scenario.model_params(), ctx, config.lookahead_steps, say,
                          config.attitude_form)
     problem = values_problem(trial.params, ctx, config.attitude_form)
     if problem is not None:
@@ -233,8 +233,9 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     tracker.waypoints = list(points)
     state = StateEstimate(max_distance_m=config.max_distance_m)
     state.set_home(*origin)
-    return Flight(nmpc, WaveGate(waves, say, hold_s=scenario.estimation.hold_s), output, tracker, scenario.params(),
-                  round(period_s * 1000), _window(req), BoatOutputs.from_parameters(trial.params, say), state)
+    return Flight(nmpc, WaveGate(waves, say, hold_s=scenario.estimation.hold_s), output, tracker,
+                  scenario.model_params(), round(period_s * 1000), _window(req),
+                  BoatOutputs.from_parameters(trial.params, say), state)
 
 
 def summary_lines(flight: Flight, trial: Trial, req: ReplayRequest, solver: str) -> list[str]:
@@ -272,7 +273,7 @@ def replay_command(req: ReplayRequest) -> int:
     check_out(req.out)
     reader: LogReader = open_log(Path(req.log), req.fmt, req.sysid, outputs=True)
     config, window = _config(req), _window(req)
-    scenario = single_scenario(req.scenario, req.solver)
+    scenario = single_scenario(req.scenario, req.solver, config.model)
     progress = ProgressLine(f"replay: {reader.info.path.name} (its parameters and mission)")
     try:
         trial = record(reader.messages(progress), reader.info)
@@ -280,7 +281,7 @@ def replay_command(req: ReplayRequest) -> int:
         progress.done()
     _waypoints(req, trial)  # refuse before seconds of building
     waves = make_wave_source("estimated", scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
-                             scenario.params())
+                             scenario.model_params())
     with build_nmpc(scenario, waves, lockstep=True) as nmpc:
         flight = prepare_flight(req, trial, scenario, config, nmpc, waves, print)
         progress = ProgressLine(f"replay: {reader.info.path.name}")

@@ -42,8 +42,8 @@ class EstimatorSetup:
 
     @property
     def vessel(self) -> str:
-        """The Otter parameter set the hull's response is calibrated on."""
-        return str(self.scenario.vessel)
+        """The controller's model of the hull, which the estimator's response is calibrated on."""
+        return str(self.scenario.controller.model)
 
     def fresh(self) -> Any:
         """A new estimator that has seen nothing, made as `mavbridge run` makes it (the calibration on the vessel
@@ -51,7 +51,7 @@ class EstimatorSetup:
         from mavbridge.companion.wave_gate import make_wave_source
 
         return make_wave_source("estimated", self.scenario.sea.waves(), self.roll_sign, self.position_lag_s,
-                                self.scenario.params())
+                                self.scenario.model_params())
 
     def row(self) -> dict[str, Any]:
         """For report.json."""
@@ -67,7 +67,8 @@ def estimator_setup(config_path: str | None, scenario_path: str | None) -> Estim
 
     with naming("--config"):
         config = load_companion_config(config_path)  # the connection is not checked: nothing is connected to
-    return EstimatorSetup(single_scenario(scenario_path, None), config.wave_roll_sign, config.wave_position_lag_s)
+    return EstimatorSetup(single_scenario(scenario_path, None, config.model), config.wave_roll_sign,
+                          config.wave_position_lag_s)
 
 
 @dataclass

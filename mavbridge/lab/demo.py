@@ -68,7 +68,7 @@ def _plot(scenario: Scenario, out: Path, metrics: dict) -> None:
     keep = t >= engaged_from
     col = {k: np.array([float(r[k]) for r in rows])[keep] for k in ("north_m", "east_m", "roll_rad", "pitch_rad",
                                                                      "wave_slope_rad", "n1_rad_s", "n2_rad_s")}
-    params = scenario.params()
+    params = scenario.plant_params()  # the simulator's boat: τ from its shaft speeds
     from vessel import shaft_speeds_to_tau
 
     tau_x, tau_n = (np.asarray(v, float) for v in shaft_speeds_to_tau(params, col["n1_rad_s"], col["n2_rad_s"]))

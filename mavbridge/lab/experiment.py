@@ -35,10 +35,10 @@ from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.waves import EstimatorSettings, make_estimator
-from mavbridge.waves.inloop import SensedTauPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
+from mavbridge.waves.inloop import SensedPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
 from mavbridge.waves.phase.bank_source import BankFeed, PredictedSource
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth, TrueSpread
-from vessel import CalmWater, ConfigError, RegularWaves, WaveField, tau_to_shaft_speeds
+from vessel import CalmWater, ConfigError, OceanCurrent, RegularWaves, WaveField, tau_to_shaft_speeds
 from vessel.closed_loop import PropellerPlant, TauPlant
 from vessel.sea.irregular import IrregularWaves
 
@@ -62,7 +62,8 @@ def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: 
     alpha = force = 0.0
     if hasattr(waves, "slope_along_travel"):
         alpha = float(waves.slope_along_travel(x[0], x[1], t))
-        weight = scenario.params().matrices().m_total * scenario.params().g
+        params = scenario.plant_params()
+        weight = params.matrices().m_total * params.g
         force = -0.5 * weight * math.sin(2 * alpha)
     columns.update(wave_slope_rad=alpha, wave_force_n=force)
     estimate = truth.estimate(t)
@@ -78,7 +79,7 @@ def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: Ru
 
     With a ``feed`` (the realistic loop) the wave the NMPC plans with comes from it at every step.
     """
-    cfg, params = scenario.controller, scenario.params()
+    cfg, params = scenario.controller, scenario.model_params()  # the controller turns τ into commands
     waves = feed.truth if feed is not None else scenario.sea.waves()
     truth = ScenarioTruth(waves)
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
@@ -124,12 +125,12 @@ def experiment_metrics(scenario: Scenario, record: RunRecorder, arrival: float |
     }
 
 
-def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None) -> tuple[SensedTauPlant, WaveFeed]:
+def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None) -> tuple[SensedPlant, WaveFeed]:
     """The sensed plant in the hidden-phase sea and the wave feed (estimator or truth) of a realistic run."""
-    est, cfg, params = scenario.estimation, scenario.controller, scenario.params()
-    if scenario.plant != "tau":
-        raise ConfigError(f"plant: {scenario.plant!r} with estimation settings; allowed: tau")
-    truth = hidden_sea(scenario.sea.waves(), est.seed) if est.hidden_phase else scenario.sea.waves()
+    est, cfg, params = scenario.estimation, scenario.controller, scenario.model_params()  # (the companion's side)
+    plant_params = scenario.plant_params()
+    waves = scenario.sea.waves(plant_params)
+    truth = hidden_sea(waves, est.seed) if est.hidden_phase else waves
     bank: BankFeed | None = None
     if est.waves in ("estimated", "predicted"):
         settings = (calibrated_settings(params, est.surface_heave, est.roll_sign) if est.calibrate
@@ -152,12 +153,21 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
             bank = BankFeed(source, est.bank_spread, fade=est.bank_fade)
     else:
         source = ScenarioTruth(truth)
-    plant = SensedTauPlant(params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
-                           scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source)
+    plant = SensedPlant(plant_params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
+                        scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source,
+                        wind=scenario.sea.wind(), propellers=scenario.plant == "propellers")
     say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
     feed = WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s, bank)
     plant.watch(est.watch_s, cfg.period_s)
     return plant, feed
+
+
+def _told_current(scenario: Scenario) -> OceanCurrent:
+    """The current the NMPC is built with: the truth in the paper's set-up (everything known), none in a
+    realistic run (the companion is never told; it estimates what it meets, ``estimation.disturbance``)."""
+    if scenario.estimation.realistic and scenario.estimation.disturbance != "truth":
+        return OceanCurrent()
+    return scenario.sea.current()
 
 
 def _model_waves(scenario: Scenario) -> WaveField:
@@ -181,7 +191,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     cfg = scenario.controller
     hull_heaves = scenario.estimation.realistic and scenario.estimation.surface_heave
     cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves))
-    nmpc = RollAwareNmpc(cfg, scenario.params(), _model_waves(scenario), scenario.sea.current())
+    nmpc = RollAwareNmpc(cfg, scenario.model_params(), _model_waves(scenario), _told_current(scenario))
     feed: WaveFeed | None = None
     if scenario.estimation.realistic:
         plant, feed = _realistic_parts(scenario, progress)

@@ -24,6 +24,7 @@ from vessel import ConfigError
 from vessel.config import bounded, from_mapping, to_mapping
 from vessel.params import OtterParameters
 from vessel.sea.state import SeaState, Start
+from vessel.vessel_spec import VesselSpec, relative_to
 from vessel.world import (
     RUN_SET_SECTIONS,
     SCENARIO_SECTIONS,
@@ -39,6 +40,7 @@ PLANTS = ("tau", "propellers")
 WAVE_SOURCES = ("truth", "estimated", "predicted")
 BANK_SPREADS = ("full", "residual", "none")  # mavbridge.waves.phase.bank_source.SPREAD_MODES
 SENSOR_MODELS = ("default", "ideal")
+DISTURBANCES = ("estimated", "truth", "none")
 RUN_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 
@@ -102,9 +104,13 @@ class Estimation:
                              "until the pilot engages); the run's clock starts after it")
     hold_s: float = bounded(20.0, 0.0, 600.0, "s", "keep flying on the last confident estimate this long after "
                             "the confidence drops (0: degrade at once); in-process and in the companion")
+    disturbance: str = choice("estimated", DISTURBANCES, "realistic runs: the current and steady loads the NMPC "
+                              "predicts with: estimated (from the boat's own motion, as the companion does), truth "
+                              "(simulation only: the plant's current told to the NMPC, a bound) or none")
 
     def __post_init__(self) -> None:
         for name, allowed in (("waves", WAVE_SOURCES), ("sensors", SENSOR_MODELS), ("bank_spread", BANK_SPREADS),
+                              ("disturbance", DISTURBANCES),
                               ("bank_select", ("compressed", "strongest"))):
             if getattr(self, name) not in allowed:
                 raise ConfigError(f"estimation.{name}: {getattr(self, name)!r} is not one of {', '.join(allowed)}")
@@ -153,8 +159,8 @@ class Scenario:
                               f"allowed: farther than acceptance_radius_m")
 
     @property
-    def vessel(self) -> str:
-        """The world's Otter parameter set name."""
+    def vessel(self) -> VesselSpec:
+        """The plant's vessel (the boat in the world; simulation truth)."""
         return self.world.vessel
 
     @property
@@ -167,9 +173,13 @@ class Scenario:
         """The world's start pose and velocity."""
         return self.world.start
 
-    def params(self) -> OtterParameters:
-        """The vessel's parameter set."""
+    def plant_params(self) -> OtterParameters:
+        """The plant's parameter set: the boat itself (simulation truth, never the controller's)."""
         return self.world.params()
+
+    def model_params(self) -> OtterParameters:
+        """The controller's model of the boat (``controller.model``; default the published Otter)."""
+        return self.controller.model.params()
 
     def to_mapping(self) -> dict:
         """The resolved scenario as plain data in the file's own layout (for saving as YAML)."""
@@ -228,6 +238,12 @@ def load_scenarios(path: str | Path) -> list[Scenario]:
     """Every run a scenario file defines (one for a single scenario, the named runs for a set)."""
     path = Path(path)
     data = read_scenario_file(path)
+    with relative_to(path):  # vessel files named in it are found beside it
+        return _scenarios(path, data)
+
+
+def _scenarios(path: Path, data: dict[str, Any]) -> list[Scenario]:
+    """The runs of a scenario file's mapping (see ``load_scenarios``)."""
     if not is_run_set(data):
         return [scenario_from_mapping(data, str(path), data.get("name", path.stem))]
     check_sections(data, str(path), RUN_SET_SECTIONS)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from vessel.config import ConfigError, bounded, validate
+from vessel.vessel_spec import VesselSpec
 
 SOLVERS = ("ipopt", "rti", "asrti", "nrti")
 INTEGRATORS = ("euler", "rk4")
@@ -90,8 +91,14 @@ class NmpcConfig:
                                  "none (down = 0, no vertical velocity: the hull on its calm waterline, for a hull "
                                  "that rides the sea) or auto (none where the hull heaves with the sea)")
     safe_surge_n: float = bounded(30.0, 0.0, 1000.0, "N", "fallback surge force when there is no plan")
+    model: VesselSpec = dataclasses.field(default_factory=VesselSpec, metadata={"doc": "the hull the controller "
+                                          "predicts with, whatever the boat is: a named set (published, corrected), "
+                                          "a mapping {base, <OtterParameters field>: value} or a vessel YAML file "
+                                          "(as `mavbridge identify` writes)"})
 
     def __post_init__(self) -> None:
+        if not isinstance(self.model, VesselSpec):  # NmpcConfig(model="corrected") reads as in a file
+            object.__setattr__(self, "model", VesselSpec.from_config(self.model, "model"))
         validate(self)
         for f in dataclasses.fields(self):
             choices = f.metadata.get("choices")

@@ -12,6 +12,7 @@ from mavbridge.cli.args import (
     config_from_flags,
     count,
     link_flags,
+    model_line,
     parse_north_east,
     positive_metres,
     refuse_form_without_guided,
@@ -73,10 +74,11 @@ def check_command(args: argparse.Namespace) -> int:
     refuse_form_without_guided(args.attitude_form, config.output)
     config.signing_key()  # a bad passphrase file: one line, exit 2
     refuse_if_taken(config.connect)
-    scenario = single_scenario(args.scenario, args.solver)
+    scenario = single_scenario(args.scenario, args.solver, config.model)
     report = Report()
     print(f"mavbridge check: {config.connect} as {config.system_id}/{config.component_id}, output {config.output}, "
           f"scenario {scenario.name} ({scenario.controller.solver}, period {scenario.controller.period_s:g} s)")
+    print(model_line(scenario))
     start = time.monotonic()
     Probe(config, scenario, report, args.port, args.waypoint, args.max_range).run()
     solve_time(scenario, args.solves, report)  # after the link is closed

@@ -22,7 +22,7 @@ def solve_time(scenario: Any, solves: int, report: Report, log: Callable[[str], 
     target = (scenario.waypoint.north_m, scenario.waypoint.east_m)
     controller = scenario.controller.replace(heave_feedback=resolve_heave_feedback(scenario.controller.heave_feedback,
                                                                                    True))  # as the companion flies
-    with RollAwareNmpc(controller, scenario.params(), scenario.sea.waves(), scenario.sea.current()) as nmpc:
+    with RollAwareNmpc(controller, scenario.model_params(), scenario.sea.waves()) as nmpc:
         for _ in range(solves):
             result = nmpc.solve(x, t, target)
             walls.append(result.wall_time_s)

@@ -34,13 +34,14 @@ from mavbridge.waves.source import (
 )
 from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
-from vessel.dynamics import OceanCurrent, rigid_body_ode
+from vessel.dynamics import OceanCurrent, plant_ode, rigid_body_ode
 from vessel.imu import specific_force
-from vessel.plant import rk4_step
+from vessel.plant import plant_step, rk4_step
+from vessel.sea.wind import Wind
 from vessel.sensors import SensorModel, SensorParams
 
 SAMPLES_PER_PERIOD = 2  # ATTITUDE at 20 Hz for the paper's T = 0.1 s
-SETTLE_S = 10.0  # a watched run's hull floats this long unwatched first (see ``SensedTauPlant.watch``)
+SETTLE_S = 10.0  # a watched run's hull floats this long unwatched first (see ``SensedPlant.watch``)
 
 
 def hidden_sea(waves: WaveField, seed: int) -> WaveField:
@@ -68,36 +69,46 @@ def calibrated_settings(params: Any, surface_heave: bool, roll_sign: float) -> E
     return settings_for(*hull_response(*record_plant(plant, sea, (70.0, 70.0), 80.0, roll_sign=roll_sign)), base)
 
 
-class SensedTauPlant:
-    """τ-driven rigid body in the true sea; feeds a wave source with sensor readings at 20 Hz."""
+class SensedPlant:
+    """The boat in the true sea, driven by τ (the rigid body: the paper's set-up) or, with ``propellers``, by the
+    shaft-speed commands through the propellers' dynamics and saturation (so a thrust the model does not know
+    shows); feeds a wave source with sensor readings at 20 Hz."""
 
     def __init__(self, params: Any, waves: WaveField, current: OceanCurrent, x0: np.ndarray, period_s: float,
-                 dt_s: float, surface_heave: bool, sensors: SensorModel, source: WaveSource) -> None:
-        ode = rigid_body_ode(params, waves, current, surface_heave)
+                 dt_s: float, surface_heave: bool, sensors: SensorModel, source: WaveSource,
+                 wind: Wind | None = None, propellers: bool = False) -> None:
+        self.propellers = propellers
+        if propellers:
+            ode = plant_ode(params, waves, current, surface_heave, wind)
+            step = plant_step(params, waves, current, dt_s, "rk4", surface_heave, wind)
+        else:
+            ode = rigid_body_ode(params, waves, current, surface_heave, wind)
+            step = rk4_step(ode, dt_s)
         self.dt = dt_s
         self.half_s = period_s / SAMPLES_PER_PERIOD
         self.substeps = substeps_per_period(self.half_s, dt_s)
-        self._half = rk4_step(ode, dt_s).mapaccum(self.substeps)
-        x, tau, t = ca.SX.sym("x", 12), ca.SX.sym("tau", 2), ca.SX.sym("t")
-        xdot = ode(x, tau, t)
-        self._imu = ca.Function("imu", [x, tau, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)])
-        self.x = np.asarray(x0, float).copy()
+        self._half = step.mapaccum(self.substeps)
+        nx = ode.size1_in(0)
+        x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
+        xdot = ode(x, u, t)
+        self._imu = ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)])
+        self.x = np.concatenate([np.asarray(x0, float)[:12], np.zeros(nx - 12)])
         self.sensors, self.source = sensors, source
-        self._tau = np.zeros(2)
+        self._input = np.zeros(2)  # τ (N, N·m), or the shaft-speed commands (rad/s) with propellers
 
     @property
     def rigid_state(self) -> np.ndarray:
         """The 12 rigid-body states."""
-        return self.x.copy()
+        return self.x[:12].copy()
 
     @property
     def shaft_speeds(self) -> tuple[float, float] | None:
-        """Not modelled in this plant."""
-        return None
+        """Actual shaft speeds (rad/s) with propellers; None for the τ-driven body."""
+        return (float(self.x[12]), float(self.x[13])) if self.propellers else None
 
     def sense(self, t: float) -> None:
         """Sample the sensors at ``t`` (true state, last applied τ for the IMU) and feed the wave source."""
-        f = np.asarray(self._imu(self.x, self._tau, t)).ravel()
+        f = np.asarray(self._imu(self.x, self._input, t)).ravel()
         reading = self.sensors.sample(t, self.x[0:6], self.x[6:12], f)
         self.source.observe(MotionSample(reading.t_s, reading.attitude, reading.rates, reading.position_ned,
                                          reading.velocity_ned, reading.accel_body))
@@ -116,15 +127,15 @@ class SensedTauPlant:
             self.advance(t, np.zeros(2), (0.0, 0.0), sensed=i >= settle)
 
     def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float], sensed: bool = True) -> None:
-        """One control period from ``t`` with τ held, sensing at each half period inside it (``sensed``;
-        not while the hull settles unwatched)."""
-        self._tau = np.asarray(tau, float)
+        """One control period from ``t`` with τ (or, with propellers, ``n_cmd``) held, sensing at each half period
+        inside it (``sensed``; not while the hull settles unwatched)."""
+        self._input = np.asarray(n_cmd if self.propellers else tau, float)
         for i in range(SAMPLES_PER_PERIOD):
             t0 = t + i * self.half_s
             if i > 0 and sensed:
                 self.sense(t0)
             times = ca.DM(t0 + self.dt * np.arange(self.substeps)).T
-            out = np.asarray(self._half(self.x, ca.repmat(ca.DM(self._tau), 1, self.substeps), times))
+            out = np.asarray(self._half(self.x, ca.repmat(ca.DM(self._input), 1, self.substeps), times))
             x_next = out[:, -1]
             if not np.all(np.isfinite(x_next)):
                 raise FloatingPointError(f"plant state became non-finite at t = {t0:.2f} s")
@@ -185,7 +196,7 @@ class WaveFeed:
         if self.say is not None:
             self.say(line)
 
-    def step(self, t: float, plant: SensedTauPlant, nmpc: Any) -> dict[str, float]:
+    def step(self, t: float, plant: SensedPlant, nmpc: Any) -> dict[str, float]:
         """Sense at ``t``, set the NMPC's wave, return the wave columns of the log row."""
         import time
 

@@ -23,11 +23,12 @@ from sim_vehicle.json_backend.backend import JsonBackend, open_socket, serve
 from sim_vehicle.json_backend.log import JsonStateCsv, write_sea_record
 from sim_vehicle.json_backend.model import JsonPhysics
 from sim_vehicle.scenario import seeded_waves, sim_world
-from vessel import OceanCurrent, WaveField, otter_parameters
+from vessel import OceanCurrent, WaveField
 from vessel.argtypes import naming
 from vessel.config import ConfigError
 from vessel.geo import Home
 from vessel.sea.irregular import IrregularWaves
+from vessel.vessel_spec import VesselSpec
 from vessel.world import SEA_PRESETS
 
 DEFAULT_HOST = "127.0.0.1"
@@ -100,8 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def build_world(args: argparse.Namespace) -> tuple[str, WaveField, OceanCurrent, np.ndarray]:
-    """(vessel set, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s one route.
+def build_world(args: argparse.Namespace) -> tuple[VesselSpec, WaveField, OceanCurrent, np.ndarray]:
+    """(the plant's vessel, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s route.
 
     An irregular sea is averaged over the waterplane of the world's vessel, as the simulator's
     (``sim_vehicle.physics.Physics.create``).
@@ -130,7 +131,7 @@ def _bind(host: str, port: int) -> socket.socket:
                           "is another physics backend or a stale SITL still running?") from None
 
 
-def _run_folder(args: argparse.Namespace, seed: int, waves: WaveField, current: OceanCurrent, vessel: str,
+def _run_folder(args: argparse.Namespace, seed: int, waves: WaveField, current: OceanCurrent, vessel: VesselSpec,
                 x0: np.ndarray) -> JsonStateCsv | None:
     """sea.json and state.csv in --log-dir (a folder that already holds a run is refused, never overwritten)."""
     if args.log_dir is None:
@@ -164,7 +165,7 @@ def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
     heave = surface_heave(args, waves)
     if isinstance(waves, IrregularWaves):
         log.info("json-backend: compiling the irregular sea's plant for %d Hz frames (1-4 s)", PREPARED_RATE_HZ)
-    physics = JsonPhysics(otter_parameters(vessel), waves, current, x0, heave)
+    physics = JsonPhysics(vessel.params(), waves, current, x0, heave)
     physics.prepare(1.0 / PREPARED_RATE_HZ)
     log.info("json-backend: listening on UDP %s:%d, sea seed %d, heave %s", host, port, seed,
              "surface" if heave else "paper")

@@ -87,15 +87,16 @@ def _plain(value: Any) -> Any:
 
 
 def write_sea_record(path: Path, seed: int | None, waves: WaveField, current: OceanCurrent,
-                     vessel: str, x0: np.ndarray,
+                     vessel: Any, x0: np.ndarray,
                      note: str = "known to the physics only; nothing in the JSON replies carries the sea or its phase",
                      ) -> None:
-    """sea.json: what the boat sails in — the seed, the wave field (with its phase), current and start."""
+    """sea.json: what the boat sails in — the seed, the wave field (with its phase), current, the plant's vessel (a
+    name or its mapping, ``VesselSpec.to_config``) and start."""
     record = {
         "seed": seed,
         "waves": _plain(waves),
         "current": _plain(current),
-        "vessel": vessel,
+        "vessel": vessel.to_config() if hasattr(vessel, "to_config") else vessel,
         "x0": [float(v) for v in x0],
         "note": note,
     }

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sim_vehicle.sensing import sim_param_defaults
+from sim_vehicle.sensing import WIND_PARAMS, sim_param_defaults
 from vessel.config import ConfigError
 
 INT8, INT16, INT32, REAL32 = 2, 4, 6, 9  # MAV_PARAM_TYPE values
@@ -129,6 +129,7 @@ def _defs() -> list[ParamDef]:
             (f"SERVO{n}_REVERSED", i8, 0),
         ]
     table += [(name, r, default) for name, default in sim_param_defaults()]  # sensor model, see sensing.py
+    table += [(name, r, 0.0) for name in WIND_PARAMS]  # the wind, as ArduPilot SITL's (see physics.py)
     for ch in range(N_STREAM_CHANNELS):
         table += [(f"SR{ch}_{s}", i16, _STREAM_DEFAULTS.get(s, 1)) for s in STREAM_NAMES]
     return [ParamDef(name, ptype, float(default)) for name, ptype, default in table]

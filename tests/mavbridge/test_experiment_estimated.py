@@ -49,7 +49,7 @@ def test_the_watch_senses_only_its_own_seconds_not_the_unwatched_settling() -> N
     the wave source gets its first sample at −watch_s and then one every half period up to 0, none before."""
     import numpy as np
 
-    from mavbridge.waves.inloop import SETTLE_S, SensedTauPlant, sensor_model
+    from mavbridge.waves.inloop import SETTLE_S, SensedPlant, sensor_model
     from vessel.sea.state import Start
 
     class Times:
@@ -63,7 +63,7 @@ def test_the_watch_senses_only_its_own_seconds_not_the_unwatched_settling() -> N
 
     scenario = scenario_from_mapping({}, "x")
     source = Times()
-    plant = SensedTauPlant(scenario.params(), scenario.sea.waves(), scenario.sea.current(), Start().state(), 0.1,
+    plant = SensedPlant(scenario.plant_params(), scenario.sea.waves(), scenario.sea.current(), Start().state(), 0.1,
                            0.05, True, sensor_model("ideal", 1), source)
     plant.watch(3.0, 0.1)
     assert len(source.t) == 60

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from mavbridge.waves import EstimatorSettings, WindowEstimator, make_estimator
-from mavbridge.waves.inloop import SensedTauPlant, calibrated_settings, estimate_metrics, sensor_model
+from mavbridge.waves.inloop import SensedPlant, calibrated_settings, estimate_metrics, sensor_model
 from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples
 from mavbridge.waves.window_buffer import _last_in_blocks
 from mavbridge.waves.window_fit import (
@@ -85,7 +85,7 @@ def _plant_run(sea_name: str, seed: int, surge_n: float, heading_deg: float, *, 
         def observe(self, sample: object) -> None:
             """Nobody watches while the hull settles."""
 
-    plant = SensedTauPlant(params, sea, OceanCurrent(), x0, 0.1, 0.01, True, sensor_model("default", seed),
+    plant = SensedPlant(params, sea, OceanCurrent(), x0, 0.1, 0.01, True, sensor_model("default", seed),
                            Unwatched())
     t = -30.0
     while t < 0:

@@ -252,7 +252,7 @@ def test_world_from_a_scenario_and_flags_as_the_simulator_reads_it() -> None:
     root = Path(__file__).resolve().parents[2]
     args = build_parser().parse_args(["--json-backend", "9002", "--scenario", str(root / "scenarios/balanced.yaml")])
     vessel, waves, current, x0 = build_world(args)
-    assert vessel == "published" and waves == sea_preset("paper").waves() and current == OceanCurrent()
+    assert str(vessel) == "published" and waves == sea_preset("paper").waves() and current == OceanCurrent()
     assert x0[5] == pytest.approx(math.radians(90.0)) and x0.shape == (14,)
     args = build_parser().parse_args(["--scenario", str(root / "scenarios/balanced.yaml"), "--waves", "calm",
                                       "--heading", "-45", "--json-backend", "0.0.0.0:9100"])

@@ -28,11 +28,12 @@ from vessel.params import PARAMETER_SETS, OtterParameters, otter_parameters
 from vessel.sea.irregular import IrregularWaves
 from vessel.sea.irregular_sea import IrregularSea
 from vessel.sea.waves import CalmWater, RegularWaves
+from vessel.sea.wind import Wind, check_not_blocked, doppler_frequency
 
 
 @dataclass(frozen=True)
 class SeaState:
-    """Regular waves (height 0 is calm water) or an irregular ``spectrum``, and a uniform current.
+    """Regular waves (height 0 is calm water) or an irregular ``spectrum``, a uniform current and a wind.
 
     The defaults are the paper's sea (regular waves, no current). ``spectrum`` set: an irregular sea,
     and the regular-wave fields are not used.
@@ -44,6 +45,11 @@ class SeaState:
     travel_dir_deg: float = bounded(-90.0, -360.0, 360.0, "deg", "direction the waves travel to (0 = North)")
     current_speed_mps: float = bounded(0.0, 0.0, 5.0, "m/s", "uniform current speed")
     current_dir_deg: float = bounded(0.0, -360.0, 360.0, "deg", "direction the current flows to")
+    wind_speed_mps: float = bounded(0.0, 0.0, 40.0, "m/s", "mean wind speed (ArduPilot SITL's SIM_WIND_SPD)")
+    wind_from_deg: float = bounded(0.0, -360.0, 360.0, "deg", "direction the wind blows from, 0 = from North "
+                                   "(ArduPilot SITL's SIM_WIND_DIR)")
+    wind_gust_mps: float = bounded(0.0, 0.0, 20.0, "m/s", "gust standard deviation (first order, 5 s)")
+    wind_seed: int = bounded(0, 0, 2**31 - 1, "", "seed of the gusts")
     spectrum: IrregularSea | None = None
 
     def waves(self, params: OtterParameters | None = None) -> RegularWaves | IrregularWaves | CalmWater:
@@ -53,14 +59,37 @@ class SeaState:
         regular waves do not depend on the hull.
         """
         if self.spectrum is not None:
-            return self.spectrum.wave_field(params or otter_parameters(PARAMETER_SETS[0]))
+            field = self.spectrum.wave_field(params or otter_parameters(PARAMETER_SETS[0]))
+            return field if isinstance(field, CalmWater) else self._on_current(field)
         if self.height_m == 0:
             return CalmWater()
-        return RegularWaves(self.height_m, self.length_m, self.period_s, math.radians(self.travel_dir_deg))
+        chi = math.radians(self.travel_dir_deg)
+        period = self.period_s
+        if self.current_speed_mps > 0:  # the waves ride on the current: a fixed observer sees ω + k·U_c
+            omega = doppler_frequency(2 * math.pi / period, 2 * math.pi / self.length_m, chi,
+                                      self.current_speed_mps, math.radians(self.current_dir_deg))
+            check_not_blocked(omega, "sea.current_speed_mps")
+            period = 2 * math.pi / float(omega)
+        return RegularWaves(self.height_m, self.length_m, period, chi)
+
+    def _on_current(self, field: IrregularWaves) -> IrregularWaves:
+        """An irregular sea's components each shifted by k·U_c (unchanged without a current)."""
+        if self.current_speed_mps == 0:
+            return field
+        omega = doppler_frequency(field.frequency_rad_s, field.wavenumber_rad_m, field.direction_rad,
+                                  self.current_speed_mps, math.radians(self.current_dir_deg))
+        check_not_blocked(omega, "sea.current_speed_mps")
+        return IrregularWaves(field.amplitude_m, omega, field.wavenumber_rad_m, field.direction_rad, field.phase_rad,
+                              field.roll_sign)
 
     def current(self) -> OceanCurrent:
         """The ocean current."""
         return OceanCurrent(self.current_speed_mps, math.radians(self.current_dir_deg))
+
+    def wind(self) -> Wind | None:
+        """The wind (None in still air: the plant then has no wind terms)."""
+        wind = Wind(self.wind_speed_mps, math.radians(self.wind_from_deg), self.wind_gust_mps, seed=self.wind_seed)
+        return None if wind.calm else wind
 
     def with_waves_of(self, other: SeaState) -> SeaState:
         """This sea's current with ``other``'s waves (``sim-vehicle --waves`` over a scenario's sea)."""
@@ -75,12 +104,16 @@ class SeaState:
             waves = "calm water" if self.height_m == 0 else (
                 f"regular waves H {self.height_m:g} m, λ {self.length_m:g} m, T {self.period_s:g} s "
                 f"travelling to {self.travel_dir_deg:g}°")
-        if self.current_speed_mps == 0:
-            return waves
-        return f"{waves}; current {self.current_speed_mps:g} m/s to {self.current_dir_deg:g}°"
+        if self.current_speed_mps > 0:
+            waves += f"; current {self.current_speed_mps:g} m/s to {self.current_dir_deg:g}°"
+        if self.wind_speed_mps > 0 or self.wind_gust_mps > 0:
+            waves += f"; wind {self.wind_speed_mps:g} m/s from {self.wind_from_deg:g}°"
+            waves += f", gusts σ {self.wind_gust_mps:g} m/s" if self.wind_gust_mps > 0 else ""
+        return waves
 
 
-CURRENT_FIELDS = ("current_speed_mps", "current_dir_deg")
+CURRENT_FIELDS = ("current_speed_mps", "current_dir_deg", "wind_speed_mps", "wind_from_deg", "wind_gust_mps",
+                  "wind_seed")  # what --waves NAME keeps of a scenario's sea: all but the waves
 
 
 def describe_irregular(sea: IrregularSea) -> str:
