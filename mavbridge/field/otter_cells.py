@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mavbridge.field.logs import plural
+
 MONTHS = {"jan": 1, "feb": 2, "mar": 3, "apr": 4, "mai": 5, "may": 5, "jun": 6, "jul": 7, "aug": 8, "sep": 9,
           "okt": 10, "oct": 10, "nov": 11, "des": 12, "dec": 12}
 YEAR_FORM = re.compile(r"^(-?)([A-Za-z]{3})\.(\d+)$")  # 'jan.45': month.digits
@@ -137,8 +139,3 @@ def column_notes(columns: list[Column], labels: dict[str, str]) -> list[str]:
         notes.append(f"{plural(dates, 'number')} a spreadsheet had turned into dates read back (e.g. {example!r}; a "
                      "day.month date such as '04.feb', 4.2 or 4.02, by its neighbours in the column)")
     return notes
-
-
-def plural(n: int, noun: str) -> str:
-    """'1 cell', '3 cells'."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"

@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 
 from mavbridge.field import say
-from mavbridge.field.logs import LogError, LogInfo, Progress, TimedMessage
-from mavbridge.field.otter_cells import Column, column_notes, plural
+from mavbridge.field.logs import LogError, LogInfo, Progress, TimedMessage, plural
+from mavbridge.field.otter_cells import Column, column_notes
 
 ANGLES = ("current_orientation_1", "current_orientation_2", "current_orientation_3")
 RATES = ("current_rotational_velocities_1", "current_rotational_velocities_2", "current_rotational_velocities_3")
@@ -47,6 +47,7 @@ TARGET = ("observer_lat", "observer_lon", "target_north_from_observer", "target_
 LABELS = dict(zip((*ANGLES, *RATES), ("roll", "pitch", "yaw", "roll rate", "pitch rate", "yaw rate"), strict=True))
 TIME_FORMAT = "%Y-%m-%d_%H:%M:%S:%f"
 MAX_SPEED_M_S = 20.0  # a speed over ground beyond this is the placeholder's, or a jump from 0°, 0°: not the boat's
+MAX_TARGET_M = 10_000.0  # a distance to the target beyond this is measured from 0°, 0° (no fix), not the boat
 GAP_S = 1.0  # rows further apart than this are a gap (said in the notes)
 
 
@@ -161,7 +162,7 @@ class OtterCsvReader:
             fix = self._position(ms, table, row, counts, last)
             if fix is not None:
                 yield t, fix
-            yield from ((t, msg) for msg in self._controller(ms, table, row, last["fix"] is not None))
+            yield from ((t, msg) for msg in self._controller(ms, table, row, last["fix"] is not None, counts))
             yield from ((t, msg) for msg in self._attitude(ms, values, counts, last))
         self._conclude(table)
 
@@ -197,11 +198,17 @@ class OtterCsvReader:
         return say.position(ms, lat, lon, 0.0, velocity, course)
 
     @staticmethod
-    def _controller(ms: int, table: Table, row: int, fixed: bool) -> list[Any]:
-        """NAMED_VALUE_FLOAT of the controller's figures the row holds (the distance to the target only with a fix:
-        without one it is measured from 0°, 0°) and the target's position (from the observer's)."""
+    def _controller(ms: int, table: Table, row: int, fixed: bool, counts: Counter[str]) -> list[Any]:
+        """NAMED_VALUE_FLOAT of the controller's figures the row holds (the distance to the target only with a fix
+        and under MAX_TARGET_M: without one, or just after, it is measured from 0°, 0°) and the target's position
+        (from the observer's)."""
+        distance = table.value("distance_to_target", row)
+        if math.isfinite(distance) and not (fixed and distance <= MAX_TARGET_M):
+            counts[f"whose distance to the target is from no fix or over {MAX_TARGET_M / 1000:g} km (measured from "
+                   "0°, 0°): left out"] += 1
         out = [say.named_value(ms, name, value) for column, name in NAMED.items()
-               if math.isfinite(value := table.value(column, row)) and (fixed or column != "distance_to_target")]
+               if math.isfinite(value := table.value(column, row))
+               and (column != "distance_to_target" or (fixed and value <= MAX_TARGET_M))]
         lat, lon, north, east = (table.value(name, row) for name in TARGET)
         if all(math.isfinite(v) for v in (lat, lon, north, east)) and (lat or lon) and abs(lat) <= 90:
             out.append(say.position_target(ms, lat, lon, north, east))
