@@ -70,7 +70,8 @@ class _Translation:
         self.imu: tuple[int, list[float], list[float]] | None = None  # (TimeUS, acc m/s², gyro rad/s)
         self.imu_sent_us: int | None = None
         self.last_att: tuple[int, float, float, float] | None = None
-        self.velocity = (0.0, 0.0, 0.0)
+        self.velocity: tuple[float, float, float] | None = None  # GPS's, for POS: none before the first GPS
+        self.left_out: dict[str, int] = {}  # what could not be said, and how often (into the notes at the end)
         self.course: float | None = None
         self.mode: int | None = None
         self.armed = False
@@ -88,18 +89,26 @@ class _Translation:
         if us is None or not all(math.isfinite(a) for a in angles):
             return
         rates = self._rates(us, angles)
+        if rates is None:  # no IMU beside it and no earlier ATT: its rates are not in the log
+            self.last_att = (us, *angles)
+            self._count("ATT without an IMU sample beside it nor an earlier ATT to take its body rates from")
+            return
         if self.imu is not None and self.imu[0] != self.imu_sent_us and abs(us - self.imu[0]) <= IMU_FRESH_US:
             self.imu_sent_us = self.imu[0]
             yield say.imu(self.imu[0] // 1000, self.imu[1], self.imu[2])
         self.last_att = (us, *angles)
         yield say.attitude(us // 1000, *angles, rates)
 
-    def _rates(self, us: int, angles: list[float]) -> list[float]:
-        """Body rates: the IMU's beside this ATT, else the angles' rate of change since the last ATT."""
+    def _count(self, what: str) -> None:
+        self.left_out[what] = self.left_out.get(what, 0) + 1
+
+    def _rates(self, us: int, angles: list[float]) -> list[float] | None:
+        """Body rates: the IMU's beside this ATT, else the angles' rate of change since the last ATT; None when
+        neither is there (the first ATT of a log without IMU, or one at the same time as the last)."""
         if self.imu is not None and abs(us - self.imu[0]) <= IMU_FRESH_US:
             return list(self.imu[2])
         if self.last_att is None or us <= self.last_att[0]:
-            return [0.0, 0.0, 0.0]
+            return None
         dt = (us - self.last_att[0]) / 1e6
         return [math.remainder(a - b, 2 * math.pi) / dt for a, b in zip(angles, self.last_att[1:], strict=True)]
 
@@ -113,7 +122,11 @@ class _Translation:
         if int(getattr(m, "I", 0) or 0) != 0 or int(getattr(m, "Status", 0)) < GPS_3D_FIX:
             return
         speed, course = float(m.Spd), float(m.GCrs)
-        climb = float(getattr(m, "VZ", 0.0) or 0.0)  # up is positive in ArduPilot's GPS log: down is −VZ
+        climb = getattr(m, "VZ", None)  # up is positive in ArduPilot's GPS log: down is −VZ
+        if climb is None:  # an old log's GPS has no VZ: GLOBAL_POSITION_INT must say one; said in the notes
+            self.info.note("GPS messages without VZ (an old log): vertical velocity said as 0 m/s (not in this log)")
+            climb = 0.0
+        climb = float(climb)
         self.velocity = (speed * math.cos(math.radians(course)), speed * math.sin(math.radians(course)), -climb)
         self.course = course
         us = _time_us(m)
@@ -122,7 +135,9 @@ class _Translation:
 
     def _pos(self, m: Any) -> Iterator[Any]:
         us = _time_us(m)
-        if us is not None and (m.Lat or m.Lng):
+        if us is not None and (m.Lat or m.Lng) and self.velocity is None:
+            self._count("POS before the first GPS with a 3D fix (no velocity to go with it)")
+        elif us is not None and (m.Lat or m.Lng) and self.velocity is not None:
             yield say.position(us // 1000, float(m.Lat), float(m.Lng), float(m.Alt), self.velocity, self.course)
 
     def _vehicle(self) -> int:
@@ -155,10 +170,14 @@ class _Translation:
             yield from self._arming(m.Id == EV_ARMED)
 
     def _rcou(self, m: Any) -> Iterator[Any]:
-        yield say.servo_outputs(_time_us(m) or 0, [getattr(m, f"C{n}", 0) or 0 for n in range(1, 17)])
+        us = _time_us(m)  # a channel the log's layout lacks is 0: MAVLink's "no output" on that channel
+        if us is not None:
+            yield say.servo_outputs(us, [getattr(m, f"C{n}", 0) or 0 for n in range(1, 17)])
 
     def _rcin(self, m: Any) -> Iterator[Any]:
-        yield say.rc_inputs((_time_us(m) or 0) // 1000, [getattr(m, f"C{n}", 0) or 0 for n in range(1, 19)])
+        us = _time_us(m)  # a channel the log's layout lacks is 0: no input on that channel (not counted)
+        if us is not None:
+            yield say.rc_inputs(us // 1000, [getattr(m, f"C{n}", 0) or 0 for n in range(1, 19)])
 
     def _cmd(self, m: Any) -> Iterator[Any]:
         params = [getattr(m, f"Prm{n}", 0.0) for n in range(1, 5)]
@@ -214,6 +233,8 @@ class DataflashReader:
             if progress is not None and step % 5000 == 0:
                 progress(float(getattr(reader, "percent", 0.0)) / 100.0, t)
         self._check_end(reader, t)
+        for what, n in translate.left_out.items():
+            self.info.note(f"{n} {what} left out")
 
     def _check_end(self, reader: Any, t: float) -> None:
         """A binary log whose last message runs past the end of the file was cut short: say where."""

@@ -1,4 +1,5 @@
-"""The report's figures as PNG bytes (matplotlib, Agg): path, roll and pitch with the modes, spectrum, sea.
+"""The report's figures as PNG bytes (matplotlib, Agg): path (with the target, where logged), roll and pitch
+with the modes, spectrum, sea (``figures_log``: heading, speed, shaft speeds, forces over time).
 
 Each function draws one figure of one trial and returns the PNG, to be embedded in the HTML page. Long series
 are thinned to at most ``MAX_POINTS`` points for drawing (the figures in report.json are from all samples).
@@ -12,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from mavbridge.field.logs import plural
 from mavbridge.field.segments import Segment
 from mavbridge.field.spectrum import Spectrum
 from mavbridge.field.trial import Trial
@@ -59,6 +61,9 @@ def path_figure(trial: Trial) -> bytes:
     for i, (n, e) in enumerate(p for p in points if p is not None):
         ax.plot(e, n, "r*", ms=12, label="waypoints" if i == 0 else None)
         ax.annotate(str(i + 1), (e, n), textcoords="offset points", xytext=(6, 4), fontsize=8, color="r")
+    from mavbridge.field.figures_log import target_on_path
+
+    target_on_path(ax, trial)
     home = trial.local(trial.home)
     if home is not None:
         ax.plot(home[1], home[0], "b^", label="home")
@@ -119,7 +124,8 @@ def spectrum_figure(spectrum: Spectrum | None) -> bytes:
                        label=f"peak {spectrum.peak_hz:.3f} Hz (period {1 / spectrum.peak_hz:.2f} s)")
             ax.legend(fontsize=8)
         ax.set_xlim(0, min(float(spectrum.freq_hz[-1]), 3.0))
-        ax.set_title(f"roll spectrum (Welch, {spectrum.windows} windows of {spectrum.window_s:.0f} s)", fontsize=10)
+        ax.set_title(f"roll spectrum (Welch, {plural(spectrum.windows, 'window')} of {spectrum.window_s:.0f} s; "
+                     f"{spectrum.used_s:.0f} s of {spectrum.log_s:.0f} s used)", fontsize=10)
     ax.set_xlabel("frequency (Hz)")
     ax.set_ylabel("roll PSD (deg²/Hz)")
     ax.grid(alpha=0.3, which="both")

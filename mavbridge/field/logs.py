@@ -28,6 +28,11 @@ TimedMessage = tuple[float, Any]  # (t_s on the log's timeline, a MAVLink messag
 Progress = Callable[[float, float], None]  # (fraction of the file read, t_s reached)
 
 
+def plural(n: int, noun: str, many: str | None = None) -> str:
+    """A count with its noun in the right number: '1 window', '3 windows', '2 stretches' (``many``)."""
+    return f"{n} {noun if n == 1 else many or noun + 's'}"
+
+
 class LogError(ValueError):
     """A file that is not a readable log (of the kind asked for), or holds nothing to report: one line."""
 

@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from mavbridge.field.figures import attitude_figure, path_figure, sea_figure, spectrum_figure
+from mavbridge.field.figures_log import log_figure
+from mavbridge.field.logs import plural
 from mavbridge.field.sea import SERIES_KEYS, sea_line
 
 STYLE = """
@@ -70,7 +72,8 @@ def _facts(entry: dict[str, Any]) -> str:
 
 
 def log_section(report: Any, entry: dict[str, Any]) -> str:
-    """One log: its facts, notes, segments, engagements, the sea, and the four figures."""
+    """One log: its facts, notes, segments, engagements, the sea, and its figures (the sea's only when the log
+    can show one)."""
     trial = report.trial
     parts = [f"<h2>{_e(trial.info.path.name)}</h2>", f'<p class="note">{_e(trial.info.path)}</p>', _facts(entry)]
     if trial.info.stopped:
@@ -88,11 +91,15 @@ def log_section(report: Any, entry: dict[str, Any]) -> str:
               f"{estimator['position_lag_s']:g} s, hull response calibrated on the {_e(estimator['vessel'])} Otter "
               f"model; replayed over {report.sea.samples} motion samples</p>"]
     series = {key: report.sea.column(key) for key in SERIES_KEYS}
-    parts.append('<div class="figures">' + "".join((
-        image(path_figure(trial), "path"),
-        image(attitude_figure(trial, report.modes, report.engagements), "roll and pitch"),
-        image(spectrum_figure(report.spectrum), "roll spectrum"),
-        image(sea_figure(series), "wave estimate over time"))) + "</div>")
+    if report.spectrum is not None:
+        parts.append(f'<p class="note">roll spectrum: {_e(report.spectrum.used())}</p>')
+    figures = [image(path_figure(trial), "path"),
+               image(attitude_figure(trial, report.modes, report.engagements), "roll and pitch"),
+               image(log_figure(trial), "heading, speed and what the log holds over time"),
+               image(spectrum_figure(report.spectrum), "roll spectrum")]
+    if not report.sea.blind():  # a log that cannot show a sea gets its one line, not empty panels
+        figures.append(image(sea_figure(series), "wave estimate over time"))
+    parts.append('<div class="figures">' + "".join(figures) + "</div>")
     return "\n".join(parts)
 
 
@@ -110,7 +117,7 @@ def overview(data: dict[str, Any]) -> str:
 
 def write_page(path: Path, reports: Sequence[Any], data: dict[str, Any]) -> None:
     """report.html: a self-contained page of every log."""
-    body = [f"<h1>Trial report: {len(reports)} log{'s' if len(reports) != 1 else ''}</h1>",
+    body = [f"<h1>Trial report: {plural(len(reports), 'log')}</h1>",
             f'<p class="note">made by <code>{_e(data["command"])}</code> on {time.strftime("%Y-%m-%d %H:%M")}</p>']
     if len(reports) > 1:
         body.append(overview(data))

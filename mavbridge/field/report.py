@@ -28,7 +28,7 @@ from mavbridge.field.pipeline import record_on_two_cores
 from mavbridge.field.progress import ProgressLine
 from mavbridge.field.sea import SERIES_KEYS, SeaWatch, sea_line
 from mavbridge.field.segments import Segment, companion_folder, engagements, mode_segments
-from mavbridge.field.spectrum import Spectrum, roll_spectrum
+from mavbridge.field.spectrum import MIN_WINDOW_S, Spectrum, roll_spectrum
 from mavbridge.field.trial import Trial
 
 
@@ -129,9 +129,11 @@ def report_lines(r: LogReport) -> list[str]:
         lines += [f"  {seg.line()}" for seg in r.engagements] or ["  none overlaps this log"]
     lines.append(sea_line(r.sea.summary()))
     spec = r.spectrum
-    lines.append("roll spectrum: too short" if spec is None else
-                 f"roll spectrum: peak {spec.peak_hz:.3f} Hz (period {1 / spec.peak_hz:.2f} s), "
-                 f"{spec.windows} windows of {spec.window_s:.0f} s" if spec.peak_hz else "roll spectrum: flat")
+    if spec is None:
+        lines.append(f"roll spectrum: none (no stretch without gaps of {MIN_WINDOW_S:g} s or more)")
+    else:
+        peak = f"peak {spec.peak_hz:.3f} Hz (period {1 / spec.peak_hz:.2f} s)" if spec.peak_hz else "flat"
+        lines.append(f"roll spectrum: {peak}, {spec.used()}")
     return lines
 
 

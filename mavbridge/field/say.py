@@ -11,10 +11,12 @@ import math
 from collections.abc import Sequence
 
 from mavbridge.link.connection import mavlink
+from vessel.geo import latlon_from_ned
 
 GRAVITY_MSS = 9.80665  # ArduPilot's milli-g scale (as mavbridge.companion.state reads it back)
 ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
 CUSTOM = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+POSITION_ONLY = 0b1101_1111_1000  # POSITION_TARGET_TYPEMASK: velocity, acceleration, yaw and yaw rate ignored
 
 
 def _clip_int(value: float, lo: int, hi: int) -> int:
@@ -40,6 +42,21 @@ def imu(ms: int, accel_mss: Sequence[float], gyro_rad_s: Sequence[float]) -> obj
     acc = [_clip_int(a / GRAVITY_MSS * 1000.0, -32768, 32767) for a in accel_mss]
     gyr = [_clip_int(g * 1000.0, -32768, 32767) for g in gyro_rad_s]
     return mavlink.MAVLink_scaled_imu_message(ms, *acc, *gyr, 0, 0, 0)
+
+
+def named_value(ms: int, name: str, value: float) -> object:
+    """NAMED_VALUE_FLOAT ``name`` (at most 10 characters) = ``value`` at ``ms`` since boot: a figure MAVLink has no
+    message for (an autopilot's script, or the Otter API's shaft speeds and controller forces)."""
+    return mavlink.MAVLink_named_value_float_message(ms, name.encode()[:10], float(value))
+
+
+def position_target(ms: int, lat_deg: float, lon_deg: float, north_m: float, east_m: float) -> object:
+    """POSITION_TARGET_GLOBAL_INT of a target ``north_m``/``east_m`` from a reference at ``lat_deg``/``lon_deg``
+    (flat earth): its position only (velocity, acceleration and yaw ignored, as the type mask says)."""
+    lat, lon = latlon_from_ned(lat_deg, lon_deg, north_m, east_m)
+    return mavlink.MAVLink_position_target_global_int_message(ms, mavlink.MAV_FRAME_GLOBAL_INT, POSITION_ONLY,
+                                                              round(lat * 1e7), round(lon * 1e7), 0.0, 0.0, 0.0,
+                                                              0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 def heartbeat(vehicle_type: int, custom_mode: int, armed: bool) -> object:

@@ -9,7 +9,9 @@ The autopilot is the sender of the first HEARTBEAT that names an autopilot (not 
 ground stations, companions and MAVSDK send), or of ``--sysid``'s; its own messages are passed on, and the
 mission items other stations send it (an upload). Everything else is counted and said in the notes.
 The timeline is the autopilot's clock (time_boot_ms), continued across a reboot from the arrival times;
-messages without a time of their own (HEARTBEAT, PARAM_VALUE ...) take the autopilot time heard last.
+messages without a time of their own (HEARTBEAT, PARAM_VALUE ...) take the autopilot time heard last (held
+until one is heard; left out, and said, when none ever is). Also passed on: NAMED_VALUE_FLOAT (an autopilot
+script's figures) and POSITION_TARGET_GLOBAL_INT (where the autopilot steers).
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ WANTED = {mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_ATTITUDE,
           mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
           mavlink.MAVLINK_MSG_ID_SCALED_IMU, mavlink.MAVLINK_MSG_ID_RAW_IMU, mavlink.MAVLINK_MSG_ID_SCALED_IMU2,
           mavlink.MAVLINK_MSG_ID_HOME_POSITION, mavlink.MAVLINK_MSG_ID_MISSION_ITEM_INT,
-          mavlink.MAVLINK_MSG_ID_MISSION_ITEM, mavlink.MAVLINK_MSG_ID_MISSION_COUNT}
+          mavlink.MAVLINK_MSG_ID_MISSION_ITEM, mavlink.MAVLINK_MSG_ID_MISSION_COUNT,
+          mavlink.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT, mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT}
 IMU_KINDS = (mavlink.MAVLINK_MSG_ID_SCALED_IMU, mavlink.MAVLINK_MSG_ID_RAW_IMU, mavlink.MAVLINK_MSG_ID_SCALED_IMU2)
 OUTPUTS = {mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, mavlink.MAVLINK_MSG_ID_RC_CHANNELS,
            mavlink.MAVLINK_MSG_ID_PARAM_VALUE}  # what the boat did, and its parameters: for a replay
@@ -179,6 +182,7 @@ class TlogReader:
         self.path, self.sysid = path, sysid
         self.info = LogInfo(path, "tlog", size_bytes=path.stat().st_size)
         self.autopilot = self._find_autopilot()
+        self.untimed = 0  # messages without a time of their own heard before any autopilot time, left out
         # Every IMU kind is read: the fastest stream often starts only when a companion asks for it, minutes
         # into a ground station's log (the trial follows the fastest kind window by window).
         self.wanted = WANTED | (OUTPUTS if outputs else set())
@@ -207,6 +211,7 @@ class TlogReader:
     def messages(self, progress: Progress | None = None) -> Iterator[TimedMessage]:
         """The autopilot's messages (and mission items sent to it) on the autopilot's clock."""
         decode, clock, others = Decoder(), BootClock(), Counter[tuple[int, int]]()
+        self.untimed = 0
         pending: list[Any] = []
         crc_errors, next_progress = 0, 0.0
         autopilot, wanted = self.autopilot, self.wanted
@@ -232,7 +237,10 @@ class TlogReader:
                 if progress is not None and stream.bytes_read >= next_progress:
                     progress(stream.bytes_read / max(self.info.size_bytes, 1), clock.last_t or 0.0)
                     next_progress = stream.bytes_read + CHUNK
-            yield from ((clock.last_t or 0.0, m) for m in pending)
+            if clock.last_t is not None:
+                yield from ((clock.last_t, m) for m in pending)
+            else:
+                self.untimed += len(pending)
         self._conclude(stream, clock, others, crc_errors)
 
     def _timed(self, msg: Any, frame: Frame, clock: BootClock, pending: list[Any]) -> list[TimedMessage]:
@@ -245,22 +253,29 @@ class TlogReader:
             held = [(t, m) for m in pending]
             pending.clear()
             return [*held, (t, msg)]
-        if clock.last_t is None and len(pending) < PENDING_MAX:
-            pending.append(msg)
+        if clock.last_t is None:  # held until the autopilot's first time; beyond PENDING_MAX, left out (counted)
+            if len(pending) < PENDING_MAX:
+                pending.append(msg)
+            else:
+                self.untimed += 1
             return []
-        return [(clock.last_t or 0.0, msg)]
+        return [(clock.last_t, msg)]
 
     def _conclude(self, stream: FrameStream, clock: BootClock, others: Counter[tuple[int, int]],
                   crc_errors: int) -> None:
         """What the reading met, in the notes; a log cut short in ``stopped``."""
         if stream.cut is not None:
+            reached = f"t = {clock.last_t:.1f} s" if clock.last_t is not None else "no autopilot time (none was heard)"
             self.info.stopped = (f"the file ends inside a message at byte {stream.cut} of {self.info.size_bytes} "
-                                 f"(cut short): read up to t = {clock.last_t or 0.0:.1f} s")
+                                 f"(cut short): read up to {reached}")
         if stream.skipped_bytes:
             self.info.note(f"{stream.skipped_bytes} bytes that are not MAVLink frames skipped (the first at byte "
                            f"{stream.first_skip})")
         if crc_errors:
             self.info.note(f"{crc_errors} frames with a bad checksum or unknown to the dialect dropped")
+        if self.untimed:
+            self.info.note(f"{self.untimed} messages without a time of their own (HEARTBEAT, PARAM_VALUE ...) before "
+                           "the autopilot's first time_boot_ms left out: nothing places them on its clock")
         if clock.reboots:
             self.info.note(f"the autopilot rebooted {clock.reboots} time(s); the timeline continues across "
                            "(later times are its clock plus the time before)")

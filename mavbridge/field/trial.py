@@ -31,6 +31,7 @@ from vessel.geo import ned_from_latlon
 IMU_SWITCH_RATIO = 1.5  # a stream replaces the one in use when this many times as frequent in a window
 IMU_CHOICE_S = 5.0  # the IMU stream is (re)chosen over windows of this much log time, as the companion measures rates
 NAV_COMMANDS = range(16, 96)  # MAV_CMD_NAV_*: mission items with a position
+NO_HEADING = 65535  # GLOBAL_POSITION_INT.hdg when the heading is not known
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,10 @@ class Trial:
     end_s: float
     rejected: int = 0  # messages the state refused (corrupt attitude, wild position)
     imu: str | None = None
+    course: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # rows of t_s, course over ground (deg)
+    named: dict[str, np.ndarray] = field(default_factory=dict)  # NAMED_VALUE_FLOAT name: rows of t_s, value
+    targets: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # rows of t_s, north, east (m): the
+    # position target the autopilot (or the Otter API's controller) steered for
 
     def local(self, lat_lon: tuple[float, float] | None) -> tuple[float, float] | None:
         """(north, east) m of a lat/lon from the track's origin."""
@@ -108,12 +113,15 @@ class TrialRecorder:
     _imu_counts: Counter[str] = field(default_factory=Counter)
     _imu_window_end: float | None = None
     _last_t: float = 0.0
+    _course: array = field(default_factory=lambda: array("d"))
+    _named: dict[str, array] = field(default_factory=dict)
+    _targets: array = field(default_factory=lambda: array("d"))  # t_s, lat, lon (deg)
     _handlers: dict[str, Callable[[float, Any], None]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._handlers = {kind.upper(): getattr(self, f"_on_{kind}") for kind in (
             "attitude", "global_position_int", "home_position", "heartbeat", "mission_item_int", "mission_item",
-            "mission_count", "param_value")}
+            "mission_count", "param_value", "named_value_float", "position_target_global_int")}
         self._handlers.update({kind: self._on_imu for kind in IMU_MESSAGES})
         self._handlers["LOCAL_POSITION_NED"] = lambda t, msg: self.state.on_message(msg)
 
@@ -165,6 +173,17 @@ class TrialRecorder:
             v = self.state.velocity_ned
             self._track.extend((t, float(self.state.position_ned[0]), float(self.state.position_ned[1]),
                                 math.hypot(float(v[0]), float(v[1]))))
+            if msg.hdg != NO_HEADING:
+                self._course.extend((t, msg.hdg / 100.0))
+
+    def _on_named_value_float(self, t: float, msg: Any) -> None:
+        name = msg.name.decode() if isinstance(msg.name, bytes) else str(msg.name)
+        if math.isfinite(msg.value):
+            self._named.setdefault(name.rstrip("\x00"), array("d")).extend((t, float(msg.value)))
+
+    def _on_position_target_global_int(self, t: float, msg: Any) -> None:
+        if msg.lat_int or msg.lon_int:
+            self._targets.extend((t, msg.lat_int / 1e7, msg.lon_int / 1e7))
 
     def _on_home_position(self, t: float, msg: Any) -> None:
         if msg.latitude or msg.longitude:
@@ -208,8 +227,14 @@ class TrialRecorder:
         origin = None if self.state.home_lat_deg is None else (self.state.home_lat_deg, self.state.home_lon_deg)
         track = np.frombuffer(self._track, dtype=float).reshape(-1, 4).copy()
         start = min(float(attitude[0, 0]), float(track[0, 0]) if track.size else math.inf)
+        targets = np.frombuffer(self._targets, dtype=float).reshape(-1, 3).copy()
+        if origin is not None and targets.size:
+            targets[:, 1:] = [ned_from_latlon(*origin, lat, lon) for lat, lon in targets[:, 1:].tolist()]
+        named = {k: np.frombuffer(v, dtype=float).reshape(-1, 2).copy() for k, v in self._named.items()}
         return Trial(self.info, attitude, track, origin, self._home or mission_home, list(self._modes), waypoints,
-                     dict(self._params), start, self._last_t, self.state.rejected, self.state.imu_kind)
+                     dict(self._params), start, self._last_t, self.state.rejected, self.state.imu_kind,
+                     np.frombuffer(self._course, dtype=float).reshape(-1, 2).copy(), named,
+                     targets if origin is not None else np.zeros((0, 3)))
 
 
 def record(messages: Iterable[TimedMessage], info: LogInfo,

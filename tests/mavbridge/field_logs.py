@@ -10,8 +10,10 @@ DFReader reads them as it reads a boat's log.
 
 from __future__ import annotations
 
+import calendar
 import math
 import os
+import re
 import struct
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -50,17 +52,18 @@ class Motion:
 
 
 def sine_motion(seconds: float, rate_hz: float = 20.0, roll_deg: float = 4.0, period_s: float = 3.0,
-                speed_m_s: float = 1.0, heading_deg: float = 30.0) -> Motion:
-    """A boat going straight at ``speed_m_s`` on ``heading_deg``, rolling ``roll_deg`` at ``period_s``."""
+                speed_m_s: float = 1.0, heading_deg: float = 30.0, pitch_deg: float = 1.0) -> Motion:
+    """A boat going straight at ``speed_m_s`` on ``heading_deg``, rolling ``roll_deg`` (sine) and pitching
+    ``pitch_deg`` (cosine) at ``period_s``."""
     t = np.arange(0.0, seconds, 1.0 / rate_hz)
     w = 2 * math.pi / period_s
     psi = math.radians(heading_deg)
     roll = np.radians(roll_deg) * np.sin(w * t)
-    pitch = np.radians(1.0) * np.cos(w * t)
+    pitch = np.radians(pitch_deg) * np.cos(w * t)
     eta = np.column_stack([speed_m_s * t * math.cos(psi), speed_m_s * t * math.sin(psi), np.zeros_like(t), roll,
                            pitch, np.full_like(t, psi)])
     velocity = np.tile([speed_m_s * math.cos(psi), speed_m_s * math.sin(psi), 0.0], (t.size, 1))
-    rates = np.column_stack([np.radians(roll_deg) * w * np.cos(w * t), -np.radians(1.0) * w * np.sin(w * t),
+    rates = np.column_stack([np.radians(roll_deg) * w * np.cos(w * t), -np.radians(pitch_deg) * w * np.sin(w * t),
                              np.zeros_like(t)])
     accel = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, -GRAVITY)])
     return Motion(t, eta, velocity, rates, accel)
@@ -208,14 +211,24 @@ OTTER_30 = [c for c in OTTER_41 if c not in ("current_time", "previous_time", "c
 MONTHS = ("jan", "feb", "mar", "apr", "mai", "jun", "jul", "aug", "sep", "okt", "nov", "des")
 
 
+def spreadsheet_date(text: str) -> str | None:
+    """How a Norwegian spreadsheet shows a number's text when it takes it for a date: 'd.m' as a day of a month
+    ('4.2' and '4.02' both as '04.feb'), else 'm.yy' as a month of a year ('1.45' as 'jan.45'); None for a
+    number it leaves alone."""
+    found = re.fullmatch(r"(\d{1,2})\.(\d{1,2})", text)
+    if not found:
+        return None
+    whole, fraction = int(found.group(1)), int(found.group(2))
+    if 1 <= fraction <= 12 and 1 <= whole <= calendar.monthrange(2023, fraction)[1]:
+        return f"{whole:02d}.{MONTHS[fraction - 1]}"
+    if 1 <= whole <= 12 and len(found.group(2)) == 2:
+        return f"{MONTHS[whole - 1]}.{found.group(2)}"
+    return None
+
+
 def is_month(value: float) -> bool:
-    """A positive number with two decimals whose whole part is a month: a spreadsheet makes it a date."""
-    return 1 <= value < 13 and round(value, 2) == value
-
-
-def spreadsheet_date(value: float) -> str:
-    """How a Norwegian spreadsheet shows a positive number with two decimals whose whole part is a month."""
-    return f"{MONTHS[int(value) - 1]}.{round((value - int(value)) * 100):02d}"
+    """A spreadsheet takes the number (as the API writes it) for a date."""
+    return spreadsheet_date(repr(value)) is not None
 
 
 @dataclass(frozen=True)
@@ -229,6 +242,7 @@ class OtterRow:
     speed: float
     attitude_deg: tuple[float, float, float]
     rates_deg_s: tuple[float, float, float]
+    extra: tuple[tuple[str, float], ...] = ()  # other columns' values (n1, tau_X, observer_lat ...)
 
 
 def otter_rows(motion: Motion, placeholder: bool = True, repeats_every: int = 0,
@@ -255,7 +269,8 @@ def otter_rows(motion: Motion, placeholder: bool = True, repeats_every: int = 0,
 def write_otter_csv(path: Path, rows: Iterable[OtterRow], columns: Sequence[str] = OTTER_41,
                     spreadsheet: bool = False) -> None:
     """The rows in the Otter API's semicolon CSV (an unnamed local-time first column); ``spreadsheet``: the file
-    went through a spreadsheet, which turned the roll rates with two decimals and a month's whole part into dates."""
+    went through a spreadsheet, which turned the attitude and rates it took for dates into dates
+    (``spreadsheet_date``)."""
     lines = [";" + ";".join(columns)]
     for row in rows:
         stamp = datetime.fromtimestamp(EPOCH_S + row.t)
@@ -263,13 +278,11 @@ def write_otter_csv(path: Path, rows: Iterable[OtterRow], columns: Sequence[str]
         values.update(current_time=f"{EPOCH_S + row.t:.7f}", lat=repr(row.lat), lon=repr(row.lon),
                       current_course_over_ground=f"{row.course_deg:.3f}", current_speed=repr(row.speed),
                       current_fuel_capacity="0.74")
-        for n, value in enumerate(row.attitude_deg, start=1):
-            values[f"current_orientation_{n}"] = repr(value)
-        for n, value in enumerate(row.rates_deg_s, start=1):
-            text = repr(value)
-            if spreadsheet and n == 1 and is_month(value):
-                text = spreadsheet_date(value)
-            values[f"current_rotational_velocities_{n}"] = text
+        values.update((name, repr(value)) for name, value in row.extra if name in values)
+        cells = {**{f"current_orientation_{n}": v for n, v in enumerate(row.attitude_deg, start=1)},
+                 **{f"current_rotational_velocities_{n}": v for n, v in enumerate(row.rates_deg_s, start=1)}}
+        for name, value in cells.items():
+            values[name] = (spreadsheet_date(repr(value)) or repr(value)) if spreadsheet else repr(value)
         lines.append(stamp.strftime("%Y-%m-%d_%H:%M:%S:%f") + ";" + ";".join(values[c] for c in columns))
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 

@@ -97,15 +97,16 @@ def test_otter_csv_quirks_are_handled_and_said(tmp_path: Path, columns: list[str
     no_fix = sum(1 for r in rows if r.lat == 0.0)
     notes = "\n".join(reader.info.notes)
     assert f"{repeats} rows repeating the previous attitude" in notes
-    assert "1 rows without attitude (all zero: a placeholder)" in notes
+    assert "1 row without attitude (all zero: a placeholder; nothing taken from them)" in notes
     assert f"{no_fix} rows without a position fix" in notes
     assert trial.attitude.shape[0] == len(fresh)
     assert _avg_roll_deg(trial.attitude[:, 1]) == pytest.approx(np.mean([abs(r.attitude_deg[0]) for r in fresh]),
                                                                 abs=1e-9)
-    assert trial.track.shape[0] == len(rows) - no_fix
+    assert trial.track.shape[0] == len(rows) - no_fix - 1  # the placeholder's position goes with its bogus speed
     np.testing.assert_allclose(trial.attitude[:, 0], [r.t for r in fresh], atol=2e-6)  # s since the first row
-    mangled = sum(1 for r in rows if is_month(r.rates_deg_s[0]))
+    mangled = sum(1 for r in rows for v in (*r.attitude_deg, *r.rates_deg_s) if is_month(v))
     assert mangled > 20 and f"{mangled} numbers a spreadsheet had turned into dates read back" in notes
+    assert "unreadable, left out" not in notes
 
 
 def test_spreadsheet_dates_are_read_back_as_the_numbers_they_were(tmp_path: Path) -> None:

@@ -75,6 +75,7 @@ def test_without_heave_the_otter_csv_gives_the_encounter_period_and_no_confident
     otter = analyse(open_log(csv_path), setup).sea.summary()
     assert otter["encounter_period_s_median"] == pytest.approx(with_imu["encounter_period_s_median"], rel=0.05)
     assert otter["confident_fraction"] == 0.0, otter
+    assert otter["blind"] and with_imu["blind"] is None
 
 
 def test_distance_counts_travel_not_gps_jitter() -> None:
@@ -124,7 +125,7 @@ def test_report_prints_writes_a_self_contained_page_and_never_overwrites(tmp_pat
     assert found and float(found.group(1)) == pytest.approx(expected, abs=5.1e-4), text
     assert "MANUAL (armed)" in text and "HOLD (armed)" in text and "sea: " in text
     page = (out / "report.html").read_text()
-    assert page.count("data:image/png;base64,") == 4 and not re.search(r"(src|href)=\"(https?:|file:|/)", page)
+    assert page.count("data:image/png;base64,") == 5 and not re.search(r"(src|href)=\"(https?:|file:|/)", page)
     data = json.loads((out / "report.json").read_text())
     entry = data["logs"][0]
     assert entry["avg_roll_deg"] == pytest.approx(expected, abs=1e-4)
