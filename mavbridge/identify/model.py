@@ -48,10 +48,10 @@ def linear_mode(p: OtterParameters, axis: str) -> tuple[float, float]:
 
 
 def _bisect(f: Callable[[float], float], lo: float, hi: float, target: float) -> float:
-    """x in [lo, hi] with f(x) = target for a monotonic f (an end when the target is beyond it)."""
+    """x in [lo, hi] with f(x) = target for a monotonic f (nan when the target is beyond its range)."""
     f_lo, f_hi = f(lo) - target, f(hi) - target
     if f_lo * f_hi > 0:
-        return lo if abs(f_lo) < abs(f_hi) else hi
+        return math.nan
     for _ in range(60):
         mid = 0.5 * (lo + hi)
         f_mid = f(mid) - target
@@ -69,19 +69,22 @@ def _linear_fields(base: OtterParameters, axis: str, omega: float | None, zeta: 
         if omega is not None:
             g = _bisect(lambda r, p=p: linear_mode(p.replace(**{GYRATION[axis]: r}), axis)[0], *GYRATION_RANGE_M,
                         omega)
-            fields[GYRATION[axis]] = g
-            p = p.replace(**{GYRATION[axis]: g})
+            if math.isfinite(g):
+                fields[GYRATION[axis]] = g
+                p = p.replace(**{GYRATION[axis]: g})
         if zeta is not None:
             z = _bisect(lambda q, p=p: linear_mode(p.replace(**{ZETA[axis]: q}), axis)[1], *ZETA_RANGE, zeta)
-            fields[ZETA[axis]] = z
-            p = p.replace(**{ZETA[axis]: z})
+            if math.isfinite(z):
+                fields[ZETA[axis]] = z
+                p = p.replace(**{ZETA[axis]: z})
     return fields
 
 
 def fit_axis(base: OtterParameters, axis: str, period_s: float | None, zeta: float | None) -> dict[str, float]:
     """The gyration radius and damping ratio fields giving ``axis`` the identified natural period and damping as
     the plant's own free decay measures them (only the fields identified): solved on the linearised model, then
-    corrected by what ``plant_decay`` measures (the plant's decay is a little slower than its linearisation)."""
+    corrected by what ``plant_decay`` measures (the plant's decay is a little slower than its linearisation). A
+    figure the field cannot reach (a damping below what the coupled hull already has) is left out."""
     omega = None if period_s is None else 2 * math.pi / period_s
     aim_omega, aim_zeta = omega, zeta
     fields = _linear_fields(base, axis, aim_omega, aim_zeta)
