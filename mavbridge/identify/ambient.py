@@ -24,6 +24,7 @@ BAND_HZ = (0.25, 2.5)  # where a small hull's roll or pitch lies
 SLOW_S = 8.0  # what is slower than this is not the hull's oscillation
 BLOCK_S = 60.0
 MIN_S = 30.0  # less motion than this is not enough for a fit
+MIN_R2 = 0.6  # a one-step prediction worse than this: the motion is mostly sensor noise, not the hull's
 
 
 @dataclass(frozen=True)
@@ -130,6 +131,8 @@ def ambient_estimates(items: list[Stretch], what: str, column: int = 0) -> tuple
     whole = fit_ar(series, dt)
     if whole is None:
         return f"{what}: no oscillation between {BAND_HZ[0]:g} and {BAND_HZ[1]:g} Hz in the motion"
+    if not whole.r2 >= MIN_R2:
+        return f"{what}: the motion is mostly noise (AR one-step R² {whole.r2:.2f}, {MIN_R2:g} needed)"
     block_s = max(min(BLOCK_S, seconds / 4), 15.0)
     parts = [fit_ar(prepared(b, column), dt, whole.coeffs.size) for b in blocks(items, block_s)]
     parts_ok = [p for p in parts if p is not None]

@@ -75,5 +75,8 @@ def fit_surge(points: list[SurgePoint], reverse: bool, kind: str) -> Estimate | 
         if float(s[k] @ s[k]) > 0:
             draws.append(float(s[k] @ u[k] / (s[k] @ s[k])))
     low, high = (float(np.percentile(draws, q)) for q in (2.5, 97.5))
+    fit = r_squared(u, slope * s)
+    if reverse:  # the speed at full reverse command (s = −1): negative
+        slope, low, high = -slope, -high, -low
     source = f"{len(used)} steady {direction} windows of {WINDOW_S:g} s, {kind}; u = U·(thrust fraction)"
-    return Estimate(slope, low, high, "m/s", source, r_squared(u, slope * s))
+    return Estimate(slope, low, high, "m/s", source, fit)
