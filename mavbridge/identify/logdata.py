@@ -53,7 +53,8 @@ class LogData:
 
 
 def _rows(values: array, width: int) -> np.ndarray:
-    return np.frombuffer(values, dtype=float).reshape(-1, width).copy()
+    flat = np.frombuffer(values, dtype=float)
+    return flat.reshape(flat.size // width, width).copy()
 
 
 class _Collector:
@@ -112,7 +113,7 @@ def otter_commands(path: Path) -> dict[str, np.ndarray]:
                 continue
             first = row_t if first is None else first
             rows.append((row_t - first, *(_value(number(cells[reader.columns[n]], repaired)) for n in names)))
-    data = np.array(rows, float).reshape(-1, len(names) + 1)
+    data = np.array(rows, float).reshape(len(rows), len(names) + 1)
     column = {n: data[:, i + 1] for i, n in enumerate(names)}
     out = {}
     if "n1" in column and "n2" in column:

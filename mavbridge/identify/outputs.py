@@ -22,6 +22,7 @@ from vessel import ConfigError, OtterParameters, load_parameters, otter_paramete
 from vessel.params import PARAMETER_SETS
 
 T_YAW_RANGE_S = (0.01, 100.0)  # OtterParameters.yaw_time_constant's range
+MIN_SURGE_R2 = 0.5  # below this the speed is not linear in the thrust fraction: max_speed would mislead the model
 
 
 def resolve_base(base: str) -> tuple[OtterParameters, str, dict[str, Any]]:
@@ -38,9 +39,16 @@ def resolve_base(base: str) -> tuple[OtterParameters, str, dict[str, Any]]:
     return params, named, dict(data)
 
 
-def _value(result: Identification, name: str) -> float | None:
+def _value(result: Identification, name: str, min_fit: float = -math.inf) -> float | None:
     got = result.estimates.get(name)
-    return got.value if got is not None and math.isfinite(got.value) else None
+    return got.value if got is not None and math.isfinite(got.value) and got.fit >= min_fit else None
+
+
+def unfit_lines(result: Identification) -> list[str]:
+    """One line per surge figure whose fit is too poor to go into vessel.yaml."""
+    return [f"{name} {e.value:.3g} m/s: fit R² {e.fit:.2f} < {MIN_SURGE_R2:g} (the speed is not linear in the thrust "
+            "fraction): not put into vessel.yaml" for name, e in result.estimates.items()
+            if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
 
 
 def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, float]:
@@ -51,8 +59,9 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
         if period is not None or zeta is not None:
             fields.update(fit_axis(base, axis, period, zeta))
     full_forward, full_reverse = surge_full_rad_s(result)
-    fields.update(surge_fields(base, _value(result, "surge_speed_full_forward_m_s"),
-                               _value(result, "surge_speed_full_reverse_m_s"), full_forward, full_reverse))
+    fields.update(surge_fields(base, _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2),
+                               _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2), full_forward,
+                               full_reverse))
     T = _value(result, "yaw_nomoto_time_constant_s")
     if T is not None and T_YAW_RANGE_S[0] <= T <= T_YAW_RANGE_S[1]:
         fields["yaw_time_constant"] = round(T, 3)

@@ -20,7 +20,7 @@ from mavbridge.field.logs import LogError, check_out
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import identify
 from mavbridge.identify.logdata import LogData, read_log
-from mavbridge.identify.outputs import model_check, resolve_base, vessel_fields, vessel_mapping, write_yaml
+from mavbridge.identify.outputs import model_check, resolve_base, unfit_lines, vessel_fields, vessel_mapping, write_yaml
 from vessel import OtterParameters
 
 OUTPUTS = ("identify.json", "vessel.yaml", "identify.html")
@@ -90,6 +90,9 @@ def identify_command(paths: list[str], out: str | None, base_name: str, command:
                          f"{'these logs' if len(logs) > 1 else 'this log'}\n")
         return 2
     fields = vessel_fields(base, result)
+    for line in unfit_lines(result):
+        result.missing.append(line)
+        say(f"not in vessel.yaml: {line}")
     for name, field in (("roll_period_s", "gyration_roll"), ("roll_damping_ratio", "zeta_roll"),
                         ("pitch_period_s", "gyration_pitch"), ("pitch_damping_ratio", "zeta_pitch")):
         if name in result.estimates and field not in fields:

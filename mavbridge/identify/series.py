@@ -42,6 +42,8 @@ def stretches(t: np.ndarray, y: np.ndarray, dt: float, max_gap_s: float, min_s: 
     """``y`` (rows per time, or one column) interpolated onto a grid of step ``dt`` in each stretch of ``t``
     without a gap longer than ``max_gap_s``; stretches shorter than ``min_s`` are left out."""
     t = np.asarray(t, float)
+    if t.size < 2:
+        return []
     y = np.asarray(y, float).reshape(t.size, -1)
     keep = np.isfinite(t) & np.all(np.isfinite(y), axis=1)
     t, y = t[keep], y[keep]

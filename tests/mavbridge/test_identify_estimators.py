@@ -117,3 +117,10 @@ def test_yaw_without_turns_is_one_line() -> None:
     said = nomoto_estimates(stretches(t, np.column_stack([np.zeros_like(t), np.zeros_like(t)]), 0.1, 0.35),
                             "tau_N", "N·m")
     assert isinstance(said, str) and said.startswith("no turns at steady speed")
+
+
+def test_stretches_split_at_gaps_and_take_nothing_from_nothing() -> None:
+    t = np.r_[np.arange(0, 10, 0.1), np.arange(12, 20, 0.1)]
+    parts = stretches(t, np.sin(t), 0.1, 0.4)
+    assert [round(p.duration_s) for p in parts] == [10, 8]
+    assert stretches(np.empty(0), np.empty((0, 2)), 0.1, 0.4) == []
