@@ -35,8 +35,10 @@ ROOMS = {  # a room, and the rooms (other than itself and its own subpackages) i
     "mavbridge.sweep": {"vessel", "vessel.sea", "mavbridge.lab", "mavbridge.nmpc", "mavbridge.cli"},
     "mavbridge.field": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.companion.guided",
                         "mavbridge.waves", "mavbridge.nmpc", "mavbridge.lab", "mavbridge.preflight", "mavbridge.cli"},
+    "mavbridge.identify": {"vessel", "mavbridge.field"},
     "mavbridge.cli": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.lab", "mavbridge.nmpc",
-                      "mavbridge.preflight", "mavbridge.sweep", "mavbridge.waves", "mavbridge.field"},
+                      "mavbridge.preflight", "mavbridge.sweep", "mavbridge.waves", "mavbridge.field",
+                      "mavbridge.identify"},
     "mission": {"vessel"},
 }
 
@@ -85,7 +87,8 @@ def test_rooms_import_only_what_the_table_allows() -> None:
 def test_every_room_that_imports_the_command_line_imports_first() -> None:
     """A room's command line imported before ``mavbridge.cli`` (a bench, a test collected alone) does not meet
     itself half-built: ``mavbridge.cli.main`` imports the rooms' parsers only when it builds its own."""
-    rooms = ("mavbridge.preflight.cli", "mavbridge.field.cli", "mavbridge.sweep.cli", "mavbridge.field.replay")
+    rooms = ("mavbridge.preflight.cli", "mavbridge.field.cli", "mavbridge.sweep.cli", "mavbridge.field.replay",
+             "mavbridge.identify.cli")
     program = "; ".join(f"import importlib, sys; importlib.import_module({room!r}); "
                         f"[sys.modules.pop(m) for m in list(sys.modules) if m.startswith('mavbridge')]"
                         for room in rooms)

@@ -1,5 +1,6 @@
 """``mavbridge`` console script: ``experiment`` (in-process), ``run`` (the companion), ``demo`` (everything),
-``check`` (preflight against any ArduPilot Rover), ``report`` and ``replay`` (a trial's logs)."""
+``check`` (preflight against any ArduPilot Rover), ``report`` and ``replay`` (a trial's logs), ``identify`` (a
+model of the boat from its logs)."""
 
 from __future__ import annotations
 
@@ -48,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "(the wave estimator on simulated sensors at 20 Hz); the plant's realism (heave, hidden "
                           "phase) stays as the scenario's estimation section says")
     from mavbridge.field.cli import add_replay_parser, add_report_parser  # (the rooms' parsers import
+    from mavbridge.identify.cli import add_identify_parser
     from mavbridge.preflight.cli import add_check_parser  # mavbridge.cli.args: imported here, a room imported
     from mavbridge.sweep.cli import add_sweep_parser, add_tune_parser  # first does not import itself back)
 
@@ -59,6 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_signing_parser(sub)
     add_report_parser(sub)
     add_replay_parser(sub)
+    add_identify_parser(sub)
     return parser
 
 
@@ -106,12 +109,13 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     args = build_parser().parse_args(argv)
     from mavbridge.field.cli import replay_command, report_command
+    from mavbridge.identify.cli import identify_command
     from mavbridge.preflight.cli import check_command
     from mavbridge.sweep.cli import sweep_command, tune_command
 
     commands = {"experiment": _experiment, "run": run_command, "demo": demo_command, "check": check_command,
                 "sweep": sweep_command, "tune": tune_command, "signing": signing_command, "report": report_command,
-                "replay": replay_command}
+                "replay": replay_command, "identify": identify_command}
     try:
         if args.command in commands:
             return commands[args.command](args)

@@ -1,0 +1,126 @@
+"""Every estimator over a set of logs of one boat: what they identify, and one line for what they cannot.
+
+Each log is put on a uniform grid (``frames``: its attitude's own step, stretches split at gaps), with its speed
+over ground and commands held onto it and the yaw rate from the unwrapped yaw. Roll and pitch come from the
+free decays when any log holds one (``decay``), else from the motion itself (``ambient``). Surge and yaw use
+the one command the logs hold, in this order: shaft speeds, τ_X/τ_N, the motors' outputs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mavbridge.identify.ambient import ArFit, ambient_estimates
+from mavbridge.identify.decay import DecayFit, decay_estimates, find_decays, fit_decay
+from mavbridge.identify.estimate import Estimate
+from mavbridge.identify.logdata import LogData
+from mavbridge.identify.series import Stretch, held, median_step, moving_average, stretches
+from mavbridge.identify.yaw import Nomoto
+
+QUIET_TURN_RAD_S = math.radians(3.0)  # a decay is free only while the boat turns slower than this
+MIN_DECAY_RAD = math.radians(1.5)
+MAX_GAP_S = 0.4  # a third of the shortest roll period seen: bridged by interpolation, a longer gap ends a stretch
+COLUMNS = ("roll", "pitch", "r", "speed", "n1", "n2", "tau_X", "tau_N", "left", "right")
+
+
+@dataclass
+class Frames:
+    """One log's gap-free stretches on a uniform grid, columns COLUMNS (nan where the log has none)."""
+
+    log: LogData
+    items: list[Stretch]
+
+    def column(self, s: Stretch, name: str) -> np.ndarray:
+        """A column of one stretch by name."""
+        return s.y[:, COLUMNS.index(name)]
+
+    def has(self, name: str) -> bool:
+        """Some stretch holds ``name``."""
+        return any(np.isfinite(self.column(s, name)).any() for s in self.items)
+
+
+def frames(log: LogData) -> Frames:
+    """The log on its attitude's grid (see the module docstring)."""
+    dt = median_step(log.attitude[:, 0])
+    if not math.isfinite(dt):
+        return Frames(log, [])
+    items = []
+    for s in stretches(log.attitude[:, 0], log.attitude[:, 1:4], dt, max_gap_s=max(2.5 * dt, MAX_GAP_S)):
+        cols = np.full((s.t.size, len(COLUMNS)), np.nan)
+        cols[:, 0:2] = s.y[:, 0:2]
+        cols[:, 2] = np.gradient(s.y[:, 2], s.dt) if s.t.size > 1 else 0.0
+        if log.speed.size:
+            cols[:, 3] = held(log.speed[:, 0], log.speed[:, 1], s.t)
+        for key, names in (("shafts", ("n1", "n2")), ("tau", ("tau_X", "tau_N")), ("motors", ("left", "right"))):
+            if key in log.commands:
+                rows = log.commands[key]
+                for k, name in enumerate(names):
+                    cols[:, COLUMNS.index(name)] = held(rows[:, 0], rows[:, k + 1], s.t)
+        items.append(Stretch(s.t, cols))
+    return Frames(log, items)
+
+
+def select(sets: list[Frames], names: tuple[str, ...], keep: Any = None) -> list[Stretch]:
+    """Stretches of the named columns, split where a column is missing or ``keep(frames, stretch)`` is False."""
+    out = []
+    for f in sets:
+        for s in f.items:
+            y = np.column_stack([f.column(s, n) for n in names])
+            ok = np.all(np.isfinite(y), axis=1) & (np.ones(s.t.size, bool) if keep is None else keep(f, s))
+            out += stretches(s.t[ok], y[ok], s.dt, max_gap_s=1.5 * s.dt, min_s=2 * s.dt)
+    return out
+
+
+@dataclass
+class Identification:
+    """What the logs gave: estimates by name, one line per quantity they could not give, and what each fit was
+    drawn from (for the page)."""
+
+    estimates: dict[str, Estimate] = field(default_factory=dict)
+    missing: list[str] = field(default_factory=list)
+    decays: dict[str, list[tuple[DecayFit, np.ndarray, np.ndarray]]] = field(default_factory=dict)
+    ambient: dict[str, tuple[ArFit, list[Stretch]]] = field(default_factory=dict)
+    surge: dict[str, Any] = field(default_factory=dict)
+    yaw: tuple[Nomoto, list[Stretch], str] | None = None
+
+
+def _noise(y: np.ndarray) -> float:
+    """The attitude's sample-to-sample noise (rad): robust spread of what a 3-sample average leaves."""
+    resid = y - moving_average(y, 3)
+    return float(1.4826 * np.median(np.abs(resid - np.median(resid))) / 0.816) if y.size > 5 else 0.0
+
+
+def _axis_decays(sets: list[Frames], axis: str) -> list[tuple[DecayFit, np.ndarray, np.ndarray]]:
+    found = []
+    for f in sets:
+        for s in f.items:
+            y, r = f.column(s, axis), f.column(s, "r")
+            hp = y - moving_average(y, round(10.0 / s.dt))
+            ambient = 1.4826 * float(np.median(np.abs(hp - np.median(hp))))
+            quiet = np.abs(np.nan_to_num(r)) < QUIET_TURN_RAD_S
+            for a, b in find_decays(s.t, y, quiet, max(MIN_DECAY_RAD, 4 * ambient), _noise(y)):
+                fit = fit_decay(s.t[a:b + 1], y[a:b + 1])
+                if fit is not None:
+                    found.append((fit, s.t[a:b + 1], y[a:b + 1]))
+    return found
+
+
+def identify_axis(sets: list[Frames], axis: str, result: Identification) -> None:
+    """Natural period and damping ratio of roll or pitch: free decays first, else the motion's AR fit."""
+    decays = _axis_decays(sets, axis)
+    pair = decay_estimates([d[0] for d in decays], axis)
+    if pair is not None:
+        result.decays[axis] = decays
+    else:
+        items = select(sets, (axis,))
+        got = ambient_estimates(items, axis)
+        if isinstance(got, str):
+            result.missing.append(f"{axis}: no free decay, and {got}")
+            return
+        pair = got[0], got[1]
+        result.ambient[axis] = (got[2], items)
+    result.estimates[f"{axis}_period_s"], result.estimates[f"{axis}_damping_ratio"] = pair

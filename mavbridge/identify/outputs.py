@@ -1,0 +1,96 @@
+"""What `mavbridge identify` writes: the vessel mapping, the model check and identify.json.
+
+``vessel.yaml`` is a vessel mapping — ``base`` (a named parameter set) plus only the ``OtterParameters`` fields
+that changed — which loads as the scenario's ``vessel:``, ``controller.model:`` and the companion's ``model:``
+(``otter_parameters(base).replace(**fields)``). With ``--base FILE`` the file's own fields come along, the
+identified ones over them. The model check measures, on ``vessel.Plant``, the free-decay period and damping of
+the base and of the identified model beside what was identified.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from mavbridge.identify.analyse import Identification
+from mavbridge.identify.commands import surge_full_rad_s
+from mavbridge.identify.model import fit_axis, plant_decay, surge_fields
+from vessel import ConfigError, OtterParameters, load_parameters, otter_parameters
+from vessel.params import PARAMETER_SETS
+
+T_YAW_RANGE_S = (0.01, 100.0)  # OtterParameters.yaw_time_constant's range
+MIN_SURGE_R2 = 0.5  # below this the speed is not linear in the thrust fraction: max_speed would mislead the model
+
+
+def resolve_base(base: str) -> tuple[OtterParameters, str, dict[str, Any]]:
+    """(parameters, the named set under it, the fields a FILE sets) of ``--base``: published, corrected or a vessel
+    YAML file (ConfigError, one line, for anything else)."""
+    if base in PARAMETER_SETS:
+        return otter_parameters(base), base, {}
+    path = Path(base)
+    if not path.is_file():
+        raise ConfigError(f"--base: {base!r} is neither {', '.join(PARAMETER_SETS)} nor a vessel YAML file")
+    params = load_parameters(path)
+    data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    named = str(data.pop("base", "published"))
+    return params, named, dict(data)
+
+
+def _value(result: Identification, name: str, min_fit: float = -math.inf) -> float | None:
+    got = result.estimates.get(name)
+    return got.value if got is not None and math.isfinite(got.value) and got.fit >= min_fit else None
+
+
+def unfit_lines(result: Identification) -> list[str]:
+    """One line per surge figure whose fit is too poor to go into vessel.yaml."""
+    return [f"{name} {e.value:.3g} m/s: fit R² {e.fit:.2f} < {MIN_SURGE_R2:g} (the speed is not linear in the thrust "
+            "fraction): not put into vessel.yaml" for name, e in result.estimates.items()
+            if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
+
+
+def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, float]:
+    """The OtterParameters fields the identified figures change (only those)."""
+    fields: dict[str, float] = {}
+    for axis in ("roll", "pitch"):
+        period, zeta = _value(result, f"{axis}_period_s"), _value(result, f"{axis}_damping_ratio")
+        if period is not None or zeta is not None:
+            fields.update(fit_axis(base, axis, period, zeta))
+    full_forward, full_reverse = surge_full_rad_s(result)
+    fields.update(surge_fields(base, _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2),
+                               _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2), full_forward,
+                               full_reverse))
+    T = _value(result, "yaw_nomoto_time_constant_s")
+    if T is not None and T_YAW_RANGE_S[0] <= T <= T_YAW_RANGE_S[1]:
+        fields["yaw_time_constant"] = round(T, 3)
+    return {k: float(v) for k, v in fields.items()}
+
+
+def model_check(base: OtterParameters, identified: OtterParameters, result: Identification) -> dict[str, Any]:
+    """Free-decay period and damping measured on the plant, base model and identified model, beside the log's."""
+    check: dict[str, Any] = {}
+    for axis in ("roll", "pitch"):
+        if f"{axis}_period_s" not in result.estimates:
+            continue
+        row: dict[str, Any] = {"identified_from_logs": {"period_s": _value(result, f"{axis}_period_s"),
+                                                        "damping_ratio": _value(result, f"{axis}_damping_ratio")}}
+        for name, params in (("base_model", base), ("identified_model", identified)):
+            fit = plant_decay(params, axis)
+            row[name] = None if fit is None else {"period_s": round(fit.period_s, 4), "damping_ratio":
+                                                  round(fit.zeta, 4)}
+        check[axis] = row
+    return check
+
+
+def vessel_mapping(named: str, file_fields: dict[str, Any], fields: dict[str, float]) -> dict[str, Any]:
+    """{base: named set, the base file's fields, the identified fields}: what vessel.yaml holds."""
+    return {"base": named, **file_fields, **fields}
+
+
+def write_yaml(path: Path, mapping: dict[str, Any], command: str) -> None:
+    """vessel.yaml with a comment saying where it came from."""
+    header = (f"# Identified by `{command}`.\n# A vessel mapping: the base parameter set plus the OtterParameters "
+              "fields that changed.\n")
+    path.write_text(header + yaml.safe_dump(mapping, sort_keys=False), encoding="utf-8")

@@ -1,0 +1,126 @@
+"""The identification's estimators against synthetic responses with known answers, with noise and gaps (seeded)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mavbridge.identify.ambient import ambient_estimates
+from mavbridge.identify.decay import decay_estimates, find_decays, fit_decay
+from mavbridge.identify.series import stretches
+from mavbridge.identify.surge import SurgePoint, fit_surge
+from mavbridge.identify.yaw import Nomoto, nomoto_estimates
+
+PERIOD_S, ZETA = 1.25, 0.12
+OMEGA = 2 * math.pi / PERIOD_S
+
+
+def decays_signal(rng: np.random.Generator, noise: float) -> tuple[np.ndarray, np.ndarray]:
+    """Two free roll decays (6° and −4.6°) at 10 Hz with white sensor noise."""
+    t = np.arange(0, 60, 0.1)
+    y = np.zeros_like(t)
+    for t0, amp in ((5.0, 0.1), (30.0, -0.08)):
+        tau = t - t0
+        on = tau >= 0
+        y[on] += amp * np.exp(-ZETA * OMEGA * tau[on]) * np.cos(OMEGA * math.sqrt(1 - ZETA**2) * tau[on])
+    return t, y + rng.normal(0, noise, t.size)
+
+
+def test_free_decays_give_the_period_and_damping() -> None:
+    t, y = decays_signal(np.random.default_rng(1), noise=0.003)
+    found = find_decays(t, y, None, math.radians(1.5), 0.003)
+    assert len(found) == 2
+    fits = [fit_decay(t[a:b + 1], y[a:b + 1]) for a, b in found]
+    period, zeta = decay_estimates([f for f in fits if f is not None], "roll")
+    assert period.value == pytest.approx(PERIOD_S, rel=0.02)
+    assert zeta.value == pytest.approx(ZETA, rel=0.1)
+    assert period.low < PERIOD_S * 1.02 and period.high > PERIOD_S * 0.98
+    assert period.fit > 0.95
+
+
+def test_no_decay_is_found_while_turning_or_in_noise() -> None:
+    t, y = decays_signal(np.random.default_rng(2), noise=0.003)
+    assert find_decays(t, y, np.zeros(t.size, bool), math.radians(1.5), 0.003) == []  # never quiet: turning
+    noise = np.random.default_rng(3).normal(0, 0.003, t.size)
+    assert find_decays(t, noise, None, math.radians(1.5), 0.003) == []
+
+
+def oscillator(seconds: float, rng: np.random.Generator, dt: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Roll of a hull with PERIOD_S and ZETA driven by white noise (exact discretisation), 2° RMS."""
+    h = 0.01
+    A = np.array([[0.0, 1.0], [-OMEGA**2, -2 * ZETA * OMEGA]])
+    lam, V = np.linalg.eig(A * h)
+    Ad = (V @ np.diag(np.exp(lam)) @ np.linalg.inv(V)).real
+    n, every = round(seconds / h), round(dt / h)
+    x, out = np.zeros(2), []
+    kicks = rng.normal(0, math.sqrt(h), n)
+    for k in range(n):
+        x = Ad @ x + np.array([0.0, kicks[k]])
+        if k % every == 0:
+            out.append(x[0])
+    y = np.asarray(out)
+    return np.arange(y.size) * dt, y / np.std(y) * math.radians(2.0)
+
+
+def test_ambient_motion_gives_the_period_and_damping_through_gaps_and_noise() -> None:
+    rng = np.random.default_rng(4)
+    t, y = oscillator(1200, rng)
+    y = y + rng.normal(0, math.radians(0.1), y.size)
+    keep = rng.random(t.size) > 0.05  # 5 % of the samples lost
+    period, zeta, fit = ambient_estimates(stretches(t[keep], y[keep], 0.1, 0.4), "roll")
+    assert period.value == pytest.approx(PERIOD_S, rel=0.05)
+    assert zeta.value == pytest.approx(ZETA, rel=0.3)
+    assert period.low < period.value < period.high
+    assert fit.r2 > 0.6
+
+
+def test_ambient_refuses_noise_and_short_logs() -> None:
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 300, 0.1)
+    assert isinstance(ambient_estimates(stretches(t, rng.normal(0, 0.001, t.size), 0.1, 0.4), "pitch"), str)
+    short = np.arange(0, 20, 0.1)
+    said = ambient_estimates(stretches(short, np.sin(OMEGA * short), 0.1, 0.4), "roll")
+    assert isinstance(said, str) and "needed" in said
+
+
+def test_surge_speed_at_full_command_forward_and_reverse() -> None:
+    rng = np.random.default_rng(6)
+    fractions = rng.uniform(0.1, 1.0, 20)
+    points = [SurgePoint(float(i), 0.0, float(s), 2.4 * s + rng.normal(0, 0.03)) for i, s in enumerate(fractions)]
+    forward = fit_surge(points, reverse=False, kind="test")
+    assert forward.value == pytest.approx(2.4, rel=0.03)
+    assert forward.low < 2.4 < forward.high
+    reverse = [SurgePoint(0.0, 0.0, -float(s), 1.1 * s) for s in fractions[:5]]
+    assert fit_surge(reverse, reverse=True, kind="test").value == pytest.approx(-1.1, rel=0.02)
+    said = fit_surge(points, reverse=True, kind="shaft speeds")
+    assert isinstance(said, str) and "reverse speed not identifiable" in said
+
+
+def test_nomoto_gain_time_constant_and_asymmetry() -> None:
+    rng = np.random.default_rng(7)
+    dt = 0.1
+    t = np.arange(0, 600, dt)
+    steering = np.repeat(rng.uniform(-100, 100, t.size // 80 + 1), 80)[: t.size]
+    truth = Nomoto(K=math.radians(0.1), T=1.8, r0=math.radians(0.5), dt=dt)
+    r = truth.simulate(steering, 0.0) + rng.normal(0, math.radians(0.5), t.size)
+    keep = rng.random(t.size) > 0.05
+    got, _ = nomoto_estimates(stretches(t[keep], np.column_stack([steering, r])[keep], dt, 0.35), "tau_N", "N·m")
+    assert got["yaw_nomoto_gain"].value == pytest.approx(0.1, rel=0.05)
+    assert got["yaw_nomoto_time_constant_s"].value == pytest.approx(1.8, rel=0.15)
+    assert got["yaw_rate_zero_steering_deg_s"].value == pytest.approx(0.5, rel=0.15)
+
+
+def test_yaw_without_turns_is_one_line() -> None:
+    t = np.arange(0, 120, 0.1)
+    said = nomoto_estimates(stretches(t, np.column_stack([np.zeros_like(t), np.zeros_like(t)]), 0.1, 0.35),
+                            "tau_N", "N·m")
+    assert isinstance(said, str) and said.startswith("no turns at steady speed")
+
+
+def test_stretches_split_at_gaps_and_take_nothing_from_nothing() -> None:
+    t = np.r_[np.arange(0, 10, 0.1), np.arange(12, 20, 0.1)]
+    parts = stretches(t, np.sin(t), 0.1, 0.4)
+    assert [round(p.duration_s) for p in parts] == [10, 8]
+    assert stretches(np.empty(0), np.empty((0, 2)), 0.1, 0.4) == []
