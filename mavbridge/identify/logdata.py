@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 from array import array
-from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,7 +21,7 @@ import numpy as np
 
 from mavbridge.field.boat import THROTTLE_LEFT, THROTTLE_RIGHT, motor_servos
 from mavbridge.field.logs import LogError, open_log
-from mavbridge.field.otter_csv import OtterCsvReader, number
+from mavbridge.field.otter_csv import OtterCsvReader
 
 RPM = 2 * math.pi / 60  # rad/s per rpm
 OTTER_COMMANDS = ("n1", "n2", "tau_X", "tau_N")
@@ -95,36 +94,21 @@ def _motors(servo: np.ndarray, params: dict[str, float], notes: list[str]) -> np
 
 
 def otter_commands(path: Path) -> dict[str, np.ndarray]:
-    """The Otter API CSV's command columns, on the reader's timeline (seconds since the first timed row)."""
+    """The Otter API CSV's command columns, on the reader's timeline (seconds since the first timed row; NaN where
+    a cell could not be read: the reader's own table, dates read back as it reads them)."""
     reader = OtterCsvReader(path)
-    names = [n for n in OTTER_COMMANDS if n in reader.columns]
-    if not names:
+    if not any(n in reader.columns for n in OTTER_COMMANDS):
         return {}
-    repaired: Counter[str] = Counter()
-    rows, first = [], None
-    with path.open(encoding="utf-8", errors="replace") as handle:
-        handle.readline()
-        for line in handle:
-            cells = line.rstrip("\r\n").split(";")
-            if len(cells) < len(reader.columns):
-                continue
-            row_t = reader._time(cells, repaired)  # the reader's own rule for a row's time
-            if row_t is None:
-                continue
-            first = row_t if first is None else first
-            rows.append((row_t - first, *(_value(number(cells[reader.columns[n]], repaired)) for n in names)))
-    data = np.array(rows, float).reshape(len(rows), len(names) + 1)
-    column = {n: data[:, i + 1] for i, n in enumerate(names)}
+    table = reader.table()
+    t = np.array(table.t, float)
+    column = {n: np.array([table.value(n, row) for row in range(t.size)], float)
+              for n in OTTER_COMMANDS if n in reader.columns}
     out = {}
     if "n1" in column and "n2" in column:
-        out["shafts"] = np.column_stack([data[:, 0], column["n1"] * RPM, column["n2"] * RPM])
+        out["shafts"] = np.column_stack([t, column["n1"] * RPM, column["n2"] * RPM])
     if "tau_X" in column and "tau_N" in column:
-        out["tau"] = np.column_stack([data[:, 0], column["tau_X"], column["tau_N"]])
+        out["tau"] = np.column_stack([t, column["tau_X"], column["tau_N"]])
     return out
-
-
-def _value(v: float | None) -> float:
-    return math.nan if v is None or not math.isfinite(v) else v
 
 
 def read_log(path: Path, fmt: str = "auto") -> LogData:

@@ -11,7 +11,9 @@ import pytest
 import yaml
 
 from mavbridge.cli.main import main
+from mavbridge.companion.config import load_companion_config
 from mavbridge.identify.model import plant_decay
+from mavbridge.lab.scenario import load_scenarios
 from tests.mavbridge.field_logs import OTTER_41
 from tests.mavbridge.identify_logs import write_identify_log
 from vessel import Plant, load_parameters, otter_parameters
@@ -56,6 +58,12 @@ def test_vessel_yaml_loads_and_its_model_decays_as_identified(identified: tuple[
     assert all(getattr(otter_parameters(), k) != v for k, v in fields.items())  # only what changed
     params = load_parameters(folder / "out" / "vessel.yaml")
     assert params == otter_parameters().replace(**fields)
+    # The file as the scenario's vessel:, controller.model: and the companion's model: load it, unchanged
+    (folder / "run.yaml").write_text("vessel: out/vessel.yaml\ncontroller: {model: out/vessel.yaml}\n")
+    (folder / "companion.yaml").write_text("model: out/vessel.yaml\n")
+    scenario = load_scenarios(folder / "run.yaml")[0]
+    assert scenario.plant_params() == params and scenario.model_params() == params
+    assert load_companion_config(folder / "companion.yaml").model.params() == params
     data = json.loads((folder / "out" / "identify.json").read_text())
     measured = plant_decay(params, "roll")
     assert measured.period_s == pytest.approx(data["roll_period_s"]["value"], rel=0.01)
