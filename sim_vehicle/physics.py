@@ -30,7 +30,7 @@ class Physics:
 
     @classmethod
     def create(cls, world: World, seed: int | None = None, surface_heave: bool = False,
-               wind: Wind | None = None) -> Physics:
+               wind: Wind | None = None) -> Physics:  # (wind None: the world's; the simulator passes SIM_WIND_*'s)
         """An Otter stepped at 100 Hz in the world's sea, from the world's start (propellers stopped).
 
         ``seed`` gives the sea its hidden phase origin (``scenario.seeded_waves``; None: the sea as
@@ -38,6 +38,7 @@ class Physics:
         SIM_WIND_* parameters' (``wind_of``).
         """
         params = world.params()
+        wind = world.sea.wind() if wind is None else wind
         waves = world.sea.waves(params)
         if seed is not None:
             waves = seeded_waves(waves, seed)

@@ -253,7 +253,7 @@ def test_the_file_references_list_every_field() -> None:
 
 def test_the_metrics_page_explains_every_shared_key() -> None:
     """metrics.md names every key of the shared figures of merit and of the companion's loop."""
-    from mavbridge.companion.flight import LoopEvents, loop_metrics
+    from mavbridge.companion.summary import LoopEvents, loop_metrics
     from mavbridge.lab.runlog import RunRecorder, run_metrics
 
     record = RunRecorder(0.1, background_ms=[1.0])

@@ -22,6 +22,7 @@ propellers in rad/s. Plant state x = [η, ν, n] (14); rigid-body state x = [η,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -47,6 +48,23 @@ class OceanCurrent:
 
     speed_mps: float = bounded(0.0, 0.0, 5.0, "m/s", "current speed V_c")
     direction_rad: float = bounded(0.0, -2 * np.pi, 2 * np.pi, "rad", "direction the current flows to")
+
+
+@dataclass(frozen=True)
+class NedCurrent:
+    """A uniform current as its NED components (m/s; numbers or CasADi symbols): the form an estimate takes."""
+
+    north_mps: Any = 0.0
+    east_mps: Any = 0.0
+
+
+def current_in_body(current: OceanCurrent | NedCurrent, psi: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """(u_c, v_c): the current's velocity in body axes at heading ψ (roll and pitch ignored, as Fossen's)."""
+    if isinstance(current, NedCurrent):
+        c, s = ca.cos(psi), ca.sin(psi)
+        return c * current.north_mps + s * current.east_mps, -s * current.north_mps + c * current.east_mps
+    return (current.speed_mps * ca.cos(current.direction_rad - psi),
+            current.speed_mps * ca.sin(current.direction_rad - psi))
 
 
 def skew(a: ca.SX) -> ca.SX:
@@ -132,7 +150,7 @@ def _surface_heave_terms(waves: WaveField, eta: ca.SX, nu: ca.SX, t: ca.SX) -> t
     return eta[2] + zeta, ca.vertcat(water, 0, 0, 0), ca.vertcat(water_rate, 0, 0, 0)
 
 
-def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanCurrent,
+def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanCurrent | NedCurrent,
                       eta: ca.SX, nu: ca.SX, tau_x: ca.SX, tau_n: ca.SX, t: ca.SX,
                       surface_heave: bool = False, wind: Wind | None = None) -> ca.SX:
     """ν̇ (body frame) for generalised surge force τ_X (N) and yaw moment τ_N (N·m) at time t (s).
@@ -143,8 +161,7 @@ def body_acceleration(params: OtterParameters, waves: WaveField, current: OceanC
     mats = params.matrices()
     phi, theta, psi = eta[3], eta[4], eta[5]
 
-    u_c = current.speed_mps * ca.cos(current.direction_rad - psi)
-    v_c = current.speed_mps * ca.sin(current.direction_rad - psi)
+    u_c, v_c = current_in_body(current, psi)
     nu_r = nu - ca.vertcat(u_c, v_c, 0, 0, 0, 0)
     nu_c_dot = ca.vertcat(nu[5] * v_c, -nu[5] * u_c, 0, 0, 0, 0)
 

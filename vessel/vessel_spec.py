@@ -32,7 +32,8 @@ _CONFIG_DIR: contextvars.ContextVar[Path | None] = contextvars.ContextVar("vesse
 
 @contextlib.contextmanager
 def relative_to(path: str | Path | None) -> Iterator[None]:
-    """Vessel files named while this is active are found relative to the folder of the file ``path``."""
+    """Vessel files named while this is active are found relative to the folder of the file ``path`` (outside it,
+    and for command-line flags, relative to the working folder)."""
     token = _CONFIG_DIR.set(Path(path).parent if path else None)
     try:
         yield
@@ -125,7 +126,7 @@ def _from_file(name: str, where: str) -> VesselSpec:
     """A vessel YAML file's mapping (relative paths: to the folder of the file being read, if any)."""
     path = Path(name)
     folder = _CONFIG_DIR.get()
-    if not path.is_absolute() and folder is not None and not path.exists():
+    if not path.is_absolute() and folder is not None:  # beside the file that names it, never the working folder's
         path = folder / path
     if not path.is_file():
         raise ConfigError(f"{where}: {name!r} is neither a named set ({', '.join(PARAMETER_SETS)}) nor a "

@@ -155,7 +155,7 @@ def run_command(args: argparse.Namespace) -> int:
     scenario = single_scenario(args.scenario, args.solver, config.model)
     out = fresh_run_folder(Path(args.out) if args.out else Path("runs") / time.strftime("companion-%Y%m%d-%H%M%S"))
     print(model_line(scenario), flush=True)
-    waves = make_wave_source(config.waves, scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
+    waves = make_wave_source(config.waves, scenario.sea.waves, config.wave_roll_sign, config.wave_position_lag_s,
                              scenario.model_params(), process=config.estimator_process,
                              wait_s=LOCKSTEP_WAIT_S if config.lockstep else 0.0)
     try:

@@ -75,6 +75,9 @@ class CompanionConfig(LinkSettings):
                              "to; never fatal (see deploy/README.md for the service's limits)")
     realtime_priority: int = bounded(10, 1, 98, "", "SCHED_FIFO priority with realtime (above normal processes, "
                                      "below the kernel's interrupt threads at 50 by default)")
+    disturbance: str = choice("estimated", ("estimated", "none"), "estimated: the current and steady loads the boat "
+                              "meets, learnt from its own motion against the model's prediction (from connection on, "
+                              "while disarmed or commanding) and predicted with; none: the model alone")
     model: VesselSpec | None = dataclasses.field(default=None, metadata={"doc": "the hull the NMPC predicts with: a "
                                                  "named set (published, corrected), a mapping {base, <OtterParameters "
                                                  "field>: value} or a vessel YAML file (relative to this file; what "
@@ -85,6 +88,7 @@ class CompanionConfig(LinkSettings):
         if self.wave_roll_sign not in (-1.0, 1.0):
             raise ConfigError(f"wave_roll_sign: {self.wave_roll_sign!r} is not one of -1, 1")
         for name, choices in (("output", OUTPUTS), ("on_arrival", ARRIVAL_ACTIONS), ("waves", WAVE_SOURCES),
+                              ("disturbance", ("estimated", "none")),
                               ("attitude_form", ATTITUDE_FORMS)):
             if getattr(self, name) not in choices:
                 raise ConfigError(f"{name}: {getattr(self, name)!r} is not one of {', '.join(choices)}")

@@ -183,11 +183,15 @@ class DelayCompensator:
         self.horizons_s.append(horizon)
         return age, state_s + horizon
 
-    def predict(self, x: np.ndarray, state_s: float, plan_s: float, waves: Any) -> np.ndarray:
-        """The state at ``plan_s`` from ``x`` at ``state_s`` (x itself when not compensating)."""
+    def predict(self, x: np.ndarray, state_s: float, plan_s: float, waves: Any,
+                disturbance: np.ndarray | None = None) -> np.ndarray:
+        """The state at ``plan_s`` from ``x`` at ``state_s`` (x itself when not compensating), with the NMPC's wave
+        and estimated disturbance."""
         if self.predictor is None or plan_s <= state_s:
             return x
-        return self.predictor.predict(x, state_s, plan_s, self.history, waves)
+        if disturbance is None:
+            return self.predictor.predict(x, state_s, plan_s, self.history, waves)
+        return self.predictor.predict(x, state_s, plan_s, self.history, waves, disturbance)
 
     def sent(self, plan_s: float, tau: np.ndarray) -> None:
         """The command planned for ``plan_s`` went out: the boat executes it from then on."""

@@ -22,15 +22,16 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from mavbridge.companion.command_channel import CommandChannel
 from mavbridge.companion.config import CompanionConfig, load_companion_config
 from mavbridge.companion.delay import make_compensator
+from mavbridge.companion.disturbance_watch import IDLE, observe_period
 from mavbridge.companion.engage_gate import far_waypoint
 from mavbridge.companion.mission_tracker import MissionTracker
 from mavbridge.companion.notices import LoopNotices
@@ -38,15 +39,16 @@ from mavbridge.companion.output_paths import MODE_HOLD, make_output
 from mavbridge.companion.start import DeferredStart, start_flight, switch_mode_at_start, wave_step
 from mavbridge.companion.start import log_result as _log_result
 from mavbridge.companion.state import StateEstimate
-from mavbridge.companion.summary import summary_lines
+from mavbridge.companion.summary import LoopEvents, loop_metrics, summary_lines
 from mavbridge.companion.supervisor import Phase, Supervisor
 from mavbridge.companion.wave_gate import WaveGate
-from mavbridge.lab.runlog import RunRecorder, run_metrics, write_csv
+from mavbridge.lab.runlog import RunRecorder, write_csv
 from mavbridge.lab.scenario import Scenario
 from mavbridge.link.connection import Link, LinkError, mavlink
 from mavbridge.link.port_guard import hold_exclusively, refuse_if_taken
 from mavbridge.link.reboot import watch_reboots
 from mavbridge.nmpc import RollAwareNmpc
+from mavbridge.nmpc.disturbance import DisturbanceObserver
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.preflight.rules import Context
 from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource
@@ -90,41 +92,6 @@ def build_nmpc(scenario: Scenario, waves: WaveSource, lockstep: bool = False) ->
     return nmpc
 
 
-@dataclass
-class LoopEvents:
-    """What the loop counted besides the control steps (autopilot milliseconds where a time)."""
-
-    stale: int = 0
-    skipped_ticks: int = 0
-    connected_at_ms: int | None = None  # the first attitude the companion saw
-    engaged_at_ms: int | None = None
-    arrived_at_ms: int | None = None
-    rates_hz: dict[str, float] = field(default_factory=dict)
-    reads: int = 0  # the loop's reads of the link (a wake-up each, after its rest)
-    ticks: int = 0  # ticks a step was due at
-
-    def ticked(self, missed: int) -> None:
-        """A step is due, ``missed`` ticks after the last one that was."""
-        self.ticks += 1
-        self.skipped_ticks += missed
-
-
-def loop_metrics(record: RunRecorder, events: LoopEvents,
-                 waypoint_ne: tuple[float, float] | None = None) -> dict[str, Any]:
-    """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters; ``waypoint_ne``
-    (a one-waypoint mission) adds the overshoot past it and the loops around it, on the companion's own state."""
-    arrived = (events.arrived_at_ms - events.engaged_at_ms) / 1000.0 \
-        if events.arrived_at_ms is not None and events.engaged_at_ms is not None else None
-    figures = {k: round(v, 4) if isinstance(v, float) else v
-               for k, v in run_metrics(record, arrived, waypoint_ne).items()}
-    def seconds(ms: int | None) -> float | None:
-        return ms / 1000.0 if ms is not None else None
-
-    return {**figures, "connected_at_s": seconds(events.connected_at_ms), "engaged_at_s": seconds(events.engaged_at_ms),
-            "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz,
-            "link_reads_per_tick": round(events.reads / events.ticks, 2) if events.ticks else None}
-
-
 def schedule(now_ms: int, next_tick_ms: int | None, period_ms: int) -> tuple[bool, int, int]:
     """(a control step is due at autopilot time ``now_ms``, the next tick, periods missed since the last).
 
@@ -164,7 +131,8 @@ def companion_metrics(c: Companion) -> dict[str, Any]:
             "solver": c.scenario.controller.solver, "wave_source": c.waves.name,
             "heave_feedback": c.nmpc.config.heave_feedback, **loop_metrics(c.record, c.events, single),
             "waves": c.gate.summary(c.record.solve_ms), "link": dict(c.link.counts) if c.link else {},
-            "delay": c.delay.summary()}
+            "delay": c.delay.summary(),
+            "disturbance": c.observer.metrics() if c.observer is not None else None}
 
 
 def finish_at_waypoint(c: Companion, link: Link, now_ms: int) -> None:
@@ -201,6 +169,7 @@ class Companion:
         self.mission = MissionTracker(scenario.waypoint.acceptance_radius_m, waypoint_ne, log)
         self.record = RunRecorder(self.period_s)
         self.gate = WaveGate(waves, log, hold_s=scenario.estimation.hold_s)
+        self.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
         self.events = LoopEvents()
         self.notices = LoopNotices(log, self.output.required_mode)
         self.delay = make_compensator(config, nmpc)  # the state's age on the link; prediction over the delay
@@ -232,10 +201,14 @@ class Companion:
             if self.events.engaged_at_ms is None:  # what the boat has seen of the sea, said once it is known
                 self.gate.watch((self.state.attitude_ms or 0) / 1000.0)
 
+    def _observe(self, now_ms: int, tau: np.ndarray | None) -> None:
+        observe_period(self.observer, self.nmpc, self.state, now_ms, tau, self.config.stale_state_s, self.log)
+
     def _control_step(self, link: Link, now_ms: int) -> None:
         if not self.supervisor.may_command():
             if self.commands.commanding:
                 self.commands.release(link)
+            self._observe(now_ms, None if self.supervisor.armed else IDLE)  # disarmed: the thrusters are idle
             return
         if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
             self.events.stale += 1
@@ -255,19 +228,26 @@ class Companion:
         if target is None:
             finish_at_waypoint(self, link, now_ms)
             return
+        self._command(link, now_ms, x, target)
+
+    def _command(self, link: Link, now_ms: int, x: np.ndarray, target: tuple[float, float]) -> None:
+        """Solve from the state predicted to when the command acts, send, and record the step."""
         age_s, plan_s = self.delay.compensate(now_ms / 1000.0)  # plan_s: when the command will act
         phase, wave = self.supervisor.phase.name, {**self.gate.step(self.nmpc, plan_s), "state_age_s": age_s}
         deadline_s = None  # lockstep: late is not a fault
         if not self.config.lockstep:  # a period of autopilot time, in wall seconds (a tenth at --speedup 10)
             deadline_s = self.delay.wall_seconds(self.period_s)
             self.nmpc.pace(deadline_s)
-        result = self.nmpc.solve(self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves), plan_s, target,
-                                 deadline_s=deadline_s, defer_advance=True)
+        x_plan = self.delay.predict(x, now_ms / 1000.0, plan_s, self.nmpc.waves, self.nmpc.disturbance)
+        result = self.nmpc.solve(x_plan, plan_s, target, deadline_s=deadline_s, defer_advance=True)
         self.delay.sent(plan_s, result.tau)
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
         self.gate.command_sent()  # the period's samples to the estimator's process, once the command is out
+        self._observe(now_ms, result.tau if columns is not None else IDLE)  # (not finite: neutral went out)
         self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
+        if self.observer is not None:
+            wave.update(self.observer.row())
         if columns is None:  # not finite: neutral was sent instead
             if result.success:  # a failed solve is counted by the recorder already
                 self.record.failures += 1

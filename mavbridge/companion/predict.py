@@ -22,7 +22,8 @@ import casadi as ca
 import numpy as np
 
 from mavbridge.nmpc import compile_native_function
-from mavbridge.nmpc.problem import model_ode
+from mavbridge.nmpc.layout import wave_input_size
+from mavbridge.nmpc.problem import NO_DISTURBANCE, model_ode
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, is_parametric, wave_parameters
 from vessel import OceanCurrent, OtterParameters, WaveField
 
@@ -72,7 +73,7 @@ class StatePredictor:
         self._fixed = fixed_waves is not None and not is_parametric(fixed_waves)
         ode = model_ode(params, fixed_waves if self._fixed else None, current)
         x, tau, t, h = ca.SX.sym("x", 12), ca.SX.sym("tau", 2), ca.SX.sym("t"), ca.SX.sym("h")
-        wave = ca.SX.sym("wave", len(CALM_PARAMETERS))
+        wave = ca.SX.sym("wave", wave_input_size(0))  # the regular wave, then the disturbance
         k1 = ode(x, tau, t, wave)
         k2 = ode(x + h / 2 * k1, tau, t + h / 2, wave)
         k3 = ode(x + h / 2 * k2, tau, t + h / 2, wave)
@@ -81,11 +82,11 @@ class StatePredictor:
         # C, cached (the SX machine took a sixth of the loop), and the same library called through its C API:
         # CasADi's Python call converts each argument to a DM and back (≈ 90 µs a step, most of the prediction)
         self._step, self._native, self.how = compile_native_function(step)
-        self._inputs = (np.zeros(12), np.zeros(2), np.zeros(1), np.zeros(len(CALM_PARAMETERS)), np.zeros(1))
+        self._inputs = (np.zeros(12), np.zeros(2), np.zeros(1), np.zeros(wave_input_size(0)), np.zeros(1))
         if self._native is not None:
             self._native.bind(*self._inputs)  # (x, τ, t, wave, h), refilled each step
         self._wave_of: object = None  # the field ``_wave`` was made from (fields are immutable): no rebuild a step
-        self._wave = self.wave_vector(None)
+        self._wave = np.concatenate([self.wave_vector(None), NO_DISTURBANCE])  # the model's whole wave input
 
     def wave_vector(self, waves: WaveField | None) -> np.ndarray:
         """The model's wave input for the field the NMPC plans with now (calm when fixed or not regular)."""
@@ -97,13 +98,16 @@ class StatePredictor:
             return CALM_PARAMETERS.copy()
 
     def predict(self, x: np.ndarray, t0: float, t1: float, history: CommandHistory,
-                waves: WaveField | None = None) -> np.ndarray:
-        """The state at autopilot time t1 from x at t0 (x itself when t1 <= t0, or if the model diverges)."""
+                waves: WaveField | None = None, disturbance: np.ndarray = NO_DISTURBANCE) -> np.ndarray:
+        """The state at autopilot time t1 from x at t0 (x itself when t1 <= t0, or if the model diverges), with the
+        NMPC's estimated ``disturbance`` (``RollAwareNmpc.disturbance``)."""
         x_now = np.asarray(x, float).ravel().copy()  # a (12, 1) column too, as CasADi's call took it
         if not t1 > t0:
             return x_now
         if waves is not self._wave_of:
-            self._wave_of, self._wave = waves, self.wave_vector(waves)
+            self._wave_of = waves
+            self._wave[:len(CALM_PARAMETERS)] = self.wave_vector(waves)
+        self._wave[len(CALM_PARAMETERS):] = disturbance
         for start, end, tau in history.segments(t0, t1):
             steps = max(1, math.ceil((end - start) / MAX_STEP_S - 1e-9))
             h = (end - start) / steps

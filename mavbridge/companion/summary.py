@@ -9,10 +9,13 @@ waypoint is counted from engaging; the instants of engaging and arriving are on 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from mavbridge.companion.notices import keep_up_summary
+from mavbridge.lab.runlog import RunRecorder, run_metrics
 
 _FIGURES = (("average roll", "avg_roll_deg", "deg"), ("max roll", "max_roll_deg", "deg"),
             ("solve median", "solve_ms_median", "ms"))
@@ -64,6 +67,16 @@ def waves_line(waves: Mapping[str, Any]) -> str:
     return f"waves ({waves.get('source', 'unknown')}): " + (", ".join(parts) or "no control step")
 
 
+def disturbance_line(figures: Mapping[str, Any]) -> str:
+    """The observer's last estimate, in one line: current (speed, direction it flows to), surge force, yaw moment."""
+    north, east = figures["current_north_m_s"], figures["current_east_m_s"]
+    settled = f"settled at t = {figures['settled_at_s']:.1f} s" if figures.get("settled_at_s") is not None \
+        else "never settled"
+    return (f"disturbance (estimated): current {math.hypot(north, east):.2f} m/s to "
+            f"{math.degrees(math.atan2(east, north)):.0f}°, surge force {figures['surge_force_n']:+.1f} N, "
+            f"yaw moment {figures['yaw_moment_nm']:+.2f} N·m; {settled}")
+
+
 def summary_lines(metrics: Mapping[str, Any]) -> list[str]:
     """The summary: figures and arrival, the keep-up warning if ticks were skipped, the waves line."""
     lines = [figures_line(metrics)]
@@ -72,4 +85,41 @@ def summary_lines(metrics: Mapping[str, Any]) -> list[str]:
         lines.append(behind)
     if "waves" in metrics:
         lines.append(waves_line(metrics["waves"]))
+    if metrics.get("disturbance"):
+        lines.append(disturbance_line(metrics["disturbance"]))
     return lines
+
+
+@dataclass
+class LoopEvents:
+    """What the loop counted besides the control steps (autopilot milliseconds where a time)."""
+
+    stale: int = 0
+    skipped_ticks: int = 0
+    connected_at_ms: int | None = None  # the first attitude the companion saw
+    engaged_at_ms: int | None = None
+    arrived_at_ms: int | None = None
+    rates_hz: dict[str, float] = field(default_factory=dict)
+    reads: int = 0  # the loop's reads of the link (a wake-up each, after its rest)
+    ticks: int = 0  # ticks a step was due at
+
+    def ticked(self, missed: int) -> None:
+        """A step is due, ``missed`` ticks after the last one that was."""
+        self.ticks += 1
+        self.skipped_ticks += missed
+
+
+def loop_metrics(record: RunRecorder, events: LoopEvents,
+                 waypoint_ne: tuple[float, float] | None = None) -> dict[str, Any]:
+    """The shared figures of merit (``run_metrics``, 4 decimals) with the loop's own counters; ``waypoint_ne``
+    (a one-waypoint mission) adds the overshoot past it and the loops around it, on the companion's own state."""
+    arrived = (events.arrived_at_ms - events.engaged_at_ms) / 1000.0 \
+        if events.arrived_at_ms is not None and events.engaged_at_ms is not None else None
+    figures = {k: round(v, 4) if isinstance(v, float) else v
+               for k, v in run_metrics(record, arrived, waypoint_ne).items()}
+    def seconds(ms: int | None) -> float | None:
+        return ms / 1000.0 if ms is not None else None
+
+    return {**figures, "connected_at_s": seconds(events.connected_at_ms), "engaged_at_s": seconds(events.engaged_at_ms),
+            "stale_states": events.stale, "skipped_ticks": events.skipped_ticks, "rates_hz": events.rates_hz,
+            "link_reads_per_tick": round(events.reads / events.ticks, 2) if events.ticks else None}

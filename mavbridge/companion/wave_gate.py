@@ -258,8 +258,8 @@ def make_wave_source(kind: str, sea_waves: Any, roll_sign: float = 1.0, position
     from mavbridge.waves import EstimatorSettings, make_estimator
     from mavbridge.waves.source import ScenarioTruth
 
-    if kind == "scenario":
-        return ScenarioTruth(sea_waves)
+    if kind == "scenario":  # (``sea_waves`` may be a callable: the sea is built only for simulation truth)
+        return ScenarioTruth(sea_waves() if callable(sea_waves) else sea_waves)
     if kind != "estimated":
         raise ValueError(f"waves: {kind!r} is not one of estimated, scenario")
     settings = EstimatorSettings(roll_sign=roll_sign, position_lag_s=position_lag_s)

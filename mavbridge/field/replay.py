@@ -280,7 +280,7 @@ def replay_command(req: ReplayRequest) -> int:
     finally:
         progress.done()
     _waypoints(req, trial)  # refuse before seconds of building
-    waves = make_wave_source("estimated", scenario.sea.waves(), config.wave_roll_sign, config.wave_position_lag_s,
+    waves = make_wave_source("estimated", scenario.sea.waves, config.wave_roll_sign, config.wave_position_lag_s,
                              scenario.model_params())
     with build_nmpc(scenario, waves, lockstep=True) as nmpc:
         flight = prepare_flight(req, trial, scenario, config, nmpc, waves, print)

@@ -50,7 +50,7 @@ class EstimatorSetup:
         model takes a few tenths of a second)."""
         from mavbridge.companion.wave_gate import make_wave_source
 
-        return make_wave_source("estimated", self.scenario.sea.waves(), self.roll_sign, self.position_lag_s,
+        return make_wave_source("estimated", self.scenario.sea.waves, self.roll_sign, self.position_lag_s,
                                 self.scenario.model_params())
 
     def row(self) -> dict[str, Any]:

@@ -33,6 +33,7 @@ import yaml
 from mavbridge.lab.runlog import RunRecorder, column, run_metrics, write_csv
 from mavbridge.lab.scenario import Scenario
 from mavbridge.nmpc import RollAwareNmpc
+from mavbridge.nmpc.disturbance import DisturbanceObserver
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.inloop import SensedPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
@@ -74,10 +75,11 @@ def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: 
 
 def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: RunRecorder,
                  progress: Callable[[str], None] | None, progress_every_s: float,
-                 feed: WaveFeed | None = None) -> float | None:
+                 feed: WaveFeed | None = None, observer: DisturbanceObserver | None = None) -> float | None:
     """Step plant and NMPC until the waypoint or t_max; rows go to ``record``; returns the arrival time.
 
-    With a ``feed`` (the realistic loop) the wave the NMPC plans with comes from it at every step.
+    With a ``feed`` (the realistic loop) the wave the NMPC plans with comes from it at every step; with an
+    ``observer`` the disturbance it predicts with is the one estimated from the boat's motion.
     """
     cfg, params = scenario.controller, scenario.model_params()  # the controller turns τ into commands
     waves = feed.truth if feed is not None else scenario.sea.waves()
@@ -92,11 +94,15 @@ def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: Ru
         sea = _sea_columns(scenario, waves, truth, x, t, plant.shaft_speeds)
         if feed is not None:
             sea.update(feed.step(t, plant, nmpc))
+        if observer is not None:
+            sea.update(observer.row())
         arrival = t if dist < scenario.waypoint.acceptance_radius_m else None
         if arrival is not None or step >= n_steps_max:
             record.state(t, x, status="end", **sea)
             return arrival
         result = nmpc.solve(x, t, wp, deadline_s=scenario.deadline_s)
+        if observer is not None:
+            observe(observer, nmpc, t, x, result.tau, progress)
         n_cmd = tau_to_shaft_speeds(params, float(result.tau[0]), float(result.tau[1]))
         record.step(t, x, result, n1_cmd_rad_s=n_cmd[0], n2_cmd_rad_s=n_cmd[1], **sea)
         plant.advance(t, result.tau, n_cmd)
@@ -125,7 +131,17 @@ def experiment_metrics(scenario: Scenario, record: RunRecorder, arrival: float |
     }
 
 
-def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None) -> tuple[SensedPlant, WaveFeed]:
+def observe(observer: DisturbanceObserver, nmpc: RollAwareNmpc, t: float, x: np.ndarray, tau: np.ndarray | None,
+            say: Callable[[str], None] | None) -> None:
+    """One period of the disturbance observer (``tau``: the command in effect from now, None: unknown), and the
+    NMPC's later solves predict with its estimate; one line when it settles."""
+    if observer.update(t, x, tau, nmpc.model_wave()) and say is not None:
+        say(f"disturbance settled at t = {t:.1f} s: {observer.describe()}")
+    nmpc.set_disturbance(observer.estimate)
+
+
+def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None,
+                     on_period: Callable[[float, np.ndarray], None] | None = None) -> tuple[SensedPlant, WaveFeed]:
     """The sensed plant in the hidden-phase sea and the wave feed (estimator or truth) of a realistic run."""
     est, cfg, params = scenario.estimation, scenario.controller, scenario.model_params()  # (the companion's side)
     plant_params = scenario.plant_params()
@@ -158,8 +174,16 @@ def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None)
                         wind=scenario.sea.wind(), propellers=scenario.plant == "propellers")
     say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
     feed = WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s, bank)
-    plant.watch(est.watch_s, cfg.period_s)
+    plant.watch(est.watch_s, cfg.period_s, on_period)
     return plant, feed
+
+
+def true_disturbance(scenario: Scenario) -> dict[str, float]:
+    """The plant's current as NED components (simulation truth, for the metrics' comparison only)."""
+    sea = scenario.sea
+    direction = math.radians(sea.current_dir_deg)
+    return {"true_current_north_m_s": round(sea.current_speed_mps * math.cos(direction), 4),
+            "true_current_east_m_s": round(sea.current_speed_mps * math.sin(direction), 4)}
 
 
 def _told_current(scenario: Scenario) -> OceanCurrent:
@@ -193,8 +217,15 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves))
     nmpc = RollAwareNmpc(cfg, scenario.model_params(), _model_waves(scenario), _told_current(scenario))
     feed: WaveFeed | None = None
+    observer: DisturbanceObserver | None = None
     if scenario.estimation.realistic:
-        plant, feed = _realistic_parts(scenario, progress)
+        say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
+        if scenario.estimation.disturbance == "estimated":
+            observer = DisturbanceObserver(nmpc)
+        watched = (lambda t, x: observe(observer, nmpc, t, x, np.zeros(2), say)) if observer is not None else None
+        if nmpc.takes_waves:  # nothing known of the sea while it watches (the observer predicts with the NMPC's wave)
+            nmpc.set_wave(None)
+        plant, feed = _realistic_parts(scenario, progress, watched)
         if nmpc.takes_waves:
             nmpc.set_wave(feed.truth if scenario.estimation.waves == "truth" else None)
     else:
@@ -205,11 +236,13 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     # Fast solvers: the cold, full solve happens before the loop, so every step inside it is a warm one. The
     # ipopt reference runs exactly as before: its first step is the cold solve, and it is counted.
     prepared = nmpc.prepare(plant.rigid_state, 0.0, wp) if cfg.solver != "ipopt" else None
-    arrival = _closed_loop(scenario, nmpc, plant, record, progress, progress_every_s, feed)
+    arrival = _closed_loop(scenario, nmpc, plant, record, progress, progress_every_s, feed, observer)
     final_distance = float(np.hypot(*(wp - plant.rigid_state[0:2])))
     metrics = experiment_metrics(scenario, record, arrival, final_distance)
     if feed is not None:
         metrics.update(feed.metrics(float(record.rows[-1]["t_s"]), plant.rigid_state))
+    if observer is not None:
+        metrics["disturbance"] = {**observer.metrics(), **true_disturbance(scenario)}
     metrics["wall_time_s"] = time.perf_counter() - wall_start
     metrics["prepare_ms"] = prepared.wall_time_s * 1e3 if prepared is not None else None
     out = Path(out_dir) if out_dir is not None else None

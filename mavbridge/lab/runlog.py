@@ -29,6 +29,10 @@ STATE_COLUMNS = VESSEL_COLUMNS[:NX_RIGID]  # the rigid-body states, the unit in 
 # The per-step wave knowledge (mavbridge.waves.source.WaveEstimate.row()).
 WAVE_COLUMNS = ("wave_height_m", "wave_period_s", "wave_length_m", "wave_dir_deg", "wave_phase_rad",
                 "wave_confidence")
+# The disturbance estimate (mavbridge.nmpc.disturbance.DisturbanceObserver.row()): current NED (m/s), steady surge
+# force (N) and yaw moment (N·m), and the current's standard deviation (m/s).
+DISTURBANCE_COLUMNS = ("dist_current_north_m_s", "dist_current_east_m_s", "dist_surge_force_n", "dist_yaw_moment_nm",
+                       "dist_current_std_m_s")
 LOG_COLUMNS = (
     "t_s", "phase", *STATE_COLUMNS,
     "n1_rad_s", "n2_rad_s",  # actual shaft speeds (propeller plant only)
@@ -40,6 +44,7 @@ LOG_COLUMNS = (
     "wave_slope_rad", "wave_force_n",  # the true sea at the boat (experiment: it knows the truth)
     *WAVE_COLUMNS,
     "wave_bank_on",  # estimation.waves predicted: 1 while the NMPC plans on the phase predictor's bank, else 0
+    *DISTURBANCE_COLUMNS,  # the disturbance the NMPC predicts with, as estimated from the boat's motion
     "solve_ms", "iterations", "status", "fallback", "fallback_reason", "sent",
     "state_age_s",  # companion: autopilot time now (estimated) minus the state's time_boot_ms
 )

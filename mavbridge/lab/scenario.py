@@ -145,6 +145,7 @@ class Scenario:
     def __post_init__(self) -> None:
         if self.plant not in PLANTS:
             raise ConfigError(f"plant: {self.plant!r} is not one of {', '.join(PLANTS)}")
+        self._refuse_propellers_on_the_tau_plant()
         if not RUN_NAME.match(self.name):
             raise ConfigError(f"name: {self.name!r} must be letters, digits, '_', '-' or '.'")
         ratio = self.controller.period_s / self.plant_dt_s
@@ -157,6 +158,14 @@ class Scenario:
             raise ConfigError(f"waypoint: ({self.waypoint.north_m:g}, {self.waypoint.east_m:g}) m is within "
                               f"the acceptance radius {self.waypoint.acceptance_radius_m:g} m of the start; "
                               f"allowed: farther than acceptance_radius_m")
+
+    def _refuse_propellers_on_the_tau_plant(self) -> None:
+        """A vessel whose propellers differ from the law (scale, saturation) flown on the τ plant, which has no
+        propellers, would silently measure nothing: refuse it."""
+        plant = self.world.params()
+        if self.plant == "tau" and (plant.propeller_scale != (1.0, 1.0) or plant.shaft_speed_limit_rpm is not None):
+            raise ConfigError("plant: tau has no propellers, so the vessel's propeller_scale or "
+                              "shaft_speed_limit_rpm would change nothing; use plant: propellers")
 
     @property
     def vessel(self) -> VesselSpec:

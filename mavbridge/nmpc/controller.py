@@ -31,7 +31,7 @@ from mavbridge.nmpc.layout import NU, NX, Layout
 from mavbridge.nmpc.model_state import on_mean_surface
 from mavbridge.nmpc.problem import input_bounds
 from mavbridge.nmpc.run_parameters import SeaInputs, SeaKnowledge
-from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, WaveField, otter_parameters
+from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, WaveField
 
 
 @dataclass(frozen=True)
@@ -152,7 +152,7 @@ class RollAwareNmpc(SeaInputs, BackendLifetime):
     def __init__(self, config: NmpcConfig | None = None, params: OtterParameters | None = None,
                  waves: WaveField | None = None, current: OceanCurrent | None = None) -> None:
         self.config = config or NmpcConfig()
-        self.params = params or otter_parameters("published")
+        self.params = params or self.config.model.params()  # (the model's hull, published unless set)
         self.waves: WaveField = waves or CalmWater()
         self.current = current or OceanCurrent()
         self._functions = problem_functions(self.params, self.waves, self.current, self.config)

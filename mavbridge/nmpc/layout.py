@@ -12,6 +12,8 @@ Parameter vector p (one built solver serves any run, time, tuning and regular wa
     wave (7)       the dominant regular wave the model predicts with (see ``wave_model``)
     roll_spread (3) √R × the lower Cholesky factor L of the NED slope covariance the wave model does not
                    explain (l_nn, l_en, l_ee): the expected roll cost R·E[φ²] = ‖Lᵀy‖², y the body y axis
+    disturbance (4) what the boat meets that the model lacks, as estimated in flight (``disturbance``): the
+                   current's NED components (m/s) and a steady surge force (N) and yaw moment (N·m), body axes
     bank (3 + 6K)  only when ``NmpcConfig.wave_components`` K > 0: a phase-resolved sea of K long-crested
                    components added to the regular wave (see ``wave_bank``): its weight, the time it fades
                    from and the fade time, then K amplitudes, ω, k, cos μ, sin μ and phases. Appended last,
@@ -37,14 +39,16 @@ WAVE_NAMES = ("height_m", "wavenumber_rad_per_m", "frequency_rad_per_s", "cos_tr
 
 
 ROLL_SPREAD_NAMES = ("l_nn", "l_en", "l_ee")
+DISTURBANCE_NAMES = ("current_north_mps", "current_east_mps", "surge_force_n", "yaw_moment_nm")
 BANK_HEADER = ("weight", "fade_from_s", "fade_s")  # the bank block's scalars before its 6 K-vectors
 
 
-MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES, "roll_spread": ROLL_SPREAD_NAMES}
+MEMBERS = {"weights": WEIGHT_NAMES, "wave": WAVE_NAMES, "roll_spread": ROLL_SPREAD_NAMES,
+           "disturbance": DISTURBANCE_NAMES}
 
 
 def members(block: str, values: Any) -> dict[str, Any]:
-    """The elements of the ``weights``, ``wave`` or ``roll_spread`` block (numbers or symbols) by name."""
+    """The elements of the ``weights``, ``wave``, ``roll_spread`` or ``disturbance`` block (numbers or symbols)."""
     return {name: values[i] for i, name in enumerate(MEMBERS[block])}
 
 
@@ -59,6 +63,7 @@ class ParameterBlocks:
     weights: Any
     wave: Any
     roll_spread: Any
+    disturbance: Any
     bank: Any = None  # the wave bank block, None in a layout without one (K = 0)
 
 
@@ -68,7 +73,8 @@ class ParameterLayout:
 
     blocks: tuple[tuple[str, int], ...] = (("x0", NX), ("t", 1), ("waypoint", 2), ("u_prev", NU),
                                            ("weights", len(WEIGHT_NAMES)), ("wave", len(WAVE_NAMES)),
-                                           ("roll_spread", len(ROLL_SPREAD_NAMES)))
+                                           ("roll_spread", len(ROLL_SPREAD_NAMES)),
+                                           ("disturbance", len(DISTURBANCE_NAMES)))
 
     @functools.cached_property
     def _slices(self) -> dict[str, slice]:
@@ -108,13 +114,11 @@ class ParameterLayout:
         return p[where.start] if where.stop - where.start == 1 else p[where]
 
     def wave_input(self, p: Any) -> Any:
-        """What the model's step takes as its ``wave`` input: the ``wave`` block, followed by the ``bank`` block
-        when the layout has one (numpy arrays concatenated, CasADi symbols stacked)."""
-        wave = self.get(p, "wave")
-        if "bank" not in self._slices:
-            return wave
-        bank = self.get(p, "bank")
-        return np.concatenate([wave, bank]) if isinstance(p, np.ndarray) else ca.vertcat(wave, bank)
+        """What the model's step takes as its ``wave`` input: the ``wave`` block, the ``bank`` block when the layout
+        has one, then the ``disturbance`` block (numpy arrays concatenated, CasADi symbols stacked)."""
+        parts = [self.get(p, "wave"), *([self.get(p, "bank")] if "bank" in self._slices else []),
+                 self.get(p, "disturbance")]
+        return np.concatenate(parts) if isinstance(p, np.ndarray) else ca.vertcat(*parts)
 
     def unpack(self, p: Any) -> ParameterBlocks:
         """All blocks of p, by name."""
@@ -157,8 +161,8 @@ def bank_size(components: int) -> int:
 
 
 def wave_input_size(components: int) -> int:
-    """Length of the model's ``wave`` input: the regular wave block, and the bank block when K > 0."""
-    return len(WAVE_NAMES) + bank_size(components)
+    """Length of the model's ``wave`` input: the regular wave block, the bank block when K > 0, the disturbance."""
+    return len(WAVE_NAMES) + bank_size(components) + len(DISTURBANCE_NAMES)
 
 
 @functools.lru_cache(maxsize=8)

@@ -23,11 +23,21 @@ import numpy as np
 
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space, input_tau, model_matrix
-from mavbridge.nmpc.layout import NP, NU, NX, PARAMS, Layout, members, parameter_layout, wave_input_size
+from mavbridge.nmpc.layout import (
+    DISTURBANCE_NAMES,
+    NP,
+    NU,
+    NX,
+    PARAMS,
+    Layout,
+    members,
+    parameter_layout,
+    wave_input_size,
+)
 from mavbridge.nmpc.wave_bank import model_field
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS
 from vessel import OceanCurrent, OtterParameters, WaveField
-from vessel.dynamics import body_acceleration, kinematics
+from vessel.dynamics import NedCurrent, body_acceleration, kinematics
 
 __all__ = ["NP", "NU", "NX", "PARAMS", "Layout", "build_nlp", "discrete_model", "distance", "heading_error",
            "heading_excess", "input_bounds", "model_ode", "pack_parameters", "wrap_angle"]
@@ -57,14 +67,19 @@ def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCu
 
     ``waves`` None: the wave is the ``wave`` input (a ``ParametricRegularWaves``, 7 numbers; with ``components``
     K > 0 followed by the K-component bank, ``wave_bank``), so one Function predicts with any regular wave (and
-    bank). A WaveField: that field is built in and ``wave`` is unused.
+    bank). A WaveField: that field is built in and only the input's last block is used: the ``disturbance``
+    (a current added to ``current``, a surge force and a yaw moment added to τ; zeros: the model as before).
     """
     wave = ca.SX.sym("wave", wave_input_size(components))
     field = model_field(wave, components) if waves is None else waves
     x = ca.SX.sym("x", NX)
     tau = ca.SX.sym("tau", NU)
     t = ca.SX.sym("t")
-    nu_dot = body_acceleration(params, field, current, x[0:6], x[6:12], tau[0], tau[1], t)
+    d = members("disturbance", wave[wave.numel() - len(DISTURBANCE_NAMES):])  # the last block of the input
+    water = NedCurrent(current.speed_mps * math.cos(current.direction_rad) + d["current_north_mps"],
+                       current.speed_mps * math.sin(current.direction_rad) + d["current_east_mps"])
+    nu_dot = body_acceleration(params, field, water, x[0:6], x[6:12], tau[0] + d["surge_force_n"],
+                               tau[1] + d["yaw_moment_nm"], t)
     xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot)
     return ca.Function("nmpc_ode", [x, tau, t, wave], [xdot], ["x", "tau", "t", "wave"], ["xdot"])
 
@@ -98,20 +113,23 @@ def discrete_model(params: OtterParameters, waves: WaveField | None, current: Oc
     return ca.Function("nmpc_step", [x, u_model, t, wave], [xk], ["x", "u", "t", "wave"], ["x_next"])
 
 
-_BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"))
+_BLOCKS = tuple(PARAMS.slice(name) for name in ("x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread",
+                                                "disturbance"))
 NO_SPREAD = np.zeros(3)
+NO_DISTURBANCE = np.zeros(len(DISTURBANCE_NAMES))
 
 
 def pack_parameters(x0: np.ndarray, t: float, waypoint: np.ndarray, u_prev: np.ndarray,
                     weights: tuple[float, ...], wave: np.ndarray = CALM_PARAMETERS,
-                    roll_spread: np.ndarray = NO_SPREAD, bank: np.ndarray | None = None) -> np.ndarray:
+                    roll_spread: np.ndarray = NO_SPREAD, bank: np.ndarray | None = None,
+                    disturbance: np.ndarray = NO_DISTURBANCE) -> np.ndarray:
     """The numeric parameter vector (``PARAMS`` layout); ``wave`` from ``wave_model.wave_parameters``; ``bank``
     (``wave_bank.bank_parameters``) appended as the last block of a layout with one (K > 0), None without.
 
     The per-step fast path of ``PARAMS.pack`` (slices computed once; numpy rejects wrong block sizes).
     """
     p = np.empty(NP if bank is None else NP + bank.size)
-    for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave, roll_spread), strict=True):
+    for where, value in zip(_BLOCKS, (x0, t, waypoint, u_prev, weights, wave, roll_spread, disturbance), strict=True):
         p[where] = value
     if bank is not None:
         p[NP:] = bank

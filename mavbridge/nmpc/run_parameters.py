@@ -15,7 +15,7 @@ import numpy as np
 
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.layout import PARAMS
-from mavbridge.nmpc.problem import pack_parameters
+from mavbridge.nmpc.problem import NO_DISTURBANCE, pack_parameters
 from mavbridge.nmpc.sea_spread import slope_factor
 from mavbridge.nmpc.wave_bank import NO_FADE_S, H, bank_parameters, no_bank
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS, wave_parameters
@@ -36,6 +36,7 @@ class SeaKnowledge:
         self.bank: np.ndarray | None = no_bank(k) if k > 0 else None  # None: no bank block (K = 0)
         self._roll_sign = float(self.wave[-1])  # the regular wave's, unless a bank brings its own
         self._wave_of: tuple[object, np.ndarray] | None = None  # (the field last given, its block): fields are frozen
+        self.disturbance = NO_DISTURBANCE.copy()  # current N, E (m/s), surge force (N), yaw moment (N·m)
 
     def set_wave(self, waves: RegularWaves | CalmWater | None) -> None:
         """The regular wave (or calm water) to predict with; None: nothing known (R = 0)."""
@@ -79,13 +80,14 @@ class SeaKnowledge:
         return (self.wave_known or self.bank_active or bool(np.any(self.factor))) and self.config.r > 0
 
     def model_wave(self) -> np.ndarray:
-        """The model step's ``wave`` input: the wave block, then the bank block when there is one."""
-        return self.wave if self.bank is None else np.concatenate([self.wave, self.bank])
+        """The model step's ``wave`` input: the wave block, the bank block when there is one, the disturbance."""
+        parts = [self.wave] if self.bank is None else [self.wave, self.bank]
+        return np.concatenate([*parts, self.disturbance])
 
     def pack(self, x0: np.ndarray, t: float, waypoint: np.ndarray, u_applied: np.ndarray) -> np.ndarray:
         """The parameter vector for one solve (R = 0 while no wave is known; the spread scaled by √R)."""
         p = pack_parameters(x0, t, waypoint, u_applied, self.config.weights, self.wave,
-                            math.sqrt(self.config.r) * self.factor, self.bank)
+                            math.sqrt(self.config.r) * self.factor, self.bank, self.disturbance)
         if not (self.wave_known or self.bank_active):
             p[PARAMS.index("weights", "r")] = 0.0
         return p
@@ -107,6 +109,24 @@ class SeaInputs:
         """
         self._sea.set_wave(waves)
         self.waves = waves or _CALM  # one object: the delay predictor knows it from the last step's
+
+    def model_wave(self) -> np.ndarray:
+        """The model step's whole ``wave`` input as later solves use it (wave, bank, disturbance)."""
+        return self._sea.model_wave()
+
+    @property
+    def disturbance(self) -> np.ndarray:
+        """The disturbance later solves predict with (``set_disturbance``): current N, E (m/s), surge force (N),
+        yaw moment (N·m)."""
+        return self._sea.disturbance
+
+    def set_disturbance(self, disturbance: np.ndarray) -> None:
+        """What later solves predict the boat meets besides the waves (``disturbance.DisturbanceObserver``): the
+        current's NED components (m/s), a steady surge force (N) and yaw moment (N·m); zeros: nothing. No rebuild."""
+        values = np.asarray(disturbance, float)
+        if values.shape != self._sea.disturbance.shape or not np.all(np.isfinite(values)):
+            raise ValueError(f"set_disturbance: expected {self._sea.disturbance.size} finite numbers, got {values!r}")
+        self._sea.disturbance = values.copy()
 
     def set_sea_spread(self, covariance_ned: np.ndarray | None) -> None:
         """The NED covariance (2×2, rad²) of the hull's roll-producing slope that the wave model does not

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import casadi as ca
@@ -113,17 +114,21 @@ class SensedPlant:
         self.source.observe(MotionSample(reading.t_s, reading.attitude, reading.rates, reading.position_ned,
                                          reading.velocity_ned, reading.accel_body))
 
-    def watch(self, seconds: float, period_s: float) -> None:
+    def watch(self, seconds: float, period_s: float,
+              on_period: Callable[[float, np.ndarray], None] | None = None) -> None:
         """The boat drifting with idle thrusters for ``seconds`` before t = 0, sensed as in the run (the wave
         source learns; the run's clock then starts at 0 where this ends). It has floated unwatched for
         ``SETTLE_S`` before that: the model starts at rest on a calm waterline, and no skipper's companion
         connects while the hull is still being dropped into the sea (its first seconds heave and pitch as no
-        boat afloat does)."""
+        boat afloat does). ``on_period(t, x)``: what the companion sees each watched period (the rigid state),
+        thrusters idle."""
         steps, settle = round(seconds / period_s), round(SETTLE_S / period_s) if seconds > 0 else 0
         for i in range(settle + steps):
             t = (i - steps - settle) * period_s
             if i >= settle:
                 self.sense(t)
+                if on_period is not None:
+                    on_period(t, self.rigid_state)
             self.advance(t, np.zeros(2), (0.0, 0.0), sensed=i >= settle)
 
     def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float], sensed: bool = True) -> None:

@@ -19,7 +19,7 @@ from mavbridge.companion.delay import FLOOD_WINDOW_S, PAUSE_MARGIN_S, DelayCompe
 from mavbridge.companion.predict import CommandHistory, StatePredictor
 from mavbridge.link.clock_model import ClockModel
 from mavbridge.nmpc.config import NmpcConfig
-from mavbridge.nmpc.problem import discrete_model
+from mavbridge.nmpc.problem import NO_DISTURBANCE, discrete_model
 from mavbridge.nmpc.wave_model import wave_parameters
 from vessel import ConfigError, OceanCurrent, RegularWaves, otter_parameters
 
@@ -147,11 +147,16 @@ def test_prediction_over_one_period_is_the_nmpcs_own_model_step(wave: RegularWav
     tau = np.array([80.0, 5.0])
     history = CommandHistory()
     history.add(0.0, tau)
-    expected = np.asarray(step(x, tau, 3.0, wave_parameters(wave))).ravel()
+    expected = np.asarray(step(x, tau, 3.0, np.concatenate([wave_parameters(wave), NO_DISTURBANCE]))).ravel()
     predicted = predictor.predict(x, 3.0, 3.0 + cfg.period_s, history, wave)
     assert np.allclose(predicted, expected, rtol=1e-9, atol=1e-9), predicted - expected
     assert not np.allclose(predicted, x, atol=1e-3)  # it did move the boat
     assert np.array_equal(predictor.predict(x, 3.0, 3.0, history, wave), x)  # no time, no change
+    disturbance = np.array([0.3, -0.4, 0.0, 2.0])  # the NMPC's estimated current and yaw moment are predicted with
+    expected = np.asarray(step(x, tau, 3.0, np.concatenate([wave_parameters(wave), disturbance]))).ravel()
+    predicted = predictor.predict(x, 3.0, 3.0 + cfg.period_s, history, wave, disturbance)
+    assert np.allclose(predicted, expected, rtol=1e-9, atol=1e-9) and predicted[1] < step(x, tau, 3.0, np.concatenate(
+        [wave_parameters(wave), NO_DISTURBANCE])).full().ravel()[1]  # the current to the West moved it West
 
 
 def arrivals(comp: DelayCompensator, boot_s: float = 50.0) -> None:

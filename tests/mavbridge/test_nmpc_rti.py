@@ -31,7 +31,8 @@ def test_mapped_linearisation_equals_the_inlined_one() -> None:
     rng = np.random.default_rng(3)
     w = rng.normal(size=mapped.size1_in(0)) * 0.3
     p = PARAMS.pack(x0=rng.normal(size=12), t=7.0, waypoint=[85.0, 75.0], u_prev=[20.0, 1.0],
-                    weights=[5, 1550, 2, 1, 1], wave=wave_parameters(WAVES), roll_spread=[0.3, -0.1, 0.2])
+                    weights=[5, 1550, 2, 1, 1], wave=wave_parameters(WAVES), roll_spread=[0.3, -0.1, 0.2],
+                    disturbance=[0.2, -0.1, 3.0, 0.5])
     for a, b in zip(mapped(w, p), inlined(w, p), strict=True):
         np.testing.assert_allclose(ca.densify(a).full(), ca.densify(b).full(), atol=1e-10)
 

@@ -142,8 +142,9 @@ def test_structural_fields_are_marked_on_the_fields_and_key_the_build() -> None:
 
 
 def test_parameter_layout_names_every_block() -> None:
-    assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"]
-    assert PARAMS.size == 12 + 1 + 2 + 2 + len(WEIGHT_NAMES) + len(WAVE_NAMES) + 3
+    assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread",
+                                                   "disturbance"]
+    assert PARAMS.size == 12 + 1 + 2 + 2 + len(WEIGHT_NAMES) + len(WAVE_NAMES) + 3 + 4
     x0 = np.arange(12.0)
     p = pack_parameters(x0, 3.5, np.array([85.0, 75.0]), np.array([20.0, -1.0]), (5.0, 1550.0, 2.0, 1.0, 1.0),
                         np.arange(7.0) + 100)
@@ -153,13 +154,14 @@ def test_parameter_layout_names_every_block() -> None:
     np.testing.assert_array_equal(blocks.u_prev, [20.0, -1.0])
     assert p[PARAMS.index("weights", "r")] == 1550.0
     assert p[PARAMS.index("wave", "phase_rad")] == 105.0
+    np.testing.assert_array_equal(blocks.disturbance, np.zeros(4))  # nothing known: the model as before
     with pytest.raises(KeyError, match="no parameter block"):
         PARAMS.slice("wind")
     with pytest.raises(KeyError, match="name a member"):
         PARAMS.index("weights")
     with pytest.raises(ValueError, match="'waypoint' needs 2"):
         PARAMS.pack(x0=x0, t=0.0, waypoint=[1.0], u_prev=[0, 0], weights=np.zeros(5), wave=np.zeros(7),
-                    roll_spread=np.zeros(3))
+                    roll_spread=np.zeros(3), disturbance=np.zeros(4))
 
 
 def test_a_closed_controllers_ipopt_serves_the_next_one_and_only_it() -> None:

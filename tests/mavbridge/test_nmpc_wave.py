@@ -12,7 +12,7 @@ import pytest
 
 from mavbridge.nmpc import PARAMS, NmpcConfig, RollAwareNmpc, wave_parameters
 from mavbridge.nmpc.functions import cached_structures
-from mavbridge.nmpc.problem import discrete_model
+from mavbridge.nmpc.problem import NO_DISTURBANCE, discrete_model
 from mavbridge.nmpc.wave_model import ParametricRegularWaves
 from vessel import CalmWater, OceanCurrent, RegularWaves, otter_parameters
 
@@ -48,7 +48,7 @@ def test_parametric_model_equals_the_built_in_wave_model(waves: RegularWaves | C
     built_in = discrete_model(otter_parameters(), waves, OceanCurrent(), cfg)
     parametric = discrete_model(otter_parameters(), None, OceanCurrent(), cfg)
     rng = np.random.default_rng(2)
-    wave = wave_parameters(waves)
+    wave = np.concatenate([wave_parameters(waves), NO_DISTURBANCE])  # (the model input ends in the disturbance)
     for _ in range(20):
         x, u, t = rng.normal(size=12) * 0.3, rng.normal(size=2) * 50, rng.uniform(0, 100)
         np.testing.assert_allclose(np.asarray(parametric(x, u, t, wave)), np.asarray(built_in(x, u, t, wave)),

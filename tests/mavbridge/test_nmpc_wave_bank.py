@@ -15,7 +15,7 @@ import pytest
 from mavbridge.nmpc import PARAMS, NmpcConfig, RollAwareNmpc
 from mavbridge.nmpc.functions import problem_functions
 from mavbridge.nmpc.layout import bank_size, parameter_layout, wave_input_size
-from mavbridge.nmpc.problem import discrete_model, pack_parameters
+from mavbridge.nmpc.problem import NO_DISTURBANCE, discrete_model, pack_parameters
 from mavbridge.nmpc.wave_bank import ParametricSea, bank_parameters, no_bank
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS
 from vessel import OceanCurrent, otter_parameters
@@ -61,23 +61,25 @@ def test_the_model_step_on_the_bank_is_the_step_on_the_built_in_sea() -> None:
     on_bank = discrete_model(params, None, current, cfg)
     built_in = discrete_model(params, sea, current, NmpcConfig(horizon=3))
     x = np.array([5.0, -3.0, 0.0, 0.05, -0.02, 1.2, 1.4, 0.1, 0.0, 0.01, 0.0, 0.05])
-    wave = np.concatenate([CALM_PARAMETERS[:-1], [sea.roll_sign], bank_parameters(_arrays(sea), K)])
+    wave = np.concatenate([CALM_PARAMETERS[:-1], [sea.roll_sign], bank_parameters(_arrays(sea), K), NO_DISTURBANCE])
     for t in (0.0, 7.3, 42.0):
         got = np.asarray(on_bank(x, [60.0, 5.0], t, wave)).ravel()
-        want = np.asarray(built_in(x, [60.0, 5.0], t, CALM_PARAMETERS)).ravel()
+        want = np.asarray(built_in(x, [60.0, 5.0], t, np.concatenate([CALM_PARAMETERS, NO_DISTURBANCE]))).ravel()
         np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
-    calm = np.asarray(on_bank(x, [60.0, 5.0], 7.3, np.concatenate([CALM_PARAMETERS, no_bank(K)]))).ravel()
+    calm = np.asarray(on_bank(x, [60.0, 5.0], 7.3, np.concatenate([CALM_PARAMETERS, no_bank(K),
+                                                                  NO_DISTURBANCE]))).ravel()
     assert np.max(np.abs(calm - want)) > 1e-4  # the bank is what moved the state
 
 
 def test_no_bank_leaves_the_layout_and_the_problem_as_before() -> None:
     cfg = NmpcConfig(horizon=4)
     assert parameter_layout(0) is PARAMS
-    assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"]
-    assert wave_input_size(0) == 7 and bank_size(0) == 0
+    assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread",
+                                                   "disturbance"]
+    assert wave_input_size(0) == 7 + 4 and bank_size(0) == 0
     built = problem_functions(otter_parameters(), None, OceanCurrent(), cfg)
     assert built.nlp["p"].numel() == PARAMS.size
-    assert built.step.size1_in(3) == 7
+    assert built.step.size1_in(3) == 7 + 4
     with_bank = parameter_layout(K)
     assert with_bank.blocks[:-1] == PARAMS.blocks and with_bank.blocks[-1] == ("bank", 3 + 6 * K)
     assert all(with_bank.slice(name) == PARAMS.slice(name) for name, _ in PARAMS.blocks)
@@ -85,7 +87,8 @@ def test_no_bank_leaves_the_layout_and_the_problem_as_before() -> None:
     assert banked.nlp["p"].numel() == PARAMS.size + 3 + 6 * K
     p = pack_parameters(np.zeros(12), 1.0, np.array([1.0, 2.0]), np.zeros(2), cfg.weights, CALM_PARAMETERS,
                         bank=no_bank(K))
-    np.testing.assert_array_equal(with_bank.wave_input(p), np.concatenate([CALM_PARAMETERS, no_bank(K)]))
+    expected = np.concatenate([CALM_PARAMETERS, no_bank(K), NO_DISTURBANCE])
+    np.testing.assert_array_equal(with_bank.wave_input(p), expected)
     with pytest.raises(ValueError, match="wave_components = 0"):
         RollAwareNmpc(cfg).set_wave_bank(_arrays(_sea()))
 

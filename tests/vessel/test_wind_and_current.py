@@ -26,10 +26,12 @@ def test_wind_force_matches_the_hand_computed_loads() -> None:
     x, y, _, n = (float(v) for v in wind_force(p, wind, math.pi / 2, 2.0, 0.0, 0.0))
     assert x == pytest.approx(-0.5 * AIR_DENSITY * cx * p.wind_area_front * 100.0, rel=1e-6)
     assert abs(y) < 1e-9 and abs(n) < 1e-9
-    # From 45° off the starboard bow: the bow turns into the wind (C_N > 0), N = ρ C_N A_L L a_x a_y.
-    a = -8.0 / math.sqrt(2)
+    # From 45° off the starboard bow: Fossen's ½ρ C_N A_L L V² sin 2γ_rw with γ_rw = −atan2(v_rw, u_rw) = −45°, so
+    # with C_N > 0 the bow turns away from the wind (to port, N < 0).
     _, _, _, n = (float(v) for v in wind_force(p, wind, math.radians(45.0), 0.0, 0.0, 0.0))
-    assert n == pytest.approx(AIR_DENSITY * cn * p.wind_area_side * p.length * a * a, rel=1e-6) and n > 0
+    gamma_rw = -math.atan2(8.0 / math.sqrt(2), 8.0 / math.sqrt(2))  # the boat's velocity relative to the air
+    expected = 0.5 * AIR_DENSITY * cn * p.wind_area_side * p.length * 64.0 * math.sin(2 * gamma_rw)
+    assert n == pytest.approx(expected, rel=1e-6) and n < 0
 
 
 def test_gusts_have_the_standard_deviation_asked_for_and_are_seeded() -> None:

@@ -79,7 +79,9 @@ class SeaState:
         omega = doppler_frequency(field.frequency_rad_s, field.wavenumber_rad_m, field.direction_rad,
                                   self.current_speed_mps, math.radians(self.current_dir_deg))
         check_not_blocked(omega, "sea.current_speed_mps")
-        return IrregularWaves(field.amplitude_m, omega, field.wavenumber_rad_m, field.direction_rad, field.phase_rad,
+        start_s = self.spectrum.start_s if self.spectrum is not None else 0.0  # the field was advanced to it at ω:
+        phase = np.mod(field.phase_rad + (omega - field.frequency_rad_s) * start_s, 2 * math.pi)  # now at ω + k·U
+        return IrregularWaves(field.amplitude_m, omega, field.wavenumber_rad_m, field.direction_rad, phase,
                               field.roll_sign)
 
     def current(self) -> OceanCurrent:

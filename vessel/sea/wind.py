@@ -6,13 +6,14 @@ synthesised as a seeded sum of sinusoids from its spectrum S(ω) = (2σ²T/π)/(
 a deterministic function of time (a CasADi expression, like the waves). The force on the hull comes from the air
 velocity relative to the boat in body axes, a = Rᵀ(ψ)·w − (u, v) (roll and pitch ignored)::
 
-    X = ½ ρ_a C_X A_F |a| a_x      Y = ½ ρ_a C_Y A_L |a| a_y      N = ρ_a C_N A_L L a_x a_y      K = −z_p Y
+    X = ½ ρ_a C_X A_F |a| a_x      Y = ½ ρ_a C_Y A_L |a| a_y      N = −ρ_a C_N A_L L a_x a_y     K = z_p Y
 
-(Fossen's quasi-static form with cos γ and sin γ written out; N = ½ ρ_a C_N A_L L |a|² sin 2γ, γ the angle the
-relative wind comes from, off the bow: C_N > 0 turns the bow into the wind.) The coefficients are the hull's
-(``OtterParameters.wind_*``); their defaults are those of the Otter simulator in the public repository
-LSJohnsen/Otter-USV (C_X 0.5, C_Y 0.875, C_N 0.15, A_F 0.15 m², A_L 0.35 m²) — no measured Otter coefficients
-are published; MSS's Blendermann "speed boat" type gives the same order (C_D,t 0.90, C_D,l 0.55).
+(Fossen's quasi-static form with cos γ and sin γ written out: with γ_rw = −atan2(v_rw, u_rw) the angle of the
+boat's velocity relative to the air, N = ½ ρ_a C_N A_L L |a|² sin 2γ_rw, so C_N > 0 turns the bow away from a wind
+on the bow, as for a hull with its windage forward.) The coefficients are the hull's (``OtterParameters.wind_*``):
+no measured Otter coefficients are published; the defaults (C_X 0.5, C_Y 0.875, C_N 0.15, A_F 0.15 m², A_L 0.35 m²)
+are the order of MSS's Blendermann (1994) "speed boat" type (C_D,t 0.90, C_D,l 0.55–0.60) for the Otter's
+topsides, and are meant to be identified or replaced per boat.
 
 Current and waves: in real water waves ride on the current, so a fixed observer sees a component of intrinsic
 frequency ω and wave vector k at ω_e = ω + k·U_c (the Doppler shift; the wavelength is unchanged).
@@ -95,7 +96,7 @@ def wind_force(params: Any, wind: Wind, psi: Any, u: Any, v: Any, t: Any) -> tup
     q = 0.5 * AIR_DENSITY
     surge = q * cx * params.wind_area_front * speed * a_x
     sway = q * cy * params.wind_area_side * speed * a_y
-    yaw = AIR_DENSITY * cn * params.wind_area_side * params.length * a_x * a_y
+    yaw = -AIR_DENSITY * cn * params.wind_area_side * params.length * a_x * a_y  # ½ρ C_N A_L L |a|² sin 2γ_rw
     return surge, sway, params.wind_pressure_height * sway, yaw
 
 

@@ -43,7 +43,8 @@ BackgroundResult = tuple[np.ndarray | None, np.ndarray, float, int]  # (w or Non
 _T = PARAMS.index("t")
 _GOAL = slice(PARAMS.slice("waypoint").start, PARAMS.slice("u_prev").stop)  # the waypoint and u_prev (adjacent)
 _PROBLEM = slice(PARAMS.slice("weights").start, None)  # the weights, wave, roll spread and a bank block after NP
-assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread"]
+assert [name for name, _ in PARAMS.blocks] == ["x0", "t", "waypoint", "u_prev", "weights", "wave", "roll_spread",
+                                               "disturbance"]
 
 
 class BackgroundSolve:
