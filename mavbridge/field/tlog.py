@@ -46,6 +46,7 @@ FLAT = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_ATTITUDE, mavli
         mavlink.MAVLINK_MSG_ID_RC_CHANNELS)
 TO_AUTOPILOT = {mavlink.MAVLINK_MSG_ID_MISSION_ITEM_INT, mavlink.MAVLINK_MSG_ID_MISSION_ITEM,
                 mavlink.MAVLINK_MSG_ID_MISSION_COUNT}  # an upload: another station's, addressed to the autopilot
+SENT = {mavlink.MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE}  # what a companion sent (in its own tlog): for a replay
 REBOOT_MS = 5000  # the autopilot's clock this far behind the newest heard: it rebooted
 PENDING_MAX = 10000  # untimed messages held until the first timed one
 
@@ -186,6 +187,7 @@ class TlogReader:
         # Every IMU kind is read: the fastest stream often starts only when a companion asks for it, minutes
         # into a ground station's log (the trial follows the fastest kind window by window).
         self.wanted = WANTED | (OUTPUTS if outputs else set())
+        self.to_autopilot = TO_AUTOPILOT | (SENT if outputs else set())
 
     def _find_autopilot(self) -> tuple[int, int]:
         """(sysid, compid) of the autopilot: the sender of the first autopilot HEARTBEAT (of ``sysid``), else of
@@ -214,13 +216,13 @@ class TlogReader:
         self.untimed = 0
         pending: list[Any] = []
         crc_errors, next_progress = 0, 0.0
-        autopilot, wanted = self.autopilot, self.wanted
+        autopilot, wanted, to_autopilot = self.autopilot, self.wanted, self.to_autopilot
 
         def keep(msgid: int, sysid: int, compid: int) -> bool:
             if (sysid, compid) == autopilot:
                 return msgid in wanted
             others[(sysid, compid)] += 1
-            return msgid in TO_AUTOPILOT
+            return msgid in to_autopilot
 
         with self.path.open("rb") as handle:
             stream = FrameStream(handle, keep)
