@@ -6,9 +6,8 @@ import argparse
 import math
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
 
-from vessel.argtypes import check_output_file, naming, plot_formats
+from vessel.argtypes import OneLineParser, add_version, check_output_file, naming, plot_formats
 from vessel.config import ConfigError
 from vessel.maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
 from vessel.params import PARAMETER_SETS, load_parameters, otter_parameters
@@ -19,12 +18,7 @@ from vessel.world import SEA_PRESETS
 EXIT_USAGE = 2
 
 
-class OneLineParser(argparse.ArgumentParser):
-    """An argparse parser whose errors are one line on stderr and exit code 2 (no usage dump)."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print 'prog: error: message' and exit 2."""
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+# OneLineParser: one-line errors, exit 2; a bare command lists its subcommands (vessel.argtypes)
 
 
 def _number(text: str) -> float:
@@ -38,6 +32,7 @@ def _number(text: str) -> float:
 def build_parser() -> OneLineParser:
     """The `vessel` parser with its `maneuver` and `sea` subcommands."""
     parser = OneLineParser(prog="vessel", description=__doc__)
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     man = sub.add_parser("maneuver", help="run a standard open-water maneuver on the bare plant",
                          description="Shaft commands are percent of n_max (negative = reverse).")
