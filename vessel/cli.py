@@ -71,7 +71,13 @@ def _maneuver_from_args(args: argparse.Namespace) -> Maneuver:
         raise ConfigError("--left and --right are required without --preset (percent of n_max, [-100, 100])")
     with naming("--params"):
         params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
-    waves = SEA_PRESETS[args.waves].waves()
+    sea = SEA_PRESETS[args.waves]
+    decays = [name for name in ("roll", "pitch") if settings.get(f"{name}_deg", 0.0) != 0.0]
+    if decays and sea.height_m > 0:  # waves drive the roll: the 'decay' would be the wave's period, never damped
+        raise ConfigError(f"--waves {args.waves}: a free {' and '.join(decays)} decay cannot be measured in waves "
+                          f"(they drive the motion: its period would be the wave's {sea.period_s:g} s); use --waves "
+                          "calm, or no initial roll/pitch")
+    waves = sea.waves()
     return Maneuver(**settings, integrator=args.integrator, params=params, waves=waves)
 
 

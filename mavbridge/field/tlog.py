@@ -27,6 +27,7 @@ from pymavlink.generator.mavcrc import mcrf4xx, x25crc
 
 from mavbridge.field.logs import LogError, LogInfo, Progress, TimedMessage
 from mavbridge.link.connection import MAV_AUTOPILOT_INVALID, mavlink
+from vessel.wording import counted
 
 STAMP = struct.Struct(">Q")
 V1, V2 = 0xFE, 0xFD
@@ -279,7 +280,7 @@ class TlogReader:
             self.info.note(f"{self.untimed} messages without a time of their own (HEARTBEAT, PARAM_VALUE ...) before "
                            "the autopilot's first time_boot_ms left out: nothing places them on its clock")
         if clock.reboots:
-            self.info.note(f"the autopilot rebooted {clock.reboots} time(s); the timeline continues across "
+            self.info.note(f"the autopilot rebooted {counted(clock.reboots, 'time')}; the timeline continues across "
                            "(later times are its clock plus the time before)")
         if others:
             senders = ", ".join(f"{s}/{c} ({n} frames)" for (s, c), n in others.most_common(4))

@@ -12,6 +12,7 @@ import numpy as np
 from mavbridge.companion.rover_modes import mode_name
 from mavbridge.field.boat import BOAT_COLUMNS
 from mavbridge.lab.runlog import STATE_COLUMNS, WAVE_COLUMNS
+from vessel.wording import counted
 
 if TYPE_CHECKING:
     from mavbridge.field.replay.flight import Flight, ReplayRequest
@@ -46,7 +47,8 @@ def summary_lines(flight: Flight, trial: Trial, req: ReplayRequest, solver: str)
     if not rows:
         return ["replay: no control step in the window (no attitude with a position there)"]
     would = sum(r["would_command"] for r in rows)
-    lines = [f"replay: {len(rows)} control steps from t = {rows[0]['t_s']:.1f} to {rows[-1]['t_s']:.1f} s of the log "
+    lines = [f"replay: {counted(len(rows), 'control step')} from t = {rows[0]['t_s']:.1f} to "
+             f"{rows[-1]['t_s']:.1f} s of the log "
              f"at {flight.period_ms / 1000:g} s, solver {solver}, output {flight.output.name}; nothing was sent",
              f"replay: the boat was armed in {mode_name(flight.output.required_mode)} (where the companion commands) "
              f"for {would} of them"]
@@ -58,7 +60,7 @@ def summary_lines(flight: Flight, trial: Trial, req: ReplayRequest, solver: str)
         both = np.isfinite(cmd) & np.isfinite(boat)
         if both.any():
             lines.append(f"replay: {what}: commanded against the boat's motors, mean |difference| "
-                         f"{np.mean(np.abs(cmd[both] - boat[both])):.3f} over {int(both.sum())} steps")
+                         f"{np.mean(np.abs(cmd[both] - boat[both])):.3f} over {counted(int(both.sum()), 'step')}")
     lines.extend(logged_lines(rows))
     lines.append(waves_line(flight.gate.summary(flight.engaged_solve_ms)))
     solve = np.asarray(flight.solve_ms, float)
@@ -76,7 +78,7 @@ def logged_lines(rows: list[dict[str, Any]]) -> list[str]:
         if len(both):
             diff = np.abs(both[:, 0] - both[:, 1])
             lines.append(f"replay: {what}: against the companion's logged override, {int(np.sum(diff <= 1))} of "
-                         f"{len(both)} steps within 1 µs, max |difference| {diff.max():.0f} µs")
+                         f"{counted(len(both), 'step')} within 1 µs, max |difference| {diff.max():.0f} µs")
     return lines
 
 
