@@ -8,24 +8,18 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn
 
 from mission import transfer
 from mission.files import check_output_file, read_mission_file, write_mission_file
 from mission.plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, check_range, validate
-from vessel.argtypes import positive_metres
+from vessel.argtypes import OneLineParser, add_version, positive_metres
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
 
 
-class OneLineParser(argparse.ArgumentParser):
-    """argparse with one-line errors and exit code 2."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print 'prog: error: message' and exit 2."""
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+# OneLineParser: one-line errors, exit 2; a bare command lists its subcommands (vessel.argtypes)
 
 
 def _pair(text: str) -> tuple[float, float]:
@@ -65,6 +59,7 @@ def _connection(text: str) -> str:
 def build_parser() -> OneLineParser:
     """`mission upload|download|clear`."""
     parser = OneLineParser(prog="mission", description=__doc__)
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     common = OneLineParser(add_help=False)
     common.add_argument("--connect", type=_connection, default=transfer.DEFAULT_URL,

@@ -10,7 +10,6 @@ import shutil
 import signal
 import sys
 from pathlib import Path
-from typing import NoReturn
 
 from sim_vehicle import lockstep
 from sim_vehicle.argtypes import SEED_MAX, parameter_names, positive_seconds, sea_state_number, seed_number
@@ -20,7 +19,7 @@ from sim_vehicle.mavlink.signing import store_signing_passphrase
 from sim_vehicle.rover.params import ParamTable, is_param_name, read_parm
 from sim_vehicle.scenario import sim_world
 from sim_vehicle.sim import Options, Simulator
-from vessel.argtypes import naming
+from vessel.argtypes import OneLineParser, add_version, naming
 from vessel.config import ConfigError
 from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
@@ -30,12 +29,7 @@ DEFAULT_OUTPUTS = ["udp:127.0.0.1:14550", "udp:127.0.0.1:14551"]
 NEGATIVE_VALUE_FLAGS = ("--home", "--sea", "--current", "--seed", "--sea-state")  # values may start with '-'
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse that reports errors in one line."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print ``prog: error: message`` and exit 2."""
-        self.exit(2, f"{self.prog}: error: {message}\n")
+_Parser = OneLineParser  # one-line errors, exit 2 (vessel.argtypes: every console script's)
 
 
 def _port(text: str) -> int:
@@ -99,6 +93,7 @@ def _home(text: str) -> object:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (also documents every option)."""
     p = _Parser(prog="sim-vehicle", description="SITL Otter boat that speaks MAVLink like ArduPilot Rover.")
+    add_version(p)
     p.add_argument("--tcp", type=_port, default=5760, metavar="PORT", help="TCP server port (default 5760)")
     p.add_argument("--no-tcp", action="store_true", help="no TCP server")
     p.add_argument(

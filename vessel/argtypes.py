@@ -8,6 +8,7 @@ import math
 from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import NoReturn
 
 from vessel.config import ConfigError
 
@@ -93,3 +94,36 @@ def check_output_folder(path: str | Path, flag: str) -> None:
             if not parent.is_dir():
                 raise ConfigError(f"{flag}: {path}: {parent} is a file, not a folder")
             return
+
+
+DISTRIBUTION = "otter-rollaware"  # the installed distribution whose version every console script reports
+
+
+def version_line(prog: str) -> str:
+    """'PROG VERSION' from the installed package's metadata (never a literal that drifts from pyproject.toml)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return f"{prog} {version(DISTRIBUTION)}"
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return f"{prog} (version unknown: {DISTRIBUTION} is not installed)"
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """The parser every console script uses, so that they all behave alike: an error is one line on stderr and exit
+    code 2 (no usage dump); a command given without its subcommand prints its usage and the list of subcommands
+    (exit 2), not only "the following arguments are required"; ``--version`` on the top-level parser
+    (``add_version``)."""
+
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
+        """Print 'prog: error: message' and exit 2; a missing subcommand: the usage and the subcommands."""
+        commands = [a for a in self._actions if isinstance(a, argparse._SubParsersAction)]
+        if commands and message.startswith(f"the following arguments are required: {commands[0].dest}"):
+            self.exit(2, self.format_help())
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def add_version(parser: argparse.ArgumentParser) -> None:
+    """``--version``: the console script's name and the installed version, then exit 0."""
+    parser.add_argument("--version", action="version", version=version_line(parser.prog),
+                        help="print the installed version and exit")

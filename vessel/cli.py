@@ -6,9 +6,8 @@ import argparse
 import math
 import sys
 from collections.abc import Sequence
-from typing import NoReturn
 
-from vessel.argtypes import check_output_file, naming, plot_formats
+from vessel.argtypes import OneLineParser, add_version, check_output_file, naming, plot_formats
 from vessel.config import ConfigError
 from vessel.maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
 from vessel.params import PARAMETER_SETS, load_parameters, otter_parameters
@@ -19,12 +18,7 @@ from vessel.world import SEA_PRESETS
 EXIT_USAGE = 2
 
 
-class OneLineParser(argparse.ArgumentParser):
-    """An argparse parser whose errors are one line on stderr and exit code 2 (no usage dump)."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print 'prog: error: message' and exit 2."""
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+# OneLineParser: one-line errors, exit 2; a bare command lists its subcommands (vessel.argtypes)
 
 
 def _number(text: str) -> float:
@@ -38,6 +32,7 @@ def _number(text: str) -> float:
 def build_parser() -> OneLineParser:
     """The `vessel` parser with its `maneuver` and `sea` subcommands."""
     parser = OneLineParser(prog="vessel", description=__doc__)
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     man = sub.add_parser("maneuver", help="run a standard open-water maneuver on the bare plant",
                          description="Shaft commands are percent of n_max (negative = reverse).")
@@ -76,7 +71,13 @@ def _maneuver_from_args(args: argparse.Namespace) -> Maneuver:
         raise ConfigError("--left and --right are required without --preset (percent of n_max, [-100, 100])")
     with naming("--params"):
         params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
-    waves = SEA_PRESETS[args.waves].waves()
+    sea = SEA_PRESETS[args.waves]
+    decays = [name for name in ("roll", "pitch") if settings.get(f"{name}_deg", 0.0) != 0.0]
+    if decays and sea.height_m > 0:  # waves drive the roll: the 'decay' would be the wave's period, never damped
+        raise ConfigError(f"--waves {args.waves}: a free {' and '.join(decays)} decay cannot be measured in waves "
+                          f"(they drive the motion: its period would be the wave's {sea.period_s:g} s); use --waves "
+                          "calm, or no initial roll/pitch")
+    waves = sea.waves()
     return Maneuver(**settings, integrator=args.integrator, params=params, waves=waves)
 
 

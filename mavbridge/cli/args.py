@@ -54,12 +54,15 @@ count = whole_number(0)
 positive = whole_number(1)
 
 
-def single_scenario(path: str | None, solver: str | None, model: Any = None) -> Any:
-    """The one run a --scenario file defines (default: the paper's Balanced run), with --solver applied, and the
-    companion's ``model`` (its config's, a ``VesselSpec``) over the scenario's ``controller.model`` when given."""
+def single_scenario(path: str | None, solver: str | None, model: Any = None, given: Any = None) -> Any:
+    """The one run a --scenario file defines (default: the paper's Balanced run, or ``given``), with --solver
+    applied, and the companion's ``model`` (its config's, a ``VesselSpec``) over the scenario's ``controller.model``
+    when given."""
     from mavbridge.lab.scenario import Scenario, load_scenarios
 
-    if path:
+    if given is not None:
+        scenario = given
+    elif path:
         with naming("--scenario"):
             scenarios = load_scenarios(path)
         if len(scenarios) != 1:

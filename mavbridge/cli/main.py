@@ -16,22 +16,19 @@ from mavbridge.cli.run import add_demo_parser, add_run_parser, demo_command, run
 from mavbridge.cli.signing import add_signing_parser, signing_command
 from mavbridge.nmpc.config import SOLVERS
 from vessel import ConfigError
+from vessel.argtypes import OneLineParser, add_version
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.lab.scenario.PLANTS (kept import-light)
 WAVE_SOURCES = ("truth", "estimated")  # mirrors mavbridge.lab.scenario.WAVE_SOURCES
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (no usage dump) and exit code 2."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        sys.stderr.write(f"{self.prog}: error: {message}\n")
-        raise SystemExit(2)
+_Parser = OneLineParser  # one-line errors, exit 2; a bare command lists its subcommands (vessel.argtypes)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with its subcommands."""
     parser = _Parser(prog="mavbridge", description="Roll-aware NMPC companion for the Otter USV.")
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     exp = sub.add_parser("experiment", help="closed-loop runs of a scenario file in-process (no MAVLink)",
                          description="Run every run of a scenario file in closed loop with the vessel plant; "

@@ -15,6 +15,7 @@ from typing import Any
 from mavbridge.link.connection import LinkError, mavlink
 from mavbridge.link.retry import RetryPolicy, ask, count_retry, give_up_line
 from vessel.geo import ned_from_latlon
+from vessel.wording import counted
 
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 
@@ -85,7 +86,7 @@ class MissionTracker:
         lat, lon = home.x / 1e7, home.y / 1e7
         waypoints = [ned_from_latlon(lat, lon, i.x / 1e7, i.y / 1e7)
                      for i in items[1:] if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
-        self.log(f"home {lat:.7f}, {lon:.7f}; {len(waypoints)} waypoint(s) from the mission")
+        self.log(f"home {lat:.7f}, {lon:.7f}; {counted(len(waypoints), 'waypoint')} from the mission")
         if self.override_ne is not None:
             waypoints = [self.override_ne]
             self.log(f"waypoint overridden: north {self.override_ne[0]:g} m, east {self.override_ne[1]:g} m")

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mavbridge.companion.rover_modes import mode_name
+from vessel.wording import counted
 
 INTERVAL_S = 10.0  # wall seconds between two lines of one kind
 KEEP_UP_WARN_SHARE = 0.01  # skipped ticks from this share on make the summary's warning
@@ -49,7 +50,7 @@ class LoopNotices:
         """``missed`` control ticks were skipped just now (the last step took longer than its period)."""
         self._skipped_since += missed
         if missed and self._due("skipped"):
-            self.log(f"warning: the controller cannot keep up: {self._skipped_since} control tick(s) of "
+            self.log(f"warning: the controller cannot keep up: {counted(self._skipped_since, 'control tick')} of "
                      f"{period_s:g} s skipped since the last warning (a step takes longer than the period; "
                      "try the nrti solver or a lower --speedup)")
             self._skipped_since = 0
@@ -74,10 +75,10 @@ def keep_up_summary(skipped: int, steps: int, late: int = 0) -> str | None:
     if not skipped and not late:
         return None
     share = (skipped + late) / max(skipped + steps, 1)
-    said = [f"{skipped} control tick(s) skipped"] if skipped else []
-    said += [f"{late} step(s) past their deadline"] if late else []
-    counted = f"{' and '.join(said)}, {100 * share:.1f} % of the ticks"
+    said = [f"{counted(skipped, 'control tick')} skipped"] if skipped else []
+    said += [f"{counted(late, 'step')} past their deadline"] if late else []
+    line = f"{' and '.join(said)}, {100 * share:.1f} % of the ticks"
     if share < KEEP_UP_WARN_SHARE:
-        return f"note: {counted}"
-    return (f"warning: the controller could not keep up: {counted}; the figures above are not the scenario's "
+        return f"note: {line}"
+    return (f"warning: the controller could not keep up: {line}; the figures above are not the scenario's "
             f"controller at its period")

@@ -31,6 +31,7 @@ from mavbridge.companion.outputs import RcCalibration, RcSetup
 from mavbridge.link.connection import LinkError
 from mavbridge.link.param_reads import ParamAnswers, ParamRequest, read_parameters
 from mavbridge.preflight.rules import Context, enforced_violations
+from vessel.wording import counted
 
 GCS_ID = ("SYSID_MYGCS", "MAV_GCS_SYSID")  # the same parameter: ArduPilot 4.7 renamed it
 SKID_MIXER = ("FRAME_CLASS", "SERVO1_FUNCTION", "SERVO3_FUNCTION")
@@ -114,7 +115,8 @@ class CommandParameters:
 
     def summary(self) -> str:
         """'19 parameters read in 2.1 s (25 requests)', for the start's log line."""
-        return f"{len(self.values)} parameters read in {self.seconds:.1f} s ({self.requests} requests)"
+        return (f"{counted(len(self.values), 'parameter')} read in {self.seconds:.1f} s "
+                f"({counted(self.requests, 'request')})")
 
 
 def _refused(request: ParamRequest, answers: ParamAnswers) -> str | None:

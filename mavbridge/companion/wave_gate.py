@@ -165,6 +165,11 @@ class WaveGate:
         self._made = (key, made)
         return made
 
+    def given_elsewhere(self) -> None:
+        """Someone else (another gate on the same NMPC: a replay's steps the companion would not command) set the
+        NMPC's sea spread since this gate's last step: its next step gives its own again, even if unchanged."""
+        self._spread_given = None
+
     @property
     def statistics_only(self) -> bool:
         """True while the roll term acts on the sea's statistics alone (no confident wave)."""

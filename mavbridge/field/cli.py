@@ -68,7 +68,8 @@ def add_replay_parser(sub: Any) -> None:
         "replay", help="what the companion would have commanded, fed from a log at its own clock (sends nothing)",
         description="Feed the companion's state, wave estimator and NMPC from a log at the log's own clock and "
                     "write what it would have commanded beside what the boat did (RC inputs, servo outputs): "
-                    "DIR/replay.csv and DIR/replay.png. Nothing is sent anywhere.")
+                    "DIR/replay.csv, DIR/replay.json (the estimator's figures as the live run's metrics.json "
+                    "gives them) and DIR/replay.png. Nothing is sent anywhere.")
     replay.add_argument("log", metavar="LOG", help="the log to replay")
     replay.add_argument("--out", metavar="DIR", help="folder for replay.csv and replay.png (default "
                                                      "runs/replay-<time>)")
@@ -82,6 +83,10 @@ def add_replay_parser(sub: Any) -> None:
                         help="fly to this point (m north, east of the log's home) instead of the log's mission")
     replay.add_argument("--from", dest="start", type=log_time, metavar="S", help="replay from this time of the log (s)")
     replay.add_argument("--to", dest="stop", type=log_time, metavar="S", help="replay up to this time of the log (s)")
+    replay.add_argument("--plan-all", action="store_true",
+                        help="also plan where the companion would not command (disarmed, another mode), on a wave "
+                             "gate of their own (default: off; as the companion, the NMPC then plans from its "
+                             "engagement on, so that its commands are the ones it sent)")
 
 
 def command_line(args: argparse.Namespace, positional: list[str], flags: dict[str, str]) -> str:
@@ -109,4 +114,4 @@ def replay_command(args: argparse.Namespace) -> int:
     from mavbridge.field.replay import replay_command as run
 
     return run(ReplayRequest(args.log, args.format, args.sysid, args.config, args.scenario, args.out, args.solver,
-                             args.output, args.attitude_form, args.waypoint, args.start, args.stop))
+                             args.output, args.attitude_form, args.waypoint, args.start, args.stop, args.plan_all))

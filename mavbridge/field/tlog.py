@@ -27,6 +27,7 @@ from pymavlink.generator.mavcrc import mcrf4xx, x25crc
 
 from mavbridge.field.logs import LogError, LogInfo, Progress, TimedMessage
 from mavbridge.link.connection import MAV_AUTOPILOT_INVALID, mavlink
+from vessel.wording import counted
 
 STAMP = struct.Struct(">Q")
 V1, V2 = 0xFE, 0xFD
@@ -46,6 +47,7 @@ FLAT = (mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_ATTITUDE, mavli
         mavlink.MAVLINK_MSG_ID_RC_CHANNELS)
 TO_AUTOPILOT = {mavlink.MAVLINK_MSG_ID_MISSION_ITEM_INT, mavlink.MAVLINK_MSG_ID_MISSION_ITEM,
                 mavlink.MAVLINK_MSG_ID_MISSION_COUNT}  # an upload: another station's, addressed to the autopilot
+SENT = {mavlink.MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE}  # what a companion sent (in its own tlog): for a replay
 REBOOT_MS = 5000  # the autopilot's clock this far behind the newest heard: it rebooted
 PENDING_MAX = 10000  # untimed messages held until the first timed one
 
@@ -186,6 +188,7 @@ class TlogReader:
         # Every IMU kind is read: the fastest stream often starts only when a companion asks for it, minutes
         # into a ground station's log (the trial follows the fastest kind window by window).
         self.wanted = WANTED | (OUTPUTS if outputs else set())
+        self.to_autopilot = TO_AUTOPILOT | (SENT if outputs else set())
 
     def _find_autopilot(self) -> tuple[int, int]:
         """(sysid, compid) of the autopilot: the sender of the first autopilot HEARTBEAT (of ``sysid``), else of
@@ -214,13 +217,13 @@ class TlogReader:
         self.untimed = 0
         pending: list[Any] = []
         crc_errors, next_progress = 0, 0.0
-        autopilot, wanted = self.autopilot, self.wanted
+        autopilot, wanted, to_autopilot = self.autopilot, self.wanted, self.to_autopilot
 
         def keep(msgid: int, sysid: int, compid: int) -> bool:
             if (sysid, compid) == autopilot:
                 return msgid in wanted
             others[(sysid, compid)] += 1
-            return msgid in TO_AUTOPILOT
+            return msgid in to_autopilot
 
         with self.path.open("rb") as handle:
             stream = FrameStream(handle, keep)
@@ -277,7 +280,7 @@ class TlogReader:
             self.info.note(f"{self.untimed} messages without a time of their own (HEARTBEAT, PARAM_VALUE ...) before "
                            "the autopilot's first time_boot_ms left out: nothing places them on its clock")
         if clock.reboots:
-            self.info.note(f"the autopilot rebooted {clock.reboots} time(s); the timeline continues across "
+            self.info.note(f"the autopilot rebooted {counted(clock.reboots, 'time')}; the timeline continues across "
                            "(later times are its clock plus the time before)")
         if others:
             senders = ", ".join(f"{s}/{c} ({n} frames)" for (s, c), n in others.most_common(4))

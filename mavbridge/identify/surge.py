@@ -18,6 +18,7 @@ import numpy as np
 
 from mavbridge.identify.estimate import Estimate, r_squared
 from mavbridge.identify.series import Stretch
+from vessel.wording import counted
 
 SETTLE_S = 5.0
 WINDOW_S = 5.0
@@ -78,5 +79,5 @@ def fit_surge(points: list[SurgePoint], reverse: bool, kind: str) -> Estimate | 
     fit = r_squared(u, slope * s)
     if reverse:  # the speed at full reverse command (s = −1): negative
         slope, low, high = -slope, -high, -low
-    source = f"{len(used)} steady {direction} windows of {WINDOW_S:g} s, {kind}; u = U·(thrust fraction)"
+    source = f"{counted(len(used), f'steady {direction} window')} of {WINDOW_S:g} s, {kind}; u = U·(thrust fraction)"
     return Estimate(slope, low, high, "m/s", source, fit)

@@ -23,6 +23,7 @@ from mavbridge.link.retry import count_retry
 from mavbridge.preflight.report import FAIL, PASS, WARN, Report
 from mavbridge.preflight.rules import RULES, Context, fmt_value, parameter_findings, tau_form_findings
 from vessel.geo import DEFAULT_MAX_RANGE_M, ned_from_latlon
+from vessel.wording import counted
 
 POSITION_NEED_HZ = 5.0
 REQUESTED_WAIT_S = 0.5  # an accepted REQUEST_MESSAGE's message: waited for this long (or the link's timeout)
@@ -327,7 +328,7 @@ class Probe:
         home = items[0] if items else None
         waypoints = [i for i in items[1:] if i.command == mavlink.MAV_CMD_NAV_WAYPOINT]
         if home is None or not waypoints:
-            self.report.add(FAIL, "mission", expected, f"{max(0, len(items) - 1)} item(s), no NAV_WAYPOINT",
+            self.report.add(FAIL, "mission", expected, f"{counted(max(0, len(items) - 1), 'item')}, no NAV_WAYPOINT",
                             "upload the waypoint: `mission upload FILE` (or give mavbridge run --waypoint)")
             return None
         first = waypoints[0]

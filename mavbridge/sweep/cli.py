@@ -20,6 +20,7 @@ from mavbridge.sweep.tune import ROBUST_HEADINGS_DEG, Target, report, tune
 from vessel import ConfigError
 from vessel.argtypes import check_output_folder
 from vessel.sea.waves import CalmWater
+from vessel.wording import counted
 
 
 def _executor_flag(text: str) -> str:
@@ -183,9 +184,9 @@ def sweep_command(args: argparse.Namespace) -> int:
     for cid, why in outcome.failed.items():
         print(f"sweep: case {cid} failed: {why}", file=sys.stderr)
     if outcome.interrupted:
-        print(f"sweep: interrupted; {outcome.remaining} run(s) remain — rerun the same command to finish them",
+        print(f"sweep: interrupted; {counted(outcome.remaining, 'run')} remain — rerun the same command to finish them",
               file=sys.stderr)
         return 130
-    print(f"sweep: {outcome.ran} run(s) done, {outcome.skipped} already done, {len(outcome.failed)} failed "
+    print(f"sweep: {counted(outcome.ran, 'run')} done, {outcome.skipped} already done, {len(outcome.failed)} failed "
           f"-> {out}/summary.md", file=sys.stderr)
     return 1 if outcome.failed else 0

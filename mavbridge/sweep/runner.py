@@ -20,6 +20,7 @@ from typing import Any, TextIO
 
 from mavbridge.lab.scenario import Scenario
 from mavbridge.sweep.spec import SweepSpec
+from vessel.wording import counted
 
 CASES_DIR = "cases"
 WALL_CLOCK_KEYS = ("ms", "wall", "overruns")  # metrics that measure this computer, not the closed loop
@@ -111,7 +112,7 @@ def run_sweep(spec: SweepSpec, executor: Executor, out: Path,
     outcome = SweepOutcome()
     todo = _pending(spec, cases_dir, outcome)
     if outcome.skipped:
-        say(f"sweep: {outcome.skipped} case(s) already done in {cases_dir}, {len(todo)} to run")
+        say(f"sweep: {counted(outcome.skipped, 'case')} already done in {cases_dir}, {len(todo)} to run")
     progress = Progress(len(todo))
     futures: dict[Future, str] = {executor.submit(run_case, sc): cid for cid, sc in todo.items()}
     try:

@@ -39,6 +39,7 @@ from pathlib import Path
 from mavbridge.lab.scenario import Scenario, scenario_from_mapping
 from mavbridge.sweep.runner import run_sweep
 from mavbridge.sweep.spec import Case, SweepSpec, case_id
+from vessel.wording import counted
 
 DIRECT_Q = (3.0, 5.0, 8.0)
 DIRECT_S = (1.0, 2.0, 4.0)
@@ -156,7 +157,8 @@ class Procedure:
             trials.append(_trial(step, w, [record["metrics"] for record in records], self.direct_rolls))
         if keep:
             self.trials.extend(trials)
-        self.say(f"tune: {step}: {len(trials)} trials of {len(self.sea_seeds)} run(s) each, " + _best_line(trials))
+        self.say(f"tune: {step}: {counted(len(trials), 'trial')} of {counted(len(self.sea_seeds), 'run')} each, "
+                 + _best_line(trials))
         return trials
 
 

@@ -56,9 +56,9 @@ def test_notices_are_rate_limited_and_count_what_they_skipped() -> None:
     notices.waiting("switch out of it and back")
     notices.skipped(1, 0.1)
     assert lines[0] == "waiting for the pilot to switch to MANUAL (armed)"
-    assert lines[1].startswith("warning: the controller cannot keep up: 3 control tick(s)")
+    assert lines[1].startswith("warning: the controller cannot keep up: 3 control ticks")
     assert lines[2].endswith("; switch out of it and back")
-    assert lines[3].startswith("warning: the controller cannot keep up: 3 control tick(s)")  # 2 + 1 since then
+    assert lines[3].startswith("warning: the controller cannot keep up: 3 control ticks")  # 2 + 1 since then
     assert len(lines) == 4
 
 
@@ -66,12 +66,12 @@ def test_keep_up_summary() -> None:
     assert keep_up_summary(0, 900) is None
     summary = keep_up_summary(100, 900)
     assert summary is not None and summary.startswith("warning: the controller could not keep up: 100 control "
-                                                      "tick(s) skipped, 10.0 % of the ticks")
-    assert keep_up_summary(5, 1500) == "note: 5 control tick(s) skipped, 0.3 % of the ticks"
-    assert keep_up_summary(0, 1000, late=2) == "note: 2 step(s) past their deadline, 0.2 % of the ticks"
+                                                      "ticks skipped, 10.0 % of the ticks")
+    assert keep_up_summary(5, 1500) == "note: 5 control ticks skipped, 0.3 % of the ticks"
+    assert keep_up_summary(0, 1000, late=2) == "note: 2 steps past their deadline, 0.2 % of the ticks"
     both = keep_up_summary(10, 990, late=40)
-    assert both is not None and both.startswith("warning: the controller could not keep up: 10 control tick(s) "
-                                                "skipped and 40 step(s) past their deadline, 5.0 % of the ticks")
+    assert both is not None and both.startswith("warning: the controller could not keep up: 10 control ticks "
+                                                "skipped and 40 steps past their deadline, 5.0 % of the ticks")
 
 
 def test_progress_every_10_s_of_autopilot_time_with_the_largest_roll_so_far() -> None:

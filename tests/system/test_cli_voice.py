@@ -1,0 +1,39 @@
+"""Every console script speaks alike: --version from the installed metadata, a bare command lists its commands
+(exit 2), and a maneuver that cannot be measured is one line and exit 2. Real processes, nothing mocked."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from importlib.metadata import version
+
+import pytest
+
+SCRIPTS = {"mavbridge": "mavbridge.cli", "mission": "mission.cli", "vessel": "vessel.cli",
+           "sim-vehicle": "sim_vehicle.cli"}
+BARE = {"mavbridge": ("experiment", "run", "demo", "check", "replay"), "mission": ("upload", "download", "clear"),
+        "vessel": ("maneuver", "sea")}
+
+
+def _run(module: str, *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", module, *args], capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize("name", sorted(SCRIPTS))
+def test_version_is_the_installed_one(name: str) -> None:
+    done = _run(SCRIPTS[name], "--version")
+    assert done.returncode == 0 and done.stdout.strip() == f"{name} {version('otter-rollaware')}", done
+
+
+@pytest.mark.parametrize("name", sorted(BARE))
+def test_a_bare_command_prints_its_usage_and_commands(name: str) -> None:
+    done = _run(SCRIPTS[name])
+    assert done.returncode == 2 and done.stderr.startswith(f"usage: {name}"), done.stderr
+    assert "arguments are required" not in done.stderr
+    assert all(command in done.stderr for command in BARE[name]), done.stderr
+
+
+def test_a_roll_decay_in_waves_is_refused_in_one_line() -> None:
+    done = _run("vessel.cli", "maneuver", "--preset", "roll-decay", "--waves", "paper")
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "decay" in done.stderr
+    assert done.stdout == ""
