@@ -36,7 +36,7 @@ ROOMS = {  # a room, and the rooms (other than itself and its own subpackages) i
     "mavbridge.field": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.companion.guided",
                         "mavbridge.waves", "mavbridge.nmpc", "mavbridge.lab", "mavbridge.preflight", "mavbridge.cli"},
     "mavbridge.field.replay": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.waves", "mavbridge.lab",
-                               "mavbridge.preflight",
+                               "mavbridge.preflight", "mavbridge.nmpc",
                                "mavbridge.cli", "mavbridge.field"},
     "mavbridge.identify": {"vessel", "mavbridge.field"},
     "mavbridge.cli": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.lab", "mavbridge.nmpc",

@@ -73,3 +73,11 @@ def tau_limits(params: OtterParameters) -> tuple[float, float, float]:
     weaker = min(port, starboard)  # the yaw moment both ways: the weaker propeller limits one of them
     yaw = params.pontoon_offset * weaker * (forward + reverse)
     return (port + starboard) * forward, (port + starboard) * reverse, yaw
+
+
+def achieved_tau(params: OtterParameters, tau_x: float, tau_n: float) -> tuple[float, float]:
+    """(τ_X N, τ_N N·m) the two propellers give when asked for (τ_X, τ_N) through ``tau_to_shaft_speeds``: the
+    command as the saturated propellers deliver it (a hard turn at speed asks for more than they have)."""
+    left, right = tau_to_shaft_speeds(params, tau_x, tau_n)
+    achieved_x, achieved_n = shaft_speeds_to_tau(params, left, right)
+    return float(achieved_x), float(achieved_n)

@@ -22,6 +22,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +32,6 @@ import yaml
 from mavbridge.companion.command_channel import CommandChannel
 from mavbridge.companion.config import CompanionConfig, load_companion_config
 from mavbridge.companion.delay import make_compensator
-from mavbridge.companion.disturbance_watch import IDLE, observe_period
 from mavbridge.companion.engage_gate import far_waypoint
 from mavbridge.companion.mission_tracker import MissionTracker
 from mavbridge.companion.notices import LoopNotices
@@ -48,11 +48,12 @@ from mavbridge.link.connection import Link, LinkError, mavlink
 from mavbridge.link.port_guard import hold_exclusively, refuse_if_taken
 from mavbridge.link.reboot import watch_reboots
 from mavbridge.nmpc import RollAwareNmpc
-from mavbridge.nmpc.disturbance import DisturbanceObserver
+from mavbridge.nmpc.disturbance import IDLE, DisturbanceObserver, observe_period
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.preflight.rules import Context
 from mavbridge.waves.source import SCENARIO_TRUTH, WaveSource
 from vessel import CalmWater
+from vessel.allocation import achieved_tau
 from vessel.config import to_mapping
 
 # The NMPC's next plan is prepared in a background thread while the loop waits for the autopilot (nrti, asrti):
@@ -170,6 +171,7 @@ class Companion:
         self.record = RunRecorder(self.period_s)
         self.gate = WaveGate(waves, log, hold_s=scenario.estimation.hold_s)
         self.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
+        self.observe = partial(observe_period, self.observer, nmpc, self.state, stale_s=config.stale_state_s, log=log)
         self.events = LoopEvents()
         self.notices = LoopNotices(log, self.output.required_mode)
         self.delay = make_compensator(config, nmpc)  # the state's age on the link; prediction over the delay
@@ -201,14 +203,11 @@ class Companion:
             if self.events.engaged_at_ms is None:  # what the boat has seen of the sea, said once it is known
                 self.gate.watch((self.state.attitude_ms or 0) / 1000.0)
 
-    def _observe(self, now_ms: int, tau: np.ndarray | None) -> None:
-        observe_period(self.observer, self.nmpc, self.state, now_ms, tau, self.config.stale_state_s, self.log)
-
     def _control_step(self, link: Link, now_ms: int) -> None:
         if not self.supervisor.may_command():
             if self.commands.commanding:
                 self.commands.release(link)
-            self._observe(now_ms, None if self.supervisor.armed else IDLE)  # disarmed: the thrusters are idle
+            self.observe(now_ms, None if self.supervisor.armed else IDLE)  # disarmed: the thrusters are idle
             return
         if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
             self.events.stale += 1
@@ -244,7 +243,7 @@ class Companion:
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
         self.gate.command_sent()  # the period's samples to the estimator's process, once the command is out
-        self._observe(now_ms, result.tau if columns is not None else IDLE)  # (not finite: neutral went out)
+        self.observe(now_ms, np.array(achieved_tau(self.nmpc.params, *result.tau)) if columns is not None else IDLE)
         self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
         if self.observer is not None:
             wave.update(self.observer.row())
@@ -304,7 +303,7 @@ class Companion:
             self._signal_interrupts = False
             if self.commands.commanding:
                 self.commands.stand_down(link, self.state)
-            self._write_logs()
+            write_logs(self)
             link.close()
             for s, handler in previous.items():  # once a signal asked to stop, a later one (a second Ctrl-C, a
                 # repeated SIGTERM that comes late on a busy machine) is ignored until the process ends: the default
@@ -367,11 +366,13 @@ class Companion:
         """What identifies the run (phase, output, solver, wave source), its figures, and the link's counts."""
         return companion_metrics(self)
 
-    def _write_logs(self) -> None:
-        write_csv(self.out_dir / "companion.csv", self.record.rows)
-        m = self.metrics()
-        (self.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
-        first, *rest = summary_lines(m)
-        self.log(f"{first}; logs in {self.out_dir}")
-        for line in rest:
-            self.log(line)
+
+def write_logs(c: Companion) -> None:
+    """companion.csv and metrics.json of the run folder, and the summary's lines."""
+    write_csv(c.out_dir / "companion.csv", c.record.rows)
+    m = c.metrics()
+    (c.out_dir / "metrics.json").write_text(json.dumps(m, indent=2) + "\n")
+    first, *rest = summary_lines(m)
+    c.log(f"{first}; logs in {c.out_dir}")
+    for line in rest:
+        c.log(line)

@@ -39,7 +39,15 @@ from mavbridge.waves import EstimatorSettings, make_estimator
 from mavbridge.waves.inloop import SensedPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
 from mavbridge.waves.phase.bank_source import BankFeed, PredictedSource
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth, TrueSpread
-from vessel import CalmWater, ConfigError, OceanCurrent, RegularWaves, WaveField, tau_to_shaft_speeds
+from vessel import (
+    CalmWater,
+    ConfigError,
+    OceanCurrent,
+    RegularWaves,
+    WaveField,
+    shaft_speeds_to_tau,
+    tau_to_shaft_speeds,
+)
 from vessel.closed_loop import PropellerPlant, TauPlant
 from vessel.sea.irregular import IrregularWaves
 
@@ -101,9 +109,10 @@ def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: Ru
             record.state(t, x, status="end", **sea)
             return arrival
         result = nmpc.solve(x, t, wp, deadline_s=scenario.deadline_s)
-        if observer is not None:
-            observe(observer, nmpc, t, x, result.tau, progress)
         n_cmd = tau_to_shaft_speeds(params, float(result.tau[0]), float(result.tau[1]))
+        if observer is not None:  # the command as the boat receives it: τ itself, or what the propellers give
+            given = result.tau if plant.shaft_speeds is None else np.array(shaft_speeds_to_tau(params, *n_cmd), float)
+            observe(observer, nmpc, t, x, given, progress)
         record.step(t, x, result, n1_cmd_rad_s=n_cmd[0], n2_cmd_rad_s=n_cmd[1], **sea)
         plant.advance(t, result.tau, n_cmd)
         step += 1

@@ -21,6 +21,7 @@ simulator's truth enters.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +35,7 @@ from mavbridge.nmpc.problem import discrete_model
 MEASURED = (6, 7, 11)  # u, v (m/s, body), r (rad/s): what the errors are taken in
 SETTLED_CURRENT_STD = 0.08  # m/s: the current's standard deviation under which the estimate counts as settled
 SETTLED_STEPS = 50  # ... held for this many periods
+IDLE = np.zeros(2)  # τ with the thrusters idle (disarmed, or neutral sent)
 
 
 @dataclass(frozen=True)
@@ -141,3 +143,17 @@ class DisturbanceObserver:
         north, east, surge, yaw = (round(float(v), 4) for v in self.estimate)
         return {"current_north_m_s": north, "current_east_m_s": east, "surge_force_n": surge, "yaw_moment_nm": yaw,
                 "settled_at_s": self.settled_at_s, "updates": self.updates}
+
+
+def observe_period(observer: DisturbanceObserver | None, nmpc: Any, state: Any, now_ms: int, tau: np.ndarray | None,
+                   stale_s: float, log: Callable[[str], None]) -> None:
+    """One control period: the observer compares the boat's state (when fresh) with the model's prediction under the
+    command in effect since the last period (``tau`` is the one from now on; None: unknown, a pilot drives), and the
+    NMPC's later solves predict with its estimate. One line when it settles."""
+    if observer is None or not state.ready():
+        return
+    fresh = state.age_ms(now_ms) <= stale_s * 1000
+    if observer.update(now_ms / 1000.0, state.vector(), tau if fresh else None, nmpc.model_wave()):
+        log(f"disturbance settled at t = {now_ms / 1000:.1f} s: {observer.describe()} (estimated from the boat's "
+            f"motion)")
+    nmpc.set_disturbance(observer.estimate)

@@ -9,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from mavbridge.companion.disturbance_watch import IDLE, observe_period
 from mavbridge.companion.outputs import skid_fractions
 from mavbridge.companion.rover_modes import mode_name
 from mavbridge.companion.state import StateEstimate
@@ -18,7 +17,8 @@ from mavbridge.field.logs import LogError
 from mavbridge.field.trial import Trial, mode_of, on_timeline
 from mavbridge.lab.runlog import STATE_COLUMNS
 from mavbridge.link.connection import mavlink
-from mavbridge.nmpc.disturbance import DisturbanceObserver
+from mavbridge.nmpc.disturbance import IDLE, DisturbanceObserver, observe_period
+from vessel.allocation import achieved_tau
 
 MEASURE_S = 2.0  # autopilot s the companion measures the rates after its mission download, then solves cold
 HOME_MESSAGES = ("HOME_POSITION", "MISSION_ITEM_INT", "MISSION_ITEM")  # item 0 of a mission is the home
@@ -70,6 +70,7 @@ class Flight:
     arrived_s: float | None = None
     observer: Any = None  # the companion's disturbance observer (None: its config says none)
     stale_s: float = 0.5  # the companion's stale_state_s (the observer leaves a stale state out)
+    start_s: float = 0.0  # the companion's start_at_s: before it, it takes no step (nor its observer's period)
     solve_ms: list[float] = field(default_factory=list)
     engaged_solve_ms: list[float] = field(default_factory=list)  # (the gate's steps: its summary's step time)
 
@@ -151,7 +152,8 @@ class Flight:
             self._arrival_between_steps(t)
             return
         would = self.would_command()
-        if not would:  # as the companion: the observer's period, thrusters idle when disarmed, unknown when driven
+        if not would and t >= self.start_s:  # as the companion: the observer's period, idle when disarmed, unknown
+            # when a pilot drives
             self._observe(t, None if self.armed else IDLE)
         if not would and self.shadow is None:
             return
@@ -175,7 +177,8 @@ class Flight:
         result = self.nmpc.solve(x, t, target, defer_advance=True)
         gate.command_sent()  # (as the companion, once its command is out)
         if would:
-            self._observe(t, result.tau if np.all(np.isfinite(result.tau)) else IDLE)
+            self._observe(t, np.array(achieved_tau(self.nmpc.params, *result.tau)) if np.all(np.isfinite(result.tau))
+                          else IDLE)
         self.nmpc.advance()
         other = self.shadow if gate is self.gate else self.gate
         if other is not None:
@@ -279,7 +282,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
                     None if trial.home is None else origin)
     flight.prepare_at_engaging = config.start_at_s is not None
     flight.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
-    flight.stale_s = config.stale_state_s
+    flight.stale_s, flight.start_s = config.stale_state_s, config.start_at_s or 0.0
     return flight
 
 
