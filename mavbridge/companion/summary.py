@@ -72,9 +72,10 @@ def disturbance_line(figures: Mapping[str, Any]) -> str:
     north, east = figures["current_north_m_s"], figures["current_east_m_s"]
     settled = f"settled at t = {figures['settled_at_s']:.1f} s" if figures.get("settled_at_s") is not None \
         else "never settled"
+    surge = f", surge force {figures['surge_force_n']:+.1f} N" if figures["surge_force_n"] else ""
     return (f"disturbance (estimated): current {math.hypot(north, east):.2f} m/s to "
-            f"{math.degrees(math.atan2(east, north)):.0f}°, surge force {figures['surge_force_n']:+.1f} N, "
-            f"yaw moment {figures['yaw_moment_nm']:+.2f} N·m; {settled}")
+            f"{math.degrees(math.atan2(east, north)):.0f}°{surge}, yaw moment {figures['yaw_moment_nm']:+.2f} N·m; "
+            f"{settled}")
 
 
 def summary_lines(metrics: Mapping[str, Any]) -> list[str]:

@@ -193,7 +193,11 @@ def test_replay_commands_from_the_log_beside_what_the_boat_did_and_sends_nothing
 
     for name in ("connect", "send", "sendto", "sendall"):
         monkeypatch.setattr(socket.socket, name, refuse)
-    code = main(["replay", str(log), "--from", "10", "--to", "35", "--out", str(tmp_path / "replay"), "--plan-all"])
+    # The log's motion is a sine the test draws, not the boat's answer to any command: a disturbance observer would
+    # take the difference for a current, so this companion flies on its model alone (disturbance: none)
+    (tmp_path / "companion.yaml").write_text("disturbance: none\n")
+    code = main(["replay", str(log), "--from", "10", "--to", "35", "--out", str(tmp_path / "replay"), "--plan-all",
+                 "--config", str(tmp_path / "companion.yaml")])
     out, err = capsys.readouterr()
     assert code == 0, err  # (--plan-all: the HOLD steps too, where the companion would plan nothing)
     assert "nothing was sent" in out and "RC: steering ch1, throttle ch3" in out
