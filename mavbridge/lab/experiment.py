@@ -197,7 +197,8 @@ def true_disturbance(scenario: Scenario) -> dict[str, float]:
 
 def _told_current(scenario: Scenario) -> OceanCurrent:
     """The current the NMPC is built with: the truth in the paper's set-up (everything known), none in a
-    realistic run (the companion is never told; it estimates what it meets, ``estimation.disturbance``)."""
+    realistic run (the companion is never told; it estimates what it meets, ``estimation.disturbance``); so for
+    the wind, which the NMPC is built with only where it is told (``estimation.disturbance: truth``: a bound)."""
     if scenario.estimation.realistic and scenario.estimation.disturbance != "truth":
         return OceanCurrent()
     return scenario.sea.current()
@@ -224,7 +225,9 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     cfg = scenario.controller
     hull_heaves = scenario.estimation.realistic and scenario.estimation.surface_heave
     cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves))
-    nmpc = RollAwareNmpc(cfg, scenario.model_params(), _model_waves(scenario), _told_current(scenario))
+    told = not scenario.estimation.realistic or scenario.estimation.disturbance == "truth"  # (simulation truth)
+    nmpc = RollAwareNmpc(cfg, scenario.model_params(), _model_waves(scenario), _told_current(scenario),
+                         scenario.sea.wind() if told else None)
     feed: WaveFeed | None = None
     observer: DisturbanceObserver | None = None
     if scenario.estimation.realistic:

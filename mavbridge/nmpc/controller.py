@@ -32,6 +32,7 @@ from mavbridge.nmpc.model_state import on_mean_surface
 from mavbridge.nmpc.problem import input_bounds
 from mavbridge.nmpc.run_parameters import SeaInputs, SeaKnowledge
 from vessel import STATE_NAMES, CalmWater, OceanCurrent, OtterParameters, WaveField
+from vessel.sea.wind import Wind
 
 
 @dataclass(frozen=True)
@@ -150,12 +151,13 @@ class RollAwareNmpc(SeaInputs, BackendLifetime):
     """
 
     def __init__(self, config: NmpcConfig | None = None, params: OtterParameters | None = None,
-                 waves: WaveField | None = None, current: OceanCurrent | None = None) -> None:
+                 waves: WaveField | None = None, current: OceanCurrent | None = None, wind: Wind | None = None) -> None:
         self.config = config or NmpcConfig()
         self.params = params or self.config.model.params()  # (the model's hull, published unless set)
         self.waves: WaveField = waves or CalmWater()
         self.current = current or OceanCurrent()
-        self._functions = problem_functions(self.params, self.waves, self.current, self.config)
+        self.wind = wind  # built in: simulation truth for a bound only (the companion never knows it)
+        self._functions = problem_functions(self.params, self.waves, self.current, self.config, wind)
         self._step = self._functions.step
         self.layout = self._functions.layout
         self._sea = SeaKnowledge(self.config, self._functions.fixed_waves, self.waves)

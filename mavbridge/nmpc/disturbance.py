@@ -58,7 +58,8 @@ class DisturbanceObserver:
         self.settings = settings or ObserverSettings()
         self.period_s = float(nmpc.config.period_s)
         functions = nmpc._functions  # the NMPC's own model (the same hull, wave field and built-in current)
-        step = discrete_model(nmpc.params, functions.fixed_waves, functions.current, nmpc.config.replace(inputs="tau"))
+        step = discrete_model(nmpc.params, functions.fixed_waves, functions.current, nmpc.config.replace(inputs="tau"),
+                              functions.wind)
         x, tau, t = ca.SX.sym("x", NX), ca.SX.sym("tau", 2), ca.SX.sym("t")
         wave = ca.SX.sym("wave", step.size1_in(3))
         y = step(x, tau, t, wave)[list(MEASURED)]

@@ -36,6 +36,7 @@ from mavbridge.nmpc.solvers.codegen import compiled_library, load
 from mavbridge.nmpc.solvers.gauss_newton import linearisation
 from mavbridge.nmpc.wave_model import is_parametric
 from vessel import OceanCurrent, OtterParameters, WaveField
+from vessel.sea.wind import Wind
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,7 @@ class ProblemFunctions:
     params: OtterParameters
     fixed_waves: WaveField | None  # a built-in wave field, or None: the wave is a run-time parameter
     current: OceanCurrent
+    wind: Wind | None  # a wind built in (simulation truth, a bound only); None: still air
     cfg: NmpcConfig  # the configuration it was first built for (only its structural fields matter)
     step: ca.Function  # (x, u, t, wave) -> x after one period
     nlp: Mapping[str, ca.SX]  # {x, p, f, g}, read-only
@@ -57,7 +59,7 @@ class ProblemFunctions:
         if codegen != "auto":
             return None, "sx-vm (codegen off)"
         try:
-            key = build_key(self.params, self.fixed_waves, self.current, self.cfg)
+            key = build_key(self.params, self.fixed_waves, self.current, self.cfg, self.wind)
             hash(key)
         except TypeError:  # an unhashable built-in wave field: ask the disk cache every time
             return compiled_library(self.linearisation)
@@ -121,9 +123,9 @@ def _libraries(fixed_waves: WaveField | None) -> BoundedCache[tuple[Path | None,
 
 
 def build_key(params: OtterParameters, fixed_waves: WaveField | None, current: OceanCurrent,
-              cfg: NmpcConfig) -> tuple:
+              cfg: NmpcConfig, wind: Wind | None = None) -> tuple:
     """The cache key of a problem structure."""
-    return (params, fixed_waves, current, cfg.structural())
+    return (params, fixed_waves, current, cfg.structural(), wind)
 
 
 def model_waves(waves: WaveField | None) -> WaveField | None:
@@ -132,20 +134,20 @@ def model_waves(waves: WaveField | None) -> WaveField | None:
 
 
 def problem_functions(params: OtterParameters, waves: WaveField | None, current: OceanCurrent,
-                      cfg: NmpcConfig) -> ProblemFunctions:
+                      cfg: NmpcConfig, wind: Wind | None = None) -> ProblemFunctions:
     """The built problem for this structure, from the cache when it was built before in this process."""
     fixed = model_waves(waves)
-    key = build_key(params, fixed, current, cfg)
+    key = build_key(params, fixed, current, cfg, wind)
     try:
         cached = _functions(fixed).get(key)
     except TypeError:  # an unhashable built-in wave field: build every time
         key, cached = None, None
     if cached is not None:
         return cached
-    step = discrete_model(params, fixed, current, cfg)
+    step = discrete_model(params, fixed, current, cfg, wind)
     matrix = model_matrix(cfg, params)
     nlp, layout = build_nlp(step, cfg, matrix)
-    built = ProblemFunctions(params=params, fixed_waves=fixed, current=current, cfg=cfg, step=step,
+    built = ProblemFunctions(params=params, fixed_waves=fixed, current=current, wind=wind, cfg=cfg, step=step,
                              nlp=MappingProxyType(dict(nlp)), layout=layout,
                              linearisation=linearisation(step, cfg, matrix), input_matrix=matrix)
     if key is not None:

@@ -38,6 +38,7 @@ from mavbridge.nmpc.wave_bank import model_field
 from mavbridge.nmpc.wave_model import CALM_PARAMETERS
 from vessel import OceanCurrent, OtterParameters, WaveField
 from vessel.dynamics import NedCurrent, body_acceleration, kinematics
+from vessel.sea.wind import Wind
 
 __all__ = ["NP", "NU", "NX", "PARAMS", "Layout", "build_nlp", "discrete_model", "distance", "heading_error",
            "heading_excess", "input_bounds", "model_ode", "pack_parameters", "wrap_angle"]
@@ -62,13 +63,14 @@ def distance(x: ca.SX, waypoint: ca.SX) -> ca.SX:
 
 
 def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCurrent,
-              components: int = 0) -> ca.Function:
+              components: int = 0, wind: Wind | None = None) -> ca.Function:
     """The paper's model (vessel ``rigid_body_ode``) with the wave as an input: (x, τ, t, wave) -> ẋ.
 
     ``waves`` None: the wave is the ``wave`` input (a ``ParametricRegularWaves``, 7 numbers; with ``components``
     K > 0 followed by the K-component bank, ``wave_bank``), so one Function predicts with any regular wave (and
     bank). A WaveField: that field is built in and only the input's last block is used: the ``disturbance``
     (a current added to ``current``, a surge force and a yaw moment added to τ; zeros: the model as before).
+    ``wind``: a wind built into the model (simulation truth only, for a bound; None: still air, the paper's).
     """
     wave = ca.SX.sym("wave", wave_input_size(components))
     field = model_field(wave, components) if waves is None else waves
@@ -79,19 +81,19 @@ def model_ode(params: OtterParameters, waves: WaveField | None, current: OceanCu
     water = NedCurrent(current.speed_mps * math.cos(current.direction_rad) + d["current_north_mps"],
                        current.speed_mps * math.sin(current.direction_rad) + d["current_east_mps"])
     nu_dot = body_acceleration(params, field, water, x[0:6], x[6:12], tau[0] + d["surge_force_n"],
-                               tau[1] + d["yaw_moment_nm"], t)
+                               tau[1] + d["yaw_moment_nm"], t, wind=wind)
     xdot = ca.vertcat(kinematics(x[0:6], x[6:12]), nu_dot)
     return ca.Function("nmpc_ode", [x, tau, t, wave], [xdot], ["x", "tau", "t", "wave"], ["xdot"])
 
 
 def discrete_model(params: OtterParameters, waves: WaveField | None, current: OceanCurrent,
-                   cfg: NmpcConfig) -> ca.Function:
+                   cfg: NmpcConfig, wind: Wind | None = None) -> ca.Function:
     """One control period of the NMPC model: (x[12], u[2], t, wave) -> x after period_s, held input.
 
     ``waves`` as in ``model_ode`` (None: the wave is the run-time ``wave`` input, 7 numbers and the bank block
     of ``cfg.wave_components``). u is τ, or the propeller thrusts (``cfg.inputs``), τ = B·u.
     """
-    ode = model_ode(params, waves, current, cfg.wave_components)
+    ode = model_ode(params, waves, current, cfg.wave_components, wind)
     h = cfg.period_s / cfg.substeps
     x = ca.SX.sym("x", NX)
     u = ca.SX.sym("u", NU)

@@ -21,6 +21,7 @@ import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures import TimeoutError as FuturesTimeout
 from multiprocessing import get_context
+from typing import Any
 
 import numpy as np
 
@@ -98,7 +99,7 @@ class AdvancedStep:
                 f = self.functions
                 self._executor = ProcessPoolExecutor(max_workers=1, mp_context=get_context("spawn"),
                                                      initializer=_worker_init,
-                                                     initargs=(f.params, f.fixed_waves, f.current, self.cfg))
+                                                     initargs=(f.params, f.fixed_waves, f.current, self.cfg, f.wind))
             else:
                 self._executor = Worker("asrti")  # (lighter than a ThreadPoolExecutor on the step's path)
         return self._executor
@@ -215,10 +216,10 @@ def _noop() -> None:
 
 
 def _worker_init(params: OtterParameters, fixed_waves: WaveField | None, current: OceanCurrent,
-                 cfg: NmpcConfig) -> None:
+                 cfg: NmpcConfig, wind: Any = None) -> None:
     """In a worker process: build this problem's background solve once (the library comes from the cache)."""
     global _WORKER_SOLVE
-    _WORKER_SOLVE = BackgroundSolve(problem_functions(params, fixed_waves, current, cfg), cfg)
+    _WORKER_SOLVE = BackgroundSolve(problem_functions(params, fixed_waves, current, cfg, wind), cfg)
 
 
 def _worker_solve(w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> BackgroundResult:
