@@ -162,7 +162,10 @@ def _commands_page() -> str:
 NOTES: dict[tuple[str, str], str] = {
     ("Scenario", "name"): "the run's name (letters, digits, `_`, `-`, `.`); in a set, the key under `runs`",
     ("Scenario", "description"): "free text",
-    ("World", "vessel"): "the Otter parameter set: `published` (Fossen's model, quirks included) or `corrected`",
+    ("World", "vessel"): "the simulated boat (the plant; the controller never reads it): a named set, `published` "
+                         "(Fossen's model, quirks included) or `corrected`, a mapping `{base: published, "
+                         "<OtterParameters field>: value, ...}` or a vessel YAML file holding one (relative to the "
+                         "scenario file)",
     ("SeaState", "spectrum"): "an irregular sea (the mapping below); set, the regular-wave fields are not used",
     ("Start", "north_m"): "start position north of home",
     ("Start", "east_m"): "start position east of home",

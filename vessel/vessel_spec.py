@@ -115,8 +115,10 @@ def _from_mapping(data: Mapping[str, Any], where: str, source: str = "") -> Vess
     if unknown:
         raise ConfigError(f"{where}: unknown key '{unknown[0]}' (allowed: base and the OtterParameters fields, "
                           f"e.g. payload_mass, zeta_roll, gyration_roll, propeller_scale)")
-    checked = from_mapping(OtterParameters, {**to_mapping(otter_parameters(base)), **fields}, where)
-    changes = tuple((name, getattr(checked, name)) for name in known if name in fields)
+    base_params = otter_parameters(base)
+    checked = from_mapping(OtterParameters, {**to_mapping(base_params), **fields}, where)
+    changes = tuple((name, getattr(checked, name)) for name in known  # (a field equal to the base's changes nothing)
+                    if name in fields and getattr(checked, name) != getattr(base_params, name))
     spec = VesselSpec(base, changes, source)
     spec.params()  # cross-field checks are OtterParameters' own
     return spec

@@ -75,7 +75,7 @@ def _plot(scenario: Scenario, out: Path, metrics: dict) -> None:
     force = -0.5 * params.matrices().m_total * params.g * np.sin(2 * col["wave_slope_rad"])
     wp = (scenario.waypoint.north_m, scenario.waypoint.east_m)
     plot_path(out / "path.png", col["north_m"], col["east_m"], wp, scenario.waypoint.acceptance_radius_m,
-              scenario.sea.waves(), float(t[keep][-1]), "demo: simulator + companion over MAVLink")
+              scenario.sea.waves(params), float(t[keep][-1]), "demo: simulator + companion over MAVLink")
     plot_timeseries(out / "timeseries.png", t[keep], force, np.degrees(col["roll_rad"]),
                     np.degrees(col["pitch_rad"]), tau_x, tau_n, "demo (true plant state; τ from shaft speeds)")
 

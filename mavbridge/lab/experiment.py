@@ -90,7 +90,7 @@ def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: Ru
     ``observer`` the disturbance it predicts with is the one estimated from the boat's motion.
     """
     cfg, params = scenario.controller, scenario.model_params()  # the controller turns τ into commands
-    waves = feed.truth if feed is not None else scenario.sea.waves()
+    waves = feed.truth if feed is not None else scenario.sea.waves(scenario.plant_params())
     truth = ScenarioTruth(waves)
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
     n_steps_max = math.floor(scenario.t_max_s / cfg.period_s + 1e-9)
@@ -208,7 +208,7 @@ def _model_waves(scenario: Scenario) -> WaveField:
     """The wave the NMPC is built with: the scenario's, except that a run on the estimate plans with one
     regular component set at run time (an irregular field is fixed at build: on the truth it is the full
     field, known to the NMPC)."""
-    waves = scenario.sea.waves()
+    waves = scenario.sea.waves(scenario.model_params())
     if scenario.estimation.waves != "truth" and not isinstance(waves, RegularWaves | CalmWater):
         return CalmWater()
     return waves
@@ -278,7 +278,7 @@ def _write_plots(out: Path, scenario: Scenario, rows: list[dict[str, Any]], feed
             f"{scenario.controller.s:g}"
     plot_path(out / "path.png", column(rows, "north_m"), column(rows, "east_m"),
               (scenario.waypoint.north_m, scenario.waypoint.east_m), scenario.waypoint.acceptance_radius_m,
-              feed.truth if feed is not None else scenario.sea.waves(), float(t[-1]), title)
+              feed.truth if feed is not None else scenario.sea.waves(scenario.plant_params()), float(t[-1]), title)
     plot_timeseries(out / "timeseries.png", t, column(rows, "wave_force_n"), np.degrees(column(rows, "roll_rad")),
                     np.degrees(column(rows, "pitch_rad")), column(rows, "tau_x_n"), column(rows, "tau_n_nm"), title)
     if feed is not None and feed.mode in ("estimated", "predicted"):

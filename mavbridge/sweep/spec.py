@@ -35,6 +35,7 @@ import numpy as np
 from mavbridge.lab.scenario import Scenario, load_scenarios, scenario_from_mapping
 from vessel import ConfigError
 from vessel.config import read_yaml
+from vessel.vessel_spec import relative_to
 
 SAMPLE_MODES = ("grid", "random", "lhs")
 MAX_CASES_DEFAULT = 100_000
@@ -236,6 +237,12 @@ def load_spec(path: str | Path, allow_large: bool = False) -> SweepSpec:
     if not isinstance(raw_axes, dict) or not raw_axes:
         raise ConfigError(f"{path}: axes: expected at least one axis (dotted.path: values)")
     axes = {str(k): _axis_values(f"{path}: axes.{k}", v) for k, v in raw_axes.items()}
+    with relative_to(path):  # vessel files named in the spec (its base, an axis) are found beside it
+        return _expanded(path, data, base, axes, allow_large)
+
+
+def _expanded(path: Path, data: dict, base: dict, axes: dict[str, list[Any]], allow_large: bool) -> SweepSpec:
+    """The spec's cases (see ``load_spec``)."""
     _check_axis_paths(axes, base, str(path))
     mode, size, seed = _sample_settings(data.get("sample"))
     limit = data.get("max_cases", MAX_CASES_DEFAULT)

@@ -34,11 +34,15 @@ def test_wind_force_matches_the_hand_computed_loads() -> None:
     assert n == pytest.approx(expected, rel=1e-6) and n < 0
 
 
-def test_gusts_have_the_standard_deviation_asked_for_and_are_seeded() -> None:
+def test_gusts_have_the_standard_deviation_and_the_memory_asked_for_and_are_seeded() -> None:
     wind = Wind(6.0, 0.0, gust_std_mps=1.5, gust_time_s=5.0, seed=3)
     t = np.arange(0.0, 20000.0, 0.5)
     speed = np.asarray(wind.speed_at(t), float)
     assert speed.mean() == pytest.approx(6.0, abs=0.1) and speed.std() == pytest.approx(1.5, rel=0.05)
+    gust = speed - speed.mean()
+    lag = 10  # 5 s: a first-order process keeps e^-1 of itself one time constant later
+    assert np.mean(gust[:-lag] * gust[lag:]) / np.var(gust) == pytest.approx(math.exp(-1), abs=0.08)
+    assert np.min(np.asarray(Wind(0.0, 0.0, gust_std_mps=2.0).speed_at(t), float)) == 0.0  # lulls never reverse it
     assert np.array_equal(gust_components(1.5, 5.0, 3)[2], gust_components(1.5, 5.0, 3)[2])
     assert not np.array_equal(gust_components(1.5, 5.0, 3)[2], gust_components(1.5, 5.0, 4)[2])
     assert Wind().calm and SeaState().wind() is None
@@ -65,8 +69,10 @@ def test_regular_waves_ride_on_the_current() -> None:
     assert with_current.waves().length_m == still.waves().length_m == 35.0
     across = SeaState(current_speed_mps=0.5, current_dir_deg=0.0)
     assert across.waves().frequency == pytest.approx(omega, abs=1e-12)
-    with pytest.raises(ConfigError, match=r"sea.current_speed_mps: the current stops the waves"):
-        SeaState(length_m=1.0, period_s=10.0, height_m=0.1, current_speed_mps=0.5, current_dir_deg=90.0).waves()
+    # 35 m in 6 s: phase speed 5.8 m/s; against it a current of half that (2.9 m/s) blocks them, 2.8 m/s does not
+    with pytest.raises(ConfigError, match=r"sea.current_speed_mps: the current blocks the waves"):
+        SeaState(current_speed_mps=35.0 / 12.0, current_dir_deg=90.0).waves()
+    assert SeaState(current_speed_mps=2.8, current_dir_deg=90.0).waves().period_s > 6.0
 
 
 def test_irregular_waves_ride_on_the_current_component_by_component() -> None:

@@ -66,9 +66,9 @@ class SeaState:
         chi = math.radians(self.travel_dir_deg)
         period = self.period_s
         if self.current_speed_mps > 0:  # the waves ride on the current: a fixed observer sees ω + k·U_c
-            omega = doppler_frequency(2 * math.pi / period, 2 * math.pi / self.length_m, chi,
-                                      self.current_speed_mps, math.radians(self.current_dir_deg))
-            check_not_blocked(omega, "sea.current_speed_mps")
+            k, beta = 2 * math.pi / self.length_m, math.radians(self.current_dir_deg)
+            check_not_blocked(2 * math.pi / period, k, chi, self.current_speed_mps, beta, "sea.current_speed_mps")
+            omega = doppler_frequency(2 * math.pi / period, k, chi, self.current_speed_mps, beta)
             period = 2 * math.pi / float(omega)
         return RegularWaves(self.height_m, self.length_m, period, chi)
 
@@ -76,9 +76,11 @@ class SeaState:
         """An irregular sea's components each shifted by k·U_c (unchanged without a current)."""
         if self.current_speed_mps == 0:
             return field
+        beta = math.radians(self.current_dir_deg)
+        check_not_blocked(field.frequency_rad_s, field.wavenumber_rad_m, field.direction_rad, self.current_speed_mps,
+                          beta, "sea.current_speed_mps")
         omega = doppler_frequency(field.frequency_rad_s, field.wavenumber_rad_m, field.direction_rad,
-                                  self.current_speed_mps, math.radians(self.current_dir_deg))
-        check_not_blocked(omega, "sea.current_speed_mps")
+                                  self.current_speed_mps, beta)
         start_s = self.spectrum.start_s if self.spectrum is not None else 0.0  # the field was advanced to it at ω:
         phase = np.mod(field.phase_rad + (omega - field.frequency_rad_s) * start_s, 2 * math.pi)  # now at ω + k·U
         return IrregularWaves(field.amplitude_m, omega, field.wavenumber_rad_m, field.direction_rad, phase,

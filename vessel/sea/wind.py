@@ -61,7 +61,7 @@ class Wind:
             return self.speed_mps + 0 * t
         xp = ops(t)
         gust = sum(float(a) * xp.cos(float(w) * t + float(p)) for a, w, p in zip(amplitude, omega, phase, strict=True))
-        return self.speed_mps + gust
+        return xp.fmax(self.speed_mps + gust, 0.0)  # a lull stills the air; it never blows it backwards
 
     def velocity_ned(self, t: Any) -> tuple[Any, Any]:
         """The air's velocity (north, east), m/s, NED: it blows towards ``from_rad`` + π."""
@@ -106,8 +106,11 @@ def doppler_frequency(omega: Any, wavenumber: Any, travel_dir_rad: Any, current_
     return omega + wavenumber * current_speed_mps * np.cos(np.asarray(travel_dir_rad) - current_dir_rad)
 
 
-def check_not_blocked(omega_earth: Any, where: str) -> None:
-    """A current that stops or reverses a wave (ω_e ≤ 0) is refused: such waves break or cannot reach the boat."""
-    if np.any(np.asarray(omega_earth) <= 0):
-        raise ConfigError(f"{where}: the current stops the waves (their earth-frame frequency ω + k·U_c <= 0); "
-                          f"allowed: a current slower than the waves' phase speed against them")
+def check_not_blocked(omega: Any, wavenumber: Any, travel_dir_rad: Any, current_speed_mps: float,
+                      current_dir_rad: float, where: str) -> None:
+    """A current against the waves at half their phase speed or more (their deep-water group velocity: the energy
+    can no longer travel against it) is refused: such waves steepen and break, they do not reach the boat."""
+    along = current_speed_mps * np.cos(np.asarray(travel_dir_rad) - current_dir_rad)
+    if np.any(along <= -0.5 * np.asarray(omega) / np.asarray(wavenumber)):
+        raise ConfigError(f"{where}: the current blocks the waves (against them at half their phase speed or more); "
+                          f"allowed: an opposing current below half the waves' phase speed")
