@@ -3,7 +3,8 @@
 The command, in this order of preference: shaft speeds (``n1``/``n2``), τ_X/τ_N, the motors' outputs. Surge
 uses its thrust fraction (``surge``); full scale is the model's n_max — or the log's fastest shaft when faster —,
 the model's bollard pull as a force, or a motor output of 1. Yaw uses τ_N (N·m), else n1 − n2 (rpm), else half
-the motors' difference, while under way (UNDER_WAY_M_S over ground, where the log says its speed).
+the difference of the motors' thrust fractions, while under way (UNDER_WAY_M_S over ground, where the log says
+its speed).
 """
 
 from __future__ import annotations
@@ -95,8 +96,17 @@ def _steerings(kind: str, sets: list[Frames]) -> list[tuple[tuple[str, ...], str
     if kind == "shafts":
         found.append((("n1", "n2"), "n1 - n2", "rpm"))
     if kind == "motors":
-        found.append((("left", "right"), "the motors' half difference", "steering fraction"))
+        found.append((("left", "right"), "the motors' thrust difference", "thrust fraction"))
     return found
+
+
+def steering_of(kind: str, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The steering command of two propulsion columns: n1 − n2 in rpm for shafts; for the motors' outputs half
+    the difference of their thrust fractions (o·|o|), which the yaw moment follows whatever the throttle (half
+    the outputs' difference would give one steering four times the moment at full throttle as at a quarter)."""
+    if kind == "shafts":
+        return (a - b) / RPM
+    return 0.5 * (a * np.abs(a) - b * np.abs(b))
 
 
 def _under_way(f: Frames, s: Stretch) -> np.ndarray:
@@ -118,7 +128,7 @@ def identify_yaw(sets: list[Frames], result: Identification) -> None:
     for names, command, unit in _steerings(kind, sets):
         items = []
         for s in select(sets, (*names, "r"), _under_way):
-            delta = s.y[:, 0] if len(names) == 1 else (s.y[:, 0] - s.y[:, 1]) / (RPM if kind == "shafts" else 2.0)
+            delta = s.y[:, 0] if len(names) == 1 else steering_of(kind, s.y[:, 0], s.y[:, 1])
             items.append(Stretch(s.t, np.column_stack([delta, s.y[:, -1]])))
         got = nomoto_estimates(items, command, unit)
         if isinstance(got, str):

@@ -17,7 +17,7 @@ import yaml
 
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import surge_full_rad_s
-from mavbridge.identify.model import fit_axis, plant_decay, surge_fields
+from mavbridge.identify.model import calibrate_max_speed, fit_axis, plant_decay, surge_fields
 from vessel import ConfigError, OtterParameters, load_parameters, otter_parameters
 from vessel.params import PARAMETER_SETS
 
@@ -59,9 +59,11 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
         if period is not None or zeta is not None:
             fields.update(fit_axis(base, axis, period, zeta))
     full_forward, full_reverse = surge_full_rad_s(result)
-    fields.update(surge_fields(base, _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2),
-                               _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2), full_forward,
-                               full_reverse))
+    forward = _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2)
+    fields.update(surge_fields(base, forward, _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2),
+                               full_forward, full_reverse))
+    if forward is not None and "max_speed" in fields:
+        fields = calibrate_max_speed(base, fields, forward)
     T = _value(result, "yaw_nomoto_time_constant_s")
     if T is not None and T_YAW_RANGE_S[0] <= T <= T_YAW_RANGE_S[1]:
         fields["yaw_time_constant"] = round(T, 3)
