@@ -3,8 +3,8 @@
 What `mavbridge identify` needs from a log, and the leg that gives it:
 
 - surge speed against the command, forward and reverse: throttle held at 0.3, 0.6 and 1.0 of full forward and
-  at −0.6, each long enough for three steady 5 s windows after the speed settles, the heading held by a small
-  proportional steering (``HEADING_GAIN``);
+  at −0.5 and −1.0 (full reverse), each long enough for three steady 5 s windows after the speed settles, the
+  heading held by a small proportional steering (``HEADING_GAIN``);
 - Nomoto K and T and the propellers' asymmetry: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
   switched each time the heading passes 20° either side of the leg's first heading);
 - roll period and damping: hard turns in place (full steering at zero throttle), braked by full opposite steering
@@ -52,7 +52,8 @@ SEQUENCE: tuple[Leg, ...] = (
     Leg("turn home", "home", 20.0, 0.3),
     Leg("throttle 1.0", "hold", 20.0, 1.0),
     Leg("stop", "coast", 10.0),
-    Leg("reverse 0.6", "hold", 30.0, -0.6),
+    Leg("reverse 0.5", "hold", 25.0, -0.5),
+    Leg("reverse 1.0", "hold", 20.0, -1.0),
     Leg("stop", "coast", 10.0),
     Leg("turn home", "home", 20.0, 0.3),
     Leg("zig-zag 20/20", "zigzag", 70.0, 0.6, ZIGZAG_STEERING),
