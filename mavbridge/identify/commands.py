@@ -3,8 +3,8 @@
 The command, in this order of preference: shaft speeds (``n1``/``n2``), τ_X/τ_N, the motors' outputs. Surge
 uses its thrust fraction (``surge``); full scale is the model's n_max — or the log's fastest shaft when faster —,
 the model's bollard pull as a force, or a motor output of 1. Yaw uses τ_N (N·m), else n1 − n2 (rpm), else half
-the difference of the motors' thrust fractions, while under way (UNDER_WAY_M_S over ground, where the log says
-its speed).
+the difference of the motors' thrust fractions, while under way ahead (UNDER_WAY_M_S over ground, where the log
+says its speed; the propulsion command forward, where it holds one).
 """
 
 from __future__ import annotations
@@ -110,10 +110,20 @@ def steering_of(kind: str, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _under_way(f: Frames, s: Stretch) -> np.ndarray:
+    """Under way (the 5 s average speed over ground above UNDER_WAY_M_S) and, where the log holds the propulsion
+    command, going ahead: astern a hull answers its helm otherwise (the reverse thrust is weaker for the same
+    fraction, and the flow at the propellers is reversed), and one Nomoto model of both fits neither (a simulated
+    identification run: K 27 deg/s with its reverse legs, 43 without, 43 from the plant's own zig-zag)."""
     speed = f.column(s, "speed")
+    ahead = np.ones(s.t.size, bool)
+    for a, b in (("n1", "n2"), ("left", "right"), ("tau_X", "tau_X")):
+        command = f.column(s, a) + f.column(s, b)
+        if np.isfinite(command).any():
+            ahead = np.nan_to_num(command) > 0
+            break
     if not np.isfinite(speed).any():
-        return np.ones(s.t.size, bool)
-    return moving_average(np.nan_to_num(speed), round(SPEED_SMOOTH_S / s.dt)) >= UNDER_WAY_M_S
+        return ahead
+    return ahead & (moving_average(np.nan_to_num(speed), round(SPEED_SMOOTH_S / s.dt)) >= UNDER_WAY_M_S)
 
 
 def identify_yaw(sets: list[Frames], result: Identification) -> None:

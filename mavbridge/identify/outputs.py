@@ -13,11 +13,13 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import surge_full_rad_s
 from mavbridge.identify.model import calibrate_max_speed, fit_axis, plant_decay, surge_fields
+from mavbridge.identify.surge import MIN_FRACTION
 from vessel import ConfigError, OtterParameters, load_parameters, otter_parameters
 from vessel.params import PARAMETER_SETS
 
@@ -51,6 +53,15 @@ def unfit_lines(result: Identification) -> list[str]:
             if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
 
 
+def speed_levels(result: Identification) -> list[tuple[float, float, int]]:
+    """(thrust fraction, mean speed m/s, windows) of the log's steady forward windows, grouped by command."""
+    groups: dict[float, list[float]] = {}
+    for point in result.surge.get("points", []):
+        if point.fraction > MIN_FRACTION:
+            groups.setdefault(round(point.fraction, 2), []).append(point.speed_m_s)
+    return [(f, float(np.mean(v)), len(v)) for f, v in sorted(groups.items())]
+
+
 def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, float]:
     """The OtterParameters fields the identified figures change (only those)."""
     fields: dict[str, float] = {}
@@ -63,7 +74,7 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
     fields.update(surge_fields(base, forward, _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2),
                                full_forward, full_reverse))
     if forward is not None and "max_speed" in fields:
-        fields = calibrate_max_speed(base, fields, forward)
+        fields = calibrate_max_speed(base, fields, speed_levels(result))
     T = _value(result, "yaw_nomoto_time_constant_s")
     if T is not None and T_YAW_RANGE_S[0] <= T <= T_YAW_RANGE_S[1]:
         fields["yaw_time_constant"] = round(T, 3)

@@ -4,7 +4,8 @@ What `mavbridge identify` needs from a log, and the leg that gives it:
 
 - surge speed against the command, forward and reverse: throttle held at 0.3, 0.6 and 1.0 of full forward and
   at −0.5 and −1.0 (full reverse), each long enough for three steady 5 s windows after the speed settles, the
-  heading held by a small proportional steering (``HEADING_GAIN``);
+  heading held by a small proportional steering (``HEADING_GAIN``) on the partial steps; the full steps run
+  unsteered (any steering there takes thrust off one motor: the command would not be steady);
 - Nomoto K and T and the propellers' asymmetry: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
   switched each time the heading passes 20° either side of the leg's first heading);
 - roll period and damping: hard turns in place (full steering at zero throttle), braked by full opposite steering
@@ -154,8 +155,10 @@ class IdentifySequence:
         return False
 
     def _steering(self, leg: Leg, pose: Pose) -> float:
-        if leg.kind == "hold":
-            return 0.0 if leg.throttle == 0 else _clip(HEADING_GAIN * wrap(self.heading - pose.yaw), HOLD_STEERING)
+        if leg.kind == "hold":  # at full command any steering takes thrust off one motor: those steps run unsteered
+            if leg.throttle == 0 or abs(leg.throttle) >= 1.0:
+                return 0.0
+            return _clip(HEADING_GAIN * wrap(self.heading - pose.yaw), HOLD_STEERING)
         if leg.kind == "home":
             return _clip(HEADING_GAIN * wrap(self._home_bearing(pose) - pose.yaw), HOME_STEERING)
         if leg.kind == "zigzag":
