@@ -1,7 +1,7 @@
 """Benchmark: the identification run over MAVLink on hulls that are not the model, against the plants' own figures.
 
 Run: OMP_NUM_THREADS=1 python bench/identify.py [--hulls roll35,payload60,payload45,prop85] [--speedup 5] [--keep DIR]
-     [--no-balanced]
+     [--no-balanced] [--reuse]
 
 Per hull (a vessel file the simulator flies, never told to the companion):
 1. `sim-vehicle --vessel FILE --speedup S` (paced, calm water, the default sensors: 0.2° attitude noise, 5 Hz GPS)
@@ -29,6 +29,7 @@ import argparse
 import json
 import math
 import re
+import shutil
 import socket
 import subprocess
 import sys
@@ -160,9 +161,25 @@ def _wait_port(port: int, proc: subprocess.Popen[bytes]) -> None:
     raise TimeoutError("sim-vehicle did not open its port")
 
 
-def fly_and_identify(name: str, vessel_file: Path, folder: Path, speedup: float) -> dict[str, Any]:
-    """The identification run over MAVLink against the simulated hull, then `mavbridge identify`; its JSON and
-    the run's metrics."""
+def fly_and_identify(name: str, vessel_file: Path, folder: Path, speedup: float, reuse: bool = False) -> dict[str, Any]:
+    """The identification run over MAVLink against the simulated hull (``reuse``: the folder's earlier one), then
+    `mavbridge identify`; its JSON and the run's metrics."""
+    if not (reuse and (folder / "run" / "companion.tlog").exists()):
+        fly(vessel_file, folder, speedup)
+    shutil.rmtree(folder / "id", ignore_errors=True)
+    mav = [sys.executable, "-m", "mavbridge.cli"]
+    ident = subprocess.run([*mav, "identify", str(folder / "run" / "companion.tlog"), "--out", str(folder / "id")],
+                           capture_output=True, text=True, timeout=600)
+    (folder / "identify.log").write_text(ident.stdout + ident.stderr)
+    if ident.returncode != 0:
+        raise RuntimeError(f"{name}: identify exit {ident.returncode}: {ident.stdout[-800:]}{ident.stderr[-800:]}")
+    data = json.loads((folder / "id" / "identify.json").read_text())
+    data["run_metrics"] = json.loads((folder / "run" / "metrics.json").read_text())
+    return data
+
+
+def fly(vessel_file: Path, folder: Path, speedup: float) -> None:
+    """`sim-vehicle --vessel FILE` and `mavbridge run --identify` against it (paced), the run in ``folder``/run."""
     tcp, udp = free_port(), free_port(socket.SOCK_DGRAM)
     sim_cmd = [*sim_vehicle_command(), "--tcp", str(tcp), "--out", f"udp:127.0.0.1:{udp}", "--speedup", str(speedup),
                "--vessel", str(vessel_file), "--seed", "1", "--params-store", str(folder / "params.json"),
@@ -179,14 +196,6 @@ def fly_and_identify(name: str, vessel_file: Path, folder: Path, speedup: float)
         sim.terminate()
         sim.wait(timeout=20)
     (folder / "run.log").write_text(run.stdout + run.stderr)
-    ident = subprocess.run([*mav, "identify", str(folder / "run" / "companion.tlog"), "--out", str(folder / "id")],
-                           capture_output=True, text=True, timeout=600)
-    (folder / "identify.log").write_text(ident.stdout + ident.stderr)
-    if ident.returncode != 0:
-        raise RuntimeError(f"{name}: identify exit {ident.returncode}: {ident.stdout[-800:]}{ident.stderr[-800:]}")
-    data = json.loads((folder / "id" / "identify.json").read_text())
-    data["run_metrics"] = json.loads((folder / "run" / "metrics.json").read_text())
-    return data
 
 
 def scenario_file(folder: Path, name: str, hull: dict[str, Any], model: Any, direct: bool) -> Path:
@@ -231,6 +240,8 @@ def main() -> int:
     p.add_argument("--speedup", type=float, default=5.0, help="the simulator's speed (default 5, paced)")
     p.add_argument("--keep", type=Path, help="keep the folders under this (new) folder")
     p.add_argument("--no-balanced", action="store_true", help="only the identification, no in-process flights")
+    p.add_argument("--reuse", action="store_true", help="with --keep: identify the runs already in it, not flying "
+                                                         "them again")
     args = p.parse_args()
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench-identify-"))
     root.mkdir(parents=True, exist_ok=True)
@@ -248,7 +259,7 @@ def main() -> int:
         except FloatingPointError as exc:  # the plant itself cannot take the sequence's full command
             print(f"{name:>9} | the plant diverges under the sequence's full command ({exc}): not flown", flush=True)
             continue
-        data = fly_and_identify(name, vessel_file, folder, args.speedup)
+        data = fly_and_identify(name, vessel_file, folder, args.speedup, args.reuse)
         line, _ = figure_line(name, plant, identified_figures(data, folder / "id" / "vessel.yaml"))
         print(line, flush=True)
         for missing in data.get("not_identified", []):

@@ -18,6 +18,7 @@ from mavbridge.identify.logdata import RPM, LogData
 from mavbridge.identify.series import Stretch, moving_average
 from mavbridge.identify.surge import fit_surge, steady_points
 from mavbridge.identify.yaw import nomoto_estimates
+from mavbridge.identify.yawfield import YawReplay, steering_of
 from vessel import OtterParameters
 
 UNDER_WAY_M_S = 0.3
@@ -100,15 +101,6 @@ def _steerings(kind: str, sets: list[Frames]) -> list[tuple[tuple[str, ...], str
     return found
 
 
-def steering_of(kind: str, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The steering command of two propulsion columns: n1 − n2 in rpm for shafts; for the motors' outputs half
-    the difference of their thrust fractions (o·|o|), which the yaw moment follows whatever the throttle (half
-    the outputs' difference would give one steering four times the moment at full throttle as at a quarter)."""
-    if kind == "shafts":
-        return (a - b) / RPM
-    return 0.5 * (a * np.abs(a) - b * np.abs(b))
-
-
 def _under_way(f: Frames, s: Stretch) -> np.ndarray:
     """Under way (the 5 s average speed over ground above UNDER_WAY_M_S) and, where the log holds the propulsion
     command, going ahead: astern a hull answers its helm otherwise (the reverse thrust is weaker for the same
@@ -146,6 +138,9 @@ def identify_yaw(sets: list[Frames], result: Identification) -> None:
             continue
         result.estimates.update(got[0])
         result.yaw = (got[1], items, f"{command} ({unit})")
+        speed = any(f.has("speed") for f in sets)
+        columns = (*KINDS[kind], *names, "r", *(("speed",) if speed else ()))
+        result.yaw_replay = YawReplay(kind, names, select(sets, columns, _under_way), speed)
         return
     result.missing.append("; ".join(why))
 

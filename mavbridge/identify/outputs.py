@@ -20,10 +20,12 @@ from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import surge_full_rad_s
 from mavbridge.identify.model import calibrate_max_speed, fit_axis, plant_decay, surge_fields
 from mavbridge.identify.surge import MIN_FRACTION
+from mavbridge.identify.yawfield import yaw_time_constant
 from vessel import ConfigError, OtterParameters, load_parameters, otter_parameters
 from vessel.params import PARAMETER_SETS
 
 T_YAW_RANGE_S = (0.01, 100.0)  # OtterParameters.yaw_time_constant's range
+WORKING_FRACTION = 0.2  # a thrust fraction: motor outputs of 0.45 and above
 MIN_SURGE_R2 = 0.5  # below this the speed is not linear in the thrust fraction: max_speed would mislead the model
 
 
@@ -54,12 +56,16 @@ def unfit_lines(result: Identification) -> list[str]:
 
 
 def speed_levels(result: Identification) -> list[tuple[float, float, int]]:
-    """(thrust fraction, mean speed m/s, windows) of the log's steady forward windows, grouped by command."""
+    """(thrust fraction, mean speed m/s, windows) of the log's steady forward windows, grouped by command: those at
+    a thrust fraction of WORKING_FRACTION or more (half command and above, where a boat works: the model's speed
+    curve need not have the hull's shape at a crawl), else the fastest one."""
     groups: dict[float, list[float]] = {}
     for point in result.surge.get("points", []):
         if point.fraction > MIN_FRACTION:
             groups.setdefault(round(point.fraction, 2), []).append(point.speed_m_s)
-    return [(f, float(np.mean(v)), len(v)) for f, v in sorted(groups.items())]
+    levels = [(f, float(np.mean(v)), len(v)) for f, v in sorted(groups.items())]
+    working = [level for level in levels if level[0] >= WORKING_FRACTION]
+    return working or levels[-1:]
 
 
 def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, float]:
@@ -76,8 +82,10 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
     if forward is not None and "max_speed" in fields:
         fields = calibrate_max_speed(base, fields, speed_levels(result))
     T = _value(result, "yaw_nomoto_time_constant_s")
-    if T is not None and T_YAW_RANGE_S[0] <= T <= T_YAW_RANGE_S[1]:
-        fields["yaw_time_constant"] = round(T, 3)
+    if T is not None and result.yaw_replay is not None:
+        field = yaw_time_constant(base.replace(**fields), result.yaw_replay)
+        if field is not None and T_YAW_RANGE_S[0] <= field <= T_YAW_RANGE_S[1]:
+            fields["yaw_time_constant"] = round(field, 3)
     return {k: float(v) for k, v in fields.items()}
 
 

@@ -94,7 +94,8 @@ def identify_command(paths: list[str], out: str | None, base_name: str, command:
         result.missing.append(line)
         say(f"not in vessel.yaml: {line}")
     for name, field in (("roll_period_s", "gyration_roll"), ("roll_damping_ratio", "zeta_roll"),
-                        ("pitch_period_s", "gyration_pitch"), ("pitch_damping_ratio", "zeta_pitch")):
+                        ("pitch_period_s", "gyration_pitch"), ("pitch_damping_ratio", "zeta_pitch"),
+                        ("yaw_nomoto_time_constant_s", "yaw_time_constant")):
         if name in result.estimates and field not in fields:
             line = f"{name} {result.estimates[name].value:.3g}: beyond what {field} can give; left as the base's"
             result.missing.append(line)
