@@ -1,7 +1,7 @@
 """Benchmark: the identification run over MAVLink on hulls that are not the model, against the plants' own figures.
 
 Run: OMP_NUM_THREADS=1 python bench/identify.py [--hulls roll35,payload60,payload45,prop85] [--speedup 5] [--keep DIR]
-     [--no-balanced] [--reuse]
+     [--no-balanced] [--reuse] [--seeds 1,2,3]
 
 Per hull (a vessel file the simulator flies, never told to the companion):
 1. `sim-vehicle --vessel FILE --speedup S` (paced, calm water, the default sensors: 0.2° attitude noise, 5 Hz GPS)
@@ -13,9 +13,9 @@ Per hull (a vessel file the simulator flies, never told to the companion):
    (``ZIGZAG_STEERING``) at the zig-zag's throttle (0.6), fitted as `identify` fits its logs.
 3. The identified speed at half and full command is U·s with s the thrust fraction (0.25 and 1).
 4. Balanced (scenarios/heading_limit.yaml's base: the paper's sea, the estimate, hidden phase, heave, default
-   sensors, a 30 s watch, nrti, sea seed 1) in-process on the hull with ``controller.model`` published, the
+   sensors, a 30 s watch, nrti) in-process on the hull with ``controller.model`` published, the
    identified vessel.yaml and the plant itself, and Direct (R = 0) with the plant as its model as the reference
-   of every cut: cut = 1 − roll(Balanced, model) / roll(Direct).
+   of every cut: cut = 1 − roll(Balanced, model) / roll(Direct), the mean over sea seeds 1–3.
 
 Targets: roll period within 5 %, roll damping within 30 %, surge speed at half and full within 5 %, K within
 15 %, T within 25 %; the identified model's cut within 3 points of the plant model's and at least the published
@@ -198,29 +198,37 @@ def fly(vessel_file: Path, folder: Path, speedup: float) -> None:
     (folder / "run.log").write_text(run.stdout + run.stderr)
 
 
-def scenario_file(folder: Path, name: str, hull: dict[str, Any], model: Any, direct: bool) -> Path:
-    """heading_limit.yaml's base on this hull, with ``model`` as the controller's, Balanced or Direct, seed 1."""
+def scenario_file(folder: Path, name: str, hull: dict[str, Any], model: Any, direct: bool, seed: int = 1) -> Path:
+    """heading_limit.yaml's base on this hull, with ``model`` as the controller's, Balanced or Direct, sea seed
+    ``seed``."""
     base = yaml.safe_load((ROOT / "scenarios" / "heading_limit.yaml").read_text())["base"]
     data = {"name": name, **base, "vessel": hull,
             "controller": {**base["controller"], "r": 0 if direct else 1550, "model": model},
-            "estimation": {**base["estimation"], "seed": 1}}
+            "estimation": {**base["estimation"], "seed": seed}}
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     return path
 
 
-def balanced_cuts(folder: Path, hull: dict[str, Any], identified: Path) -> dict[str, Any]:
-    """Average roll of Direct (plant model) and Balanced with each model, and the cuts (%)."""
-    def fly(name: str, model: Any, direct: bool) -> dict[str, Any]:
-        scenario = load_scenarios(scenario_file(folder, name, hull, model, direct))[0]
+def balanced_cuts(folder: Path, hull: dict[str, Any], identified: Path, seeds: list[int]) -> dict[str, Any]:
+    """Average roll (deg, mean over the sea seeds) of Direct (plant model) and Balanced with each model, and the
+    cuts (%, the mean of each seed's cut)."""
+    def fly(name: str, model: Any, direct: bool, seed: int) -> dict[str, Any]:
+        scenario = load_scenarios(scenario_file(folder, f"{name}-s{seed}", hull, model, direct, seed))[0]
         return run_scenario(scenario, None, plots=False).metrics
 
-    out: dict[str, Any] = {"direct": fly("direct-plant", hull, True)}
-    for label, model in (("published", "published"), ("identified", str(identified.resolve())), ("plant", hull)):
-        out[label] = fly(f"balanced-{label}", model, False)
-    for label in ("published", "identified", "plant"):
-        out[f"cut_{label}"] = 100.0 * (1.0 - out[label]["avg_roll_deg"] / out["direct"]["avg_roll_deg"])
-    return out
+    models = {"published": "published", "identified": str(identified.resolve()), "plant": hull}
+    rolls: dict[str, list[float]] = {label: [] for label in ("direct", *models)}
+    cuts: dict[str, list[float]] = {label: [] for label in models}
+    for seed in seeds:
+        direct = fly("direct-plant", hull, True, seed)["avg_roll_deg"]
+        rolls["direct"].append(direct)
+        for label, model in models.items():
+            roll = fly(f"balanced-{label}", model, False, seed)["avg_roll_deg"]
+            rolls[label].append(roll)
+            cuts[label].append(100.0 * (1.0 - roll / direct))
+    return {**{label: float(np.mean(v)) for label, v in rolls.items()},
+            **{f"cut_{label}": float(np.mean(v)) for label, v in cuts.items()}}
 
 
 def figure_line(name: str, plant: dict[str, float], got: dict[str, float]) -> tuple[str, int]:
@@ -240,6 +248,8 @@ def main() -> int:
     p.add_argument("--speedup", type=float, default=5.0, help="the simulator's speed (default 5, paced)")
     p.add_argument("--keep", type=Path, help="keep the folders under this (new) folder")
     p.add_argument("--no-balanced", action="store_true", help="only the identification, no in-process flights")
+    p.add_argument("--seeds", type=lambda text: [int(v) for v in text.split(",") if v], default=[1, 2, 3],
+                   help="sea seeds of the Balanced comparison (default 1,2,3)")
     p.add_argument("--reuse", action="store_true", help="with --keep: identify the runs already in it, not flying "
                                                          "them again")
     args = p.parse_args()
@@ -273,22 +283,16 @@ def main() -> int:
         results[name] = {"folder": folder}
     if args.no_balanced:
         return 0
-    print("\nBalanced in-process on each hull (avg roll deg, arrival s; cut % against Direct with the plant model)")
-    print("     hull | Direct(plant) | published          | identified         | plant              | "
-          "ident-plant | ident-published")
+    print(f"\nBalanced in-process on each hull, sea seeds {args.seeds} (mean avg roll deg; mean cut % against Direct "
+          "with the plant model)")
+    print("     hull | Direct | published     | identified    | plant         | ident-plant | ident-published")
     for name in results:
         folder = results[name]["folder"]
-        c = balanced_cuts(folder, HULLS[name], folder / "id" / "vessel.yaml")
-
-        def cell(label: str, c: dict[str, Any] = c) -> str:
-            m = c[label]
-            arrival = m.get("time_to_waypoint_s")
-            return f"{m['avg_roll_deg']:5.3f} {arrival if arrival is not None else math.nan:6.1f}"
-
-        print(f"{name:>9} | {cell('direct'):>13} | " + " | ".join(
-            f"{cell(k)} {c['cut_' + k]:5.1f}%" for k in ("published", "identified", "plant"))
-            + f" | {c['cut_identified'] - c['cut_plant']:+6.1f} pt | "
-            f"{c['cut_identified'] - c['cut_published']:+6.1f} pt", flush=True)
+        c = balanced_cuts(folder, HULLS[name], folder / "id" / "vessel.yaml", args.seeds)
+        print(f"{name:>9} | {c['direct']:6.3f} | " + " | ".join(
+            f"{c[k]:5.3f} {c['cut_' + k]:5.1f}%" for k in ("published", "identified", "plant"))
+            + f" | {c['cut_identified'] - c['cut_plant']:+8.1f} pt | "
+            f"{c['cut_identified'] - c['cut_published']:+8.1f} pt", flush=True)
     print(f"(folders in {root})")
     return 0
 

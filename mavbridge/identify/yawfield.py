@@ -4,7 +4,7 @@ A first-order Nomoto model's T is not the Otter model's ``yaw_time_constant``: t
 yaw damping (N_r = M66/T_yaw), and the model adds a damping that grows with the yaw rate (N_r|r|). Turning hard,
 the hull answers faster than T_yaw says (the simulated Otter, T_yaw 1 s: T 0.39 s from a steering step of 0.3,
 1.04 s from one of 0.05), so writing the log's T into the field made the model's yaw too damped (Balanced on such
-a model lost 4–5 points of its roll cut). Instead the model, with every other identified field, is flown on
+a model lost 4–6 points of its roll cut). Instead the model, with every other identified field, is flown on
 ``vessel.Plant`` through the log's own propulsion commands over its stretches under way (at most ``REPLAY_S``,
 from the log's speed and yaw rate at each stretch's start), and ``yaw_time_constant`` is the value whose yaw rate
 comes closest to the log's (an output-error fit: noise on the log's yaw rate does not bend it; on a simulated

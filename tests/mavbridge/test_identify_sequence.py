@@ -4,6 +4,7 @@ them (steering mirrored in reverse where PILOT_STEER_TYPE reverses it)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -34,7 +35,7 @@ def fly_on_plant(params: OtterParameters) -> tuple[list[tuple[float, str, float,
 
 def test_the_sequence_flies_every_leg_in_order_within_its_limits_near_where_it_started() -> None:
     rows, ended = fly_on_plant(OtterParameters())
-    legs = [rows[0][1]] + [b[1] for a, b in zip(rows, rows[1:], strict=False) if a[1] != b[1]]
+    legs = [rows[0][1]] + [b[1] for a, b in itertools.pairwise(rows) if a[1] != b[1]]
     expected = [leg.name for leg in SEQUENCE]
     assert legs == [name for k, name in enumerate(expected) if k == 0 or name != expected[k - 1]]
     assert ended < limit_s()
