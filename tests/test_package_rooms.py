@@ -26,6 +26,7 @@ ROOMS = {  # a room, and the rooms (other than itself and its own subpackages) i
     "mavbridge.nmpc": {"vessel", "vessel.sea", "mavbridge.nmpc.solvers"},
     "mavbridge.nmpc.solvers": {"vessel", "mavbridge.nmpc"},
     "mavbridge.companion.guided": {"vessel", "mavbridge.link", "mavbridge.companion"},
+    "mavbridge.companion.identify_run": {"vessel", "mavbridge.link", "mavbridge.companion"},
     "mavbridge.companion": {"vessel", "vessel.sea", "mavbridge.link", "mavbridge.nmpc", "mavbridge.waves",
                             "mavbridge.lab", "mavbridge.preflight"},
     "mavbridge.lab": {"vessel", "vessel.sea", "mavbridge.nmpc", "mavbridge.waves", "mavbridge.waves.phase",
@@ -41,7 +42,7 @@ ROOMS = {  # a room, and the rooms (other than itself and its own subpackages) i
     "mavbridge.identify": {"vessel", "mavbridge.field"},
     "mavbridge.cli": {"vessel", "mavbridge.link", "mavbridge.companion", "mavbridge.lab", "mavbridge.nmpc",
                       "mavbridge.preflight", "mavbridge.sweep", "mavbridge.waves", "mavbridge.field",
-                      "mavbridge.identify"},
+                      "mavbridge.identify", "mavbridge.companion.identify_run"},
     "mission": {"vessel"},
 }
 

@@ -96,6 +96,10 @@ def add_run_parser(sub: Any) -> None:
                      help="SCHED_FIFO scheduling (the YAML's realtime_priority, default 10), locked memory and an "
                           "isolated CPU where the system allows; one line says what it got and what it fell back "
                           "to, never fatal (default off, or the YAML's realtime)")
+    run.add_argument("--identify", action="store_true",
+                     help="fly the identification sequence (throttle steps, a 20/20 zig-zag, hard turns released) "
+                          "around where the boat is, no waypoint, for `mavbridge identify`; RC override only, within "
+                          "--max-range of where it starts (docs/identify.md)")
     add_link_arguments(run)
 
 
@@ -147,6 +151,8 @@ def run_command(args: argparse.Namespace) -> int:
         "delay_compensation": ("--delay-compensation", args.delay_compensation),
         "attitude_form": ("--attitude-form", args.attitude_form), "realtime": ("--realtime", args.realtime)})
     refuse_form_without_guided(args.attitude_form, config.output)
+    if args.identify:
+        refuse_for_identify(args, config.output)
     config.signing_key()  # a missing or empty passphrase file: one line, exit 2, before the NMPC is built
     if args.waypoint is not None and not math.hypot(*args.waypoint) <= config.max_range_m:
         raise ConfigError(f"--waypoint: {args.waypoint[0]:g},{args.waypoint[1]:g} is {math.hypot(*args.waypoint):g} m "
@@ -163,11 +169,27 @@ def run_command(args: argparse.Namespace) -> int:
             if config.realtime:  # after the building (its compiler runs are not real-time), before the link
                 realtime_for(config, waves)
             ready_for_loop()  # the loop first to the interpreter; what is built left out of the collector's passes
-            return Companion(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
-                             args.dry_run).run()
+            flight = identify_companion() if args.identify else Companion
+            return flight(config, scenario, out, nmpc, waves, args.waypoint, args.arm, args.set_mode,
+                          args.dry_run).run()
     finally:
         gc.unfreeze()  # the loop is over (see ready_for_loop): the interpreter ends as before, collecting all
         close_source(waves)
+
+
+def refuse_for_identify(args: argparse.Namespace, output: str) -> None:
+    """--identify flies the RC override path around where the boat is: one line (exit 2) otherwise."""
+    if output != "rc_override":
+        raise ConfigError(f"--identify: flies the RC override path only (MANUAL), not --output {output}")
+    if args.waypoint is not None:
+        raise ConfigError("--identify: flies around where the boat is; it takes no --waypoint")
+
+
+def identify_companion() -> Any:
+    """The companion that flies the identification sequence (``mavbridge.companion.identify_run``)."""
+    from mavbridge.companion.identify_run.flight import IdentifyCompanion
+
+    return IdentifyCompanion
 
 
 def close_source(waves: Any) -> None:

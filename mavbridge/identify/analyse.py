@@ -86,6 +86,7 @@ class Identification:
     ambient: dict[str, tuple[ArFit, list[Stretch]]] = field(default_factory=dict)
     surge: dict[str, Any] = field(default_factory=dict)
     yaw: tuple[Nomoto, list[Stretch], str] | None = None
+    yaw_replay: Any = None  # what the yaw was identified on, for the model to fly (``yawfield.YawReplay``)
 
 
 def _noise(y: np.ndarray) -> float:

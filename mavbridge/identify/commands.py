@@ -3,7 +3,8 @@
 The command, in this order of preference: shaft speeds (``n1``/``n2``), τ_X/τ_N, the motors' outputs. Surge
 uses its thrust fraction (``surge``); full scale is the model's n_max — or the log's fastest shaft when faster —,
 the model's bollard pull as a force, or a motor output of 1. Yaw uses τ_N (N·m), else n1 − n2 (rpm), else half
-the motors' difference, while under way (UNDER_WAY_M_S over ground, where the log says its speed).
+the difference of the motors' thrust fractions, while under way ahead (UNDER_WAY_M_S over ground, where the log
+says its speed; the propulsion command forward, where it holds one).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from mavbridge.identify.logdata import RPM, LogData
 from mavbridge.identify.series import Stretch, moving_average
 from mavbridge.identify.surge import fit_surge, steady_points
 from mavbridge.identify.yaw import nomoto_estimates
+from mavbridge.identify.yawfield import YawReplay, steering_of
 from vessel import OtterParameters
 
 UNDER_WAY_M_S = 0.3
@@ -95,15 +97,25 @@ def _steerings(kind: str, sets: list[Frames]) -> list[tuple[tuple[str, ...], str
     if kind == "shafts":
         found.append((("n1", "n2"), "n1 - n2", "rpm"))
     if kind == "motors":
-        found.append((("left", "right"), "the motors' half difference", "steering fraction"))
+        found.append((("left", "right"), "the motors' thrust difference", "thrust fraction"))
     return found
 
 
 def _under_way(f: Frames, s: Stretch) -> np.ndarray:
+    """Under way (the 5 s average speed over ground above UNDER_WAY_M_S) and, where the log holds the propulsion
+    command, going ahead: astern a hull answers its helm otherwise (the reverse thrust is weaker for the same
+    fraction, and the flow at the propellers is reversed), and one Nomoto model of both fits neither (a simulated
+    identification run: K 27 deg/s with its reverse legs, 43 without, 43 from the plant's own zig-zag)."""
     speed = f.column(s, "speed")
+    ahead = np.ones(s.t.size, bool)
+    for a, b in (("n1", "n2"), ("left", "right"), ("tau_X", "tau_X")):
+        command = f.column(s, a) + f.column(s, b)
+        if np.isfinite(command).any():
+            ahead = np.nan_to_num(command) > 0
+            break
     if not np.isfinite(speed).any():
-        return np.ones(s.t.size, bool)
-    return moving_average(np.nan_to_num(speed), round(SPEED_SMOOTH_S / s.dt)) >= UNDER_WAY_M_S
+        return ahead
+    return ahead & (moving_average(np.nan_to_num(speed), round(SPEED_SMOOTH_S / s.dt)) >= UNDER_WAY_M_S)
 
 
 def identify_yaw(sets: list[Frames], result: Identification) -> None:
@@ -118,7 +130,7 @@ def identify_yaw(sets: list[Frames], result: Identification) -> None:
     for names, command, unit in _steerings(kind, sets):
         items = []
         for s in select(sets, (*names, "r"), _under_way):
-            delta = s.y[:, 0] if len(names) == 1 else (s.y[:, 0] - s.y[:, 1]) / (RPM if kind == "shafts" else 2.0)
+            delta = s.y[:, 0] if len(names) == 1 else steering_of(kind, s.y[:, 0], s.y[:, 1])
             items.append(Stretch(s.t, np.column_stack([delta, s.y[:, -1]])))
         got = nomoto_estimates(items, command, unit)
         if isinstance(got, str):
@@ -126,6 +138,9 @@ def identify_yaw(sets: list[Frames], result: Identification) -> None:
             continue
         result.estimates.update(got[0])
         result.yaw = (got[1], items, f"{command} ({unit})")
+        speed = any(f.has("speed") for f in sets)
+        columns = (*KINDS[kind], *names, "r", *(("speed",) if speed else ()))
+        result.yaw_replay = YawReplay(kind, names, select(sets, columns, _under_way), speed)
         return
     result.missing.append("; ".join(why))
 

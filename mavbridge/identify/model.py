@@ -4,9 +4,10 @@ Roll and pitch periods are not inputs of the model: they follow from the hydrost
 hydrostatics (masses, pontoons) are kept and the hull's radius of gyration (``gyration_roll``/``gyration_pitch``)
 is solved for, by bisection, so that the linearised 6-DOF model at rest (M ẍ + D ẋ + G x = 0, the mode with the
 most roll or pitch in it) has the identified natural period; ``zeta_roll``/``zeta_pitch`` likewise for the
-damping ratio. Surge: ``max_speed`` is the steady speed at full command (it sizes X_u), the reverse bollard pull
-the reverse speed; where the log's shafts turn faster than the model's n_max, the thrust coefficient is lowered so
-that n_max is the log's (same bollard pull). Nomoto T gives ``yaw_time_constant`` (T_yaw sizes N_r = M66/T).
+damping ratio. Surge: ``max_speed`` sizes X_u, set so that the model's steady speeds measured on the plant at the
+log's steady commands match the log's (``calibrate_max_speed``); the reverse bollard pull gives the reverse speed; where
+the log's shafts turn faster than the model's n_max, the thrust coefficient is lowered so that n_max is the log's
+(same bollard pull). Nomoto T gives ``yaw_time_constant`` (T_yaw sizes N_r = M66/T).
 ``plant_decay`` measures a model's free decay on ``vessel.Plant`` with the same fit as the log's decays.
 """
 
@@ -27,6 +28,8 @@ GYRATION_RANGE_M = (0.02, 4.0)
 ZETA_RANGE = (0.0, 1.9)
 DECAY_DEG = 5.0
 PLANT_CORRECTIONS = 3
+SPEED_SETTLE_S = 40.0
+SPEED_CORRECTIONS = 4
 
 
 def linear_mode(p: OtterParameters, axis: str) -> tuple[float, float]:
@@ -123,6 +126,45 @@ def surge_fields(base: OtterParameters, forward: float | None, reverse: float | 
         n_rev = max(abs(m.n_min), full_reverse or 0.0)
         fields["thrust_coeff_reverse"] = float(f"{0.5 * pull * base.g / n_rev**2:.5g}")
     return fields
+
+
+def plant_speed(p: OtterParameters, output: float = 1.0, seconds: float = SPEED_SETTLE_S) -> float | None:
+    """The model's steady surge speed (m/s) on ``vessel.Plant`` in calm water with both motors at ``output`` of
+    full (mean of the last 5 s); None when the plant diverges (a heavy hull can pitch over at full speed)."""
+    m = p.matrices()
+    n = output * float(m.n_max) if output >= 0 else output * abs(float(m.n_min))
+    plant = Plant(p, dt=0.01)
+    try:
+        speeds = [float(plant.advance((n, n), 5)[6]) for _ in range(round(seconds / 0.05))]
+    except FloatingPointError:
+        return None
+    return float(np.mean(speeds[-100:]))
+
+
+def calibrate_max_speed(base: OtterParameters, fields: dict[str, float],
+                        levels: list[tuple[float, float, int]]) -> dict[str, float]:
+    """``fields`` with ``max_speed`` corrected so that the model's own steady speeds, measured on the plant at the
+    log's steady forward commands (``levels``: thrust fraction, mean speed m/s, windows), match the log's with the
+    least squared relative error over the commands: max_speed only sizes the linear surge damping, and the hull's
+    other drag and its trim make the model's speed differ from u = U·s by up to a tenth (3.92 m/s at full with
+    max_speed 3.72, 42 kg payload), differently at each speed."""
+    out = dict(fields)
+    for _ in range(SPEED_CORRECTIONS):
+        p = base.replace(**out)
+        logs, weights = [], []
+        for fraction, speed, _windows in levels:
+            got = plant_speed(p, math.sqrt(fraction))
+            if got is None or not got > 0 or not speed > 0:
+                return out
+            logs.append(math.log(speed / got))
+            weights.append(1.0)  # each steady command alike, however long the log held it
+        if not logs:
+            return out
+        factor = math.exp(float(np.average(logs, weights=weights)))
+        out["max_speed"] = round(min(max(out["max_speed"] * factor, 0.1), 20.0), 4)
+        if abs(factor - 1) < 0.003:
+            break
+    return out
 
 
 def plant_decay(p: OtterParameters, axis: str, degrees: float = DECAY_DEG, seconds: float = 10.0) -> DecayFit | None:

@@ -13,15 +13,19 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import surge_full_rad_s
-from mavbridge.identify.model import fit_axis, plant_decay, surge_fields
+from mavbridge.identify.model import calibrate_max_speed, fit_axis, plant_decay, surge_fields
+from mavbridge.identify.surge import MIN_FRACTION
+from mavbridge.identify.yawfield import yaw_time_constant
 from vessel import ConfigError, OtterParameters, load_parameters, otter_parameters
 from vessel.params import PARAMETER_SETS
 
 T_YAW_RANGE_S = (0.01, 100.0)  # OtterParameters.yaw_time_constant's range
+WORKING_FRACTION = 0.2  # a thrust fraction: motor outputs of 0.45 and above
 MIN_SURGE_R2 = 0.5  # below this the speed is not linear in the thrust fraction: max_speed would mislead the model
 
 
@@ -51,6 +55,19 @@ def unfit_lines(result: Identification) -> list[str]:
             if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
 
 
+def speed_levels(result: Identification) -> list[tuple[float, float, int]]:
+    """(thrust fraction, mean speed m/s, windows) of the log's steady forward windows, grouped by command: those at
+    a thrust fraction of WORKING_FRACTION or more (half command and above, where a boat works: the model's speed
+    curve need not have the hull's shape at a crawl), else the fastest one."""
+    groups: dict[float, list[float]] = {}
+    for point in result.surge.get("points", []):
+        if point.fraction > MIN_FRACTION:
+            groups.setdefault(round(point.fraction, 2), []).append(point.speed_m_s)
+    levels = [(f, float(np.mean(v)), len(v)) for f, v in sorted(groups.items())]
+    working = [level for level in levels if level[0] >= WORKING_FRACTION]
+    return working or levels[-1:]
+
+
 def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, float]:
     """The OtterParameters fields the identified figures change (only those)."""
     fields: dict[str, float] = {}
@@ -59,12 +76,16 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
         if period is not None or zeta is not None:
             fields.update(fit_axis(base, axis, period, zeta))
     full_forward, full_reverse = surge_full_rad_s(result)
-    fields.update(surge_fields(base, _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2),
-                               _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2), full_forward,
-                               full_reverse))
+    forward = _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2)
+    fields.update(surge_fields(base, forward, _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2),
+                               full_forward, full_reverse))
+    if forward is not None and "max_speed" in fields:
+        fields = calibrate_max_speed(base, fields, speed_levels(result))
     T = _value(result, "yaw_nomoto_time_constant_s")
-    if T is not None and T_YAW_RANGE_S[0] <= T <= T_YAW_RANGE_S[1]:
-        fields["yaw_time_constant"] = round(T, 3)
+    if T is not None and result.yaw_replay is not None:
+        field = yaw_time_constant(base.replace(**fields), result.yaw_replay)
+        if field is not None and T_YAW_RANGE_S[0] <= field <= T_YAW_RANGE_S[1]:
+            fields["yaw_time_constant"] = round(field, 3)
     return {k: float(v) for k, v in fields.items()}
 
 

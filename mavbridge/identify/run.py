@@ -24,6 +24,9 @@ from mavbridge.identify.outputs import model_check, resolve_base, unfit_lines, v
 from vessel import OtterParameters
 
 OUTPUTS = ("identify.json", "vessel.yaml", "identify.html")
+UNFIT = {"yaw_time_constant": "the model flown through the logs' commands comes closest to their yaw rate at no "
+                              "yaw_time_constant inside 0.05-20 s (its yaw answers the commands otherwise than the "
+                              "boat's)"}
 
 
 def out_folder(out: str | None) -> Path:
@@ -94,9 +97,11 @@ def identify_command(paths: list[str], out: str | None, base_name: str, command:
         result.missing.append(line)
         say(f"not in vessel.yaml: {line}")
     for name, field in (("roll_period_s", "gyration_roll"), ("roll_damping_ratio", "zeta_roll"),
-                        ("pitch_period_s", "gyration_pitch"), ("pitch_damping_ratio", "zeta_pitch")):
+                        ("pitch_period_s", "gyration_pitch"), ("pitch_damping_ratio", "zeta_pitch"),
+                        ("yaw_nomoto_time_constant_s", "yaw_time_constant")):
         if name in result.estimates and field not in fields:
-            line = f"{name} {result.estimates[name].value:.3g}: beyond what {field} can give; left as the base's"
+            line = f"{name} {result.estimates[name].value:.3g}: {UNFIT.get(field, f'beyond what {field} can give')}; " \
+                   "left as the base's"
             result.missing.append(line)
             say(f"not in vessel.yaml: {line}")
     identified = base.replace(**fields)

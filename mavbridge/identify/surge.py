@@ -4,7 +4,8 @@ The command is turned into a thrust fraction s in [−1, 1] — the mean over th
 for shaft speeds or motor outputs (a propeller's thrust goes with n|n|), τ_X/τ_full for a commanded force — so
 that the model's steady speed is linear in it: u = U·s, U the speed at full command (the hull's surge damping
 is linear, X_u = bollard pull / U_max). Steady windows are WINDOW_S long after SETTLE_S of a command that moved
-less than STEADY_FRACTION of full scale, while not turning harder than MAX_TURN_RAD_S. U is the least-squares
+less than STEADY_FRACTION of full scale, while not turning harder than MAX_TURN_RAD_S on average (of |r|: a
+zig-zag at a steady command turns both ways and is not a straight run). U is the least-squares
 slope through the origin of the windows' mean speeds on their thrust fractions, its interval a seeded bootstrap
 over the windows.
 """
@@ -50,7 +51,7 @@ def steady_points(items: list[Stretch]) -> list[SurgePoint]:
         for start in range(n_set, s.t.size - n_win + 1, n_win):
             held = s.y[start - n_set:start + n_win, 1]
             window = s.y[start:start + n_win]
-            if np.ptp(held) > STEADY_FRACTION or abs(float(np.mean(window[:, 3]))) > MAX_TURN_RAD_S:
+            if np.ptp(held) > STEADY_FRACTION or float(np.mean(np.abs(window[:, 3]))) > MAX_TURN_RAD_S:
                 continue
             points.append(SurgePoint(float(s.t[start]), float(np.mean(window[:, 0])), float(np.mean(window[:, 1])),
                                      float(np.mean(window[:, 2]))))

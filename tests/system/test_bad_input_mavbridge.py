@@ -89,6 +89,8 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge run --arm": [(f"{RUN} --dry-run --arm", "--dry-run")],
     "mavbridge run --set-mode": [(f"{RUN} --dry-run --set-mode", "--dry-run")],
     "mavbridge run --dry-run": [(f"{RUN} --arm --dry-run", "--arm")],
+    "mavbridge run --identify": [(f"{RUN} --identify --output attitude_target", "--identify"),
+                                 (f"{RUN} --identify --waypoint 10,10", "--identify")],
     "mavbridge run --max-time": [(f"{RUN} --max-time 0",), (f"{RUN} --max-time -5",),
                                  (f"{RUN} --max-time {NAN}", FINITE)],
     "mavbridge run --out": [(f"{RUN} --out afile.txt", "afile.txt"), (f"{RUN} --out afile.txt/run", "afile.txt")],

@@ -1,0 +1,186 @@
+"""The identification sequence as data, and the state machine that flies it (autopilot time, one call a period).
+
+What `mavbridge identify` needs from a log, and the leg that gives it:
+
+- surge speed against the command, forward and reverse: throttle held at 0.3, 0.6 and 1.0 of full forward and
+  at −0.5 and −1.0 (full reverse), each long enough for three steady 5 s windows after the speed settles, the
+  heading held by a small proportional steering (``HEADING_GAIN``) on the partial steps; the full steps run
+  unsteered (any steering there takes thrust off one motor: the command would not be steady);
+- Nomoto K and T and the propellers' asymmetry: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
+  switched each time the heading passes 20° either side of the leg's first heading);
+- roll period and damping: hard turns in place (full steering at zero throttle), braked by full opposite steering
+  until the yaw rate has stopped, then released with the sticks at neutral while roll decays; one each way.
+
+The legs keep the boat near where it started: every leg under way that chooses a heading points it back at the
+start once the boat is more than ``HOME_RADIUS_M`` away. Every leg has a longest duration, so the whole
+sequence has one too (``limit_s``). Steering is the skid mixer's fraction (left motor = throttle + steering,
+right = throttle − steering), positive turning to starboard.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+HEADING_GAIN = 1.0  # steering fraction per radian of heading error, on the legs that hold a heading
+HOLD_STEERING = 0.3  # at most this much steering to hold a heading on a throttle step
+HOME_STEERING = 0.5  # ... and to turn back towards the start
+HOME_RADIUS_M = 20.0  # farther than this from the start, a leg that chooses a heading points home
+HOME_ALIGNED_RAD = math.radians(10.0)  # the turn home ends this close to the bearing
+ZIGZAG_RAD = math.radians(20.0)
+ZIGZAG_STEERING = 0.3
+ZIGZAG_SWITCHES = 10
+BRAKE_STOPPED_RAD_S = math.radians(1.0)  # the brake ends once the yaw rate has fallen below this
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg: ``kind`` hold (throttle, heading held), home (turn towards the start), zigzag, spin (full steering
+    ``steering`` at zero throttle), brake (the last spin's opposite steering until the yaw rate stops) or coast
+    (neutral); ``seconds`` its duration (hold, spin, coast) or longest duration (home, zigzag, brake)."""
+
+    name: str
+    kind: str
+    seconds: float
+    throttle: float = 0.0
+    steering: float = 0.0
+
+
+SEQUENCE: tuple[Leg, ...] = (
+    Leg("settle", "coast", 5.0),
+    Leg("throttle 0.3", "hold", 25.0, 0.3),
+    Leg("throttle 0.6", "hold", 20.0, 0.6),
+    Leg("turn home", "home", 20.0, 0.3),
+    Leg("throttle 1.0", "hold", 20.0, 1.0),
+    Leg("stop", "coast", 10.0),
+    Leg("reverse 0.5", "hold", 25.0, -0.5),
+    Leg("reverse 1.0", "hold", 20.0, -1.0),
+    Leg("stop", "coast", 10.0),
+    Leg("turn home", "home", 20.0, 0.3),
+    Leg("zig-zag 20/20", "zigzag", 70.0, 0.6, ZIGZAG_STEERING),
+    Leg("stop", "coast", 10.0),
+    Leg("hard turn right", "spin", 6.0, 0.0, 1.0),
+    Leg("brake", "brake", 2.0),
+    Leg("roll decay", "coast", 8.0),
+    Leg("hard turn left", "spin", 6.0, 0.0, -1.0),
+    Leg("brake", "brake", 2.0),
+    Leg("roll decay", "coast", 8.0),
+)
+
+
+def limit_s(legs: tuple[Leg, ...] = SEQUENCE) -> float:
+    """The longest the sequence can take (s of autopilot time): the sum of its legs' longest durations."""
+    return sum(leg.seconds for leg in legs)
+
+
+@dataclass(frozen=True)
+class Sticks:
+    """One period's command: throttle and steering fractions in [−1, 1], and the leg that gave them."""
+
+    leg: str
+    throttle: float
+    steering: float
+
+
+@dataclass(frozen=True)
+class Pose:
+    """What the sequence reads of the boat: NED position (m), heading (rad) and yaw rate (rad/s)."""
+
+    north: float
+    east: float
+    yaw: float
+    yaw_rate: float
+
+
+def wrap(angle: float) -> float:
+    """An angle in (−π, π]."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+def _clip(value: float, limit: float) -> float:
+    return min(max(value, -limit), limit)
+
+
+class IdentifySequence:
+    """Flies ``legs`` from the first call on; ``command`` gives each period's sticks, None once it is over."""
+
+    def __init__(self, legs: tuple[Leg, ...] = SEQUENCE) -> None:
+        self.legs = legs
+        self.index = -1
+        self.leg_start_s = 0.0
+        self.start: tuple[float, float] | None = None
+        self.heading = 0.0  # the leg's heading reference (rad)
+        self.sign = 1.0  # the zig-zag's steering sign
+        self.switches = 0
+        self.aligned_since_s: float | None = None
+        self.last_spin = 0.0
+
+    @property
+    def leg(self) -> Leg | None:
+        """The leg being flown (None before the first call and after the last leg)."""
+        return self.legs[self.index] if 0 <= self.index < len(self.legs) else None
+
+    def _home_bearing(self, pose: Pose) -> float:
+        assert self.start is not None
+        return math.atan2(self.start[1] - pose.east, self.start[0] - pose.north)
+
+    def _away_m(self, pose: Pose) -> float:
+        assert self.start is not None
+        return math.hypot(pose.north - self.start[0], pose.east - self.start[1])
+
+    def _begin(self, index: int, t_s: float, pose: Pose) -> None:
+        self.index, self.leg_start_s = index, t_s
+        self.switches, self.sign, self.aligned_since_s = 0, 1.0, None
+        leg = self.leg
+        if leg is None:
+            return
+        far = self._away_m(pose) > HOME_RADIUS_M
+        self.heading = self._home_bearing(pose) if leg.kind == "home" or (far and leg.kind == "zigzag") else pose.yaw
+        if leg.kind == "spin":
+            self.last_spin = leg.steering
+
+    def _done(self, leg: Leg, t_s: float, pose: Pose) -> bool:
+        """The leg is over: its time is up, or what it waits for happened."""
+        elapsed = t_s - self.leg_start_s
+        if elapsed >= leg.seconds:
+            return True
+        if leg.kind == "zigzag":
+            return self.switches >= ZIGZAG_SWITCHES
+        if leg.kind == "brake":
+            return elapsed > 0 and pose.yaw_rate * self.last_spin <= BRAKE_STOPPED_RAD_S
+        if leg.kind == "home":
+            aligned = abs(wrap(self._home_bearing(pose) - pose.yaw)) < HOME_ALIGNED_RAD
+            self.aligned_since_s = (self.aligned_since_s or t_s) if aligned else None
+            return self.aligned_since_s is not None and t_s - self.aligned_since_s >= 2.0
+        return False
+
+    def _steering(self, leg: Leg, pose: Pose) -> float:
+        if leg.kind == "hold":  # at full command any steering takes thrust off one motor: those steps run unsteered
+            if leg.throttle == 0 or abs(leg.throttle) >= 1.0:
+                return 0.0
+            return _clip(HEADING_GAIN * wrap(self.heading - pose.yaw), HOLD_STEERING)
+        if leg.kind == "home":
+            return _clip(HEADING_GAIN * wrap(self._home_bearing(pose) - pose.yaw), HOME_STEERING)
+        if leg.kind == "zigzag":
+            off = wrap(pose.yaw - self.heading)
+            if self.sign * off >= ZIGZAG_RAD:
+                self.sign, self.switches = -self.sign, self.switches + 1
+            return self.sign * leg.steering
+        if leg.kind == "spin":
+            return leg.steering
+        if leg.kind == "brake":
+            return -self.last_spin
+        return 0.0
+
+    def command(self, t_s: float, pose: Pose) -> Sticks | None:
+        """The sticks for autopilot time ``t_s`` (s) and the boat's ``pose``; None once the sequence is over."""
+        if self.start is None:
+            self.start = (pose.north, pose.east)
+            self._begin(0, t_s, pose)
+        leg = self.leg
+        while leg is not None and self._done(leg, t_s, pose):
+            self._begin(self.index + 1, t_s, pose)
+            leg = self.leg
+        if leg is None:
+            return None
+        return Sticks(leg.name, leg.throttle, self._steering(leg, pose))

@@ -1,0 +1,75 @@
+"""The identification sequence flown on the plant in-process: every leg in order, over before its time limit,
+near where it started; the zig-zag switches at 20° either side; the sticks it would send as the autopilot reads
+them (steering mirrored in reverse where PILOT_STEER_TYPE reverses it)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from mavbridge.companion.identify_run.flight import ScriptedRc, ScriptedStep, model_tau
+from mavbridge.companion.identify_run.sequence import SEQUENCE, ZIGZAG_RAD, IdentifySequence, Pose, Sticks, limit_s
+from mavbridge.companion.outputs import RcSetup, fraction_from_pwm
+from mavbridge.preflight.rules import Context
+from vessel import OtterParameters, Plant
+
+PERIOD_S = 0.1
+
+
+def fly_on_plant(params: OtterParameters) -> tuple[list[tuple[float, str, float, float, float]], float]:
+    """(rows of t, leg, north, east, yaw) of the whole sequence on the plant, and when it ended (s)."""
+    m = params.matrices()
+    plant = Plant(params, dt=0.01, integrator="rk4")
+    sequence, x, t, rows = IdentifySequence(), plant.state, 0.0, []
+    while (sticks := sequence.command(t, Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11])))) is not None:
+        outs = [min(max(sticks.throttle + k * sticks.steering, -1.0), 1.0) for k in (1.0, -1.0)]
+        n = [o * float(m.n_max) if o >= 0 else o * abs(float(m.n_min)) for o in outs]
+        x = plant.advance((n[0], n[1]), 10)
+        t = round(t + PERIOD_S, 6)
+        rows.append((t, sticks.leg, float(x[0]), float(x[1]), float(x[5])))
+        assert t <= limit_s() + PERIOD_S, "the sequence outlived its time limit"
+    return rows, t
+
+
+def test_the_sequence_flies_every_leg_in_order_within_its_limits_near_where_it_started() -> None:
+    rows, ended = fly_on_plant(OtterParameters())
+    legs = [rows[0][1]] + [b[1] for a, b in itertools.pairwise(rows) if a[1] != b[1]]
+    expected = [leg.name for leg in SEQUENCE]
+    assert legs == [name for k, name in enumerate(expected) if k == 0 or name != expected[k - 1]]
+    assert ended < limit_s()
+    away = max(math.hypot(n, e) for _, _, n, e, _ in rows)
+    assert 20.0 < away < 100.0, away  # under way, and back towards the start on each leg that chooses a heading
+
+
+def test_the_zig_zag_turns_about_20_degrees_either_side() -> None:
+    rows, _ = fly_on_plant(OtterParameters())
+    yaw = np.unwrap([r[4] for r in rows if r[1] == "zig-zag 20/20"])
+    swing = yaw - yaw[0]
+    assert math.radians(20) <= swing.max() < math.radians(40) and -math.radians(40) < swing.min() <= -ZIGZAG_RAD
+
+
+def _pwm_read_back(throttle: float, steering: float, setup: RcSetup) -> tuple[float, float]:
+    path = ScriptedRc(OtterParameters(), Context(255, "rc_override", 0.1, 2.0), lambda _line: None)
+    path.setup = setup
+    step = ScriptedStep(Sticks("test", throttle, steering), model_tau(OtterParameters(), Sticks("t", throttle, 0.0)))
+    columns = path.compute(step, 0).columns
+    return (fraction_from_pwm(columns["throttle_pwm_us"], setup.throttle),
+            fraction_from_pwm(columns["steering_pwm_us"], setup.steering))
+
+
+def test_the_sticks_reach_the_autopilot_as_they_were_meant() -> None:
+    throttle, stick = _pwm_read_back(0.6, 0.3, RcSetup())
+    assert math.isclose(throttle, 0.6, abs_tol=0.005) and math.isclose(stick, 0.3, abs_tol=0.005)
+    throttle, stick = _pwm_read_back(-0.5, 0.3, RcSetup(steer_type=0))  # reversed in reverse: sent mirrored
+    assert math.isclose(throttle, -0.5, abs_tol=0.005) and math.isclose(stick, -0.3, abs_tol=0.005)
+    _, stick = _pwm_read_back(-0.5, 0.3, RcSetup(steer_type=3))
+    assert math.isclose(stick, 0.3, abs_tol=0.005)
+
+
+def test_the_logged_tau_is_what_the_model_gives_for_the_sticks() -> None:
+    params = OtterParameters()
+    tau_x, tau_n = model_tau(params, Sticks("full", 1.0, 0.0))
+    assert math.isclose(tau_x, params.bollard_pull_forward_kgf * params.g, rel_tol=0.02) and abs(tau_n) < 1e-9
+    assert model_tau(params, Sticks("right", 0.6, 0.3))[1] > 0  # more thrust on the left turns to starboard
