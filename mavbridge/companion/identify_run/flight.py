@@ -104,6 +104,7 @@ class IdentifyCompanion(Companion):
         self.commands = CommandChannel(self.output, self.log)
         self.mission = HomeOnly(self.mission.acceptance_m, None, self.log)
         self.params = self.scenario.model_params()
+        self.observer = None  # (the sequence flies open loop: no disturbance is learnt or predicted with)
         self.sequence = IdentifySequence()
         self.limit_s = limit_s()
         self._servos_asked = False
