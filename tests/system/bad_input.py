@@ -38,9 +38,11 @@ SCENARIO = str(REPO / "scenarios" / "calm_short.yaml")  # a valid single-run sce
 SWEEP_SPEC = str(REPO / "scenarios" / "sweep-example.yaml")  # a valid sweep spec
 
 OTTER_CSV = ";current_time;lat;lon;current_course_over_ground;current_speed;current_orientation_1;" \
-    "current_orientation_2;current_orientation_3\n" + "".join(
+    "current_orientation_2;current_orientation_3;current_rotational_velocities_1;current_rotational_velocities_2;" \
+    "current_rotational_velocities_3\n" + "".join(
         f"2024-03-22_12:42:{10 + i // 10:02d}:{i % 10 * 100000:06d};{1711107730 + i / 10:.1f};59.9074{i:02d};10.7177;"
-        f"50.0;1.0;{(i % 7 - 3) * 0.8 if i else 0.0:.1f};0.5;50.0\n" for i in range(25))
+        f"50.0;1.0;{(i % 7 - 3) * 0.8 if i else 0.0:.1f};0.5;50.0;{(i % 5 - 2) * 0.3 if i else 0.0:.1f};0.1;0.2\n"
+        for i in range(25))
 
 FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None: an empty folder)
     "afile.txt": "keep me\n",  # an existing file: not a folder, not YAML of settings

@@ -200,6 +200,10 @@ CASES.update({
                                     (f"mavbridge replay otter.csv --waypoint {NAN},0", FINITE)],
     "mavbridge replay --from": [(f"{REPLAY} --from -1", "[0, inf)"), (f"{REPLAY} --from {NAN}", "[0, inf)"),
                                 (f"{REPLAY} --from soon",)],
+    "mavbridge identify log": [("mavbridge identify nothing.csv", "nothing.csv"),
+                               ("mavbridge identify afile.txt", "afile.txt")],
+    "mavbridge identify --out": [("mavbridge identify otter.csv --out afile.txt", "afile.txt")],
+    "mavbridge identify --base": [("mavbridge identify otter.csv --base titanic", "titanic")],
     "mavbridge replay --to": [(f"{REPLAY} --to -1", "[0, inf)"), (f"{REPLAY} --from 10 --to 5", "--from")],
 })
 
@@ -211,6 +215,8 @@ NO_BAD_VALUE: dict[str, str] = {
     "mavbridge demo --lockstep": "a switch: no value to get wrong",
     "mavbridge demo --direct": "a switch: no value to get wrong",
     "mavbridge sweep --yes": "a switch: no value to get wrong",
+    "mavbridge --version": "prints the version and exits 0; takes no value",
+    "mavbridge replay --plan-all": "a switch: no value to get wrong",
 }
 
 
