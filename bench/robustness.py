@@ -169,8 +169,10 @@ def print_table(cases: list[Case], rows: list[dict[str, Any]], periods: dict[str
         height = max((abs(e[1]) for e in row["errors"] if e[1] is not None), default=None)
         d = row["disturbance"][0]
         est = f"{d.get('current_north_m_s', 0):+.2f},{d.get('current_east_m_s', 0):+.2f}" if d else "—"
-        truth = f"({d.get('true_current_north_m_s', 0):+.2f},{d.get('true_current_east_m_s', 0):+.2f})" if d else ""
-        print(f"{case.name:28s} {_fmt(periods[case.name], '{:.3f}'):>8s} {cuts:>22s} {100 * bound:8.1f} {row['late']:5d} "
+        truth = f"({d.get('true_current_north_m_s', 0):+.2f},{d.get('true_current_east_m_s', 0):+.2f})" if d \
+            else ""
+        period = _fmt(periods[case.name], "{:.3f}")
+        print(f"{case.name:28s} {period:>8s} {cuts:>22s} {100 * bound:8.1f} {row['late']:5d} "
               f"{row['past_m']:7.1f} {row['loops']:6.2f} {row['worse']:4d} {_fmt(max(conf) if conf else None):>7s} "
               f"{_fmt(lam)}/{_fmt(height):>5s} {est:>14s} {truth:>11s}")
     means = [sum(r["cuts"]) / len(r["cuts"]) for r in rows]

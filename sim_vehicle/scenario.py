@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vessel.argtypes import naming
 from vessel.config import ConfigError, validate
 from vessel.geo import Home
 from vessel.sea.irregular import IrregularWaves
@@ -115,5 +116,6 @@ def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current
     if current is not None:
         world = dataclasses.replace(world, sea=parse_current(current, world.sea))
     if vessel is not None:
-        world = dataclasses.replace(world, vessel=load_vessel(vessel, "--vessel"))
+        with naming("--vessel"):  # (a vessel file's own error names the flag that gave it)
+            world = dataclasses.replace(world, vessel=load_vessel(vessel, "--vessel"))
     return world

@@ -28,6 +28,7 @@ from vessel.argtypes import naming
 from vessel.config import ConfigError
 from vessel.geo import Home
 from vessel.sea.irregular import IrregularWaves
+from vessel.sea.wind import Wind
 from vessel.vessel_spec import VesselSpec
 from vessel.world import SEA_PRESETS
 
@@ -88,6 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="surface: the hull heaves with the sea; paper: the paper's model (default: surface in an "
                         "irregular sea, paper in a regular one, as the simulator with its ideal sensors)")
     p.add_argument("--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg")
+    p.add_argument("--vessel", metavar="SET|FILE", help="the simulated boat's hull: a named set (published, "
+                   "corrected) or a vessel YAML file (default: the scenario's vessel, else published)")
     p.add_argument("--scenario", type=Path, metavar="FILE",
                    help="scenario YAML: vessel parameter set, sea and start pose; --waves/--sea/--current override")
     p.add_argument("--heading", type=_heading, default=None, metavar="DEG",
@@ -101,18 +104,18 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def build_world(args: argparse.Namespace) -> tuple[VesselSpec, WaveField, OceanCurrent, np.ndarray]:
+def build_world(args: argparse.Namespace) -> tuple[VesselSpec, WaveField, OceanCurrent, np.ndarray, Wind | None]:
     """(the plant's vessel, waves, current, x0) from the flags and the optional scenario, by ``sim-vehicle``'s route.
 
     An irregular sea is averaged over the waterplane of the world's vessel, as the simulator's
     (``sim_vehicle.physics.Physics.create``).
     """
     with naming("--scenario"):
-        world = sim_world(args.scenario, args.waves, args.sea, args.current, Home(), args.sea_state)
+        world = sim_world(args.scenario, args.waves, args.sea, args.current, Home(), args.sea_state, args.vessel)
     x0 = world.plant_state()
     if args.heading is not None:
         x0[5] = math.radians(args.heading)
-    return world.vessel, world.sea.waves(world.params()), world.sea.current(), x0
+    return world.vessel, world.sea.waves(world.params()), world.sea.current(), x0, world.sea.wind()
 
 
 def surface_heave(args: argparse.Namespace, waves: WaveField) -> bool:
@@ -152,7 +155,7 @@ def _run_folder(args: argparse.Namespace, seed: int, waves: WaveField, current: 
 
 def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
     """World, socket, then run folder (nothing is written when the port cannot be had); errors for the caller."""
-    vessel, waves, current, x0 = build_world(args)
+    vessel, waves, current, x0, wind = build_world(args)
     seed = args.seed if args.seed is not None else secrets.randbits(32)
     waves = seeded_waves(waves, seed)
     host, port = args.json_backend
@@ -165,7 +168,7 @@ def _prepare(args: argparse.Namespace) -> tuple[JsonBackend, socket.socket]:
     heave = surface_heave(args, waves)
     if isinstance(waves, IrregularWaves):
         log.info("json-backend: compiling the irregular sea's plant for %d Hz frames (1-4 s)", PREPARED_RATE_HZ)
-    physics = JsonPhysics(vessel.params(), waves, current, x0, heave)
+    physics = JsonPhysics(vessel.params(), waves, current, x0, heave, wind)
     physics.prepare(1.0 / PREPARED_RATE_HZ)
     log.info("json-backend: listening on UDP %s:%d, sea seed %d, heave %s", host, port, seed,
              "surface" if heave else "paper")

@@ -29,17 +29,18 @@ from vessel.dynamics import rotation_body_to_ned
 from vessel.imu import imu_function
 from vessel.jit import compiled, worth_compiling
 from vessel.params import OtterParameters
+from vessel.sea.wind import Wind
 
 MAX_PLANTS = 8  # distinct frame rates kept built; a firmware changes SIM_RATE_HZ rarely
 
 
 def sensor_function(params: OtterParameters, waves: WaveField, current: OceanCurrent,
-                    surface_heave: bool = False) -> ca.Function:
+                    surface_heave: bool = False, wind: Wind | None = None) -> ca.Function:
     """(x[14], t) -> [gyro 3 rad/s, accel_body 3 m/s² (FRD), position 3 m NED, velocity 3 m/s NED, q 4].
 
     ``surface_heave`` must be the plant's: it changes ẇ, so the specific force.
     """
-    imu = imu_function(params, waves, current, surface_heave)
+    imu = imu_function(params, waves, current, surface_heave, wind)
     x = ca.SX.sym("x", NX_PLANT)
     t = ca.SX.sym("t")
     reading = imu(x, t)
@@ -59,8 +60,9 @@ class JsonPhysics:
     """The Otter in its sea, advanced frame by frame; holds the state between frames."""
 
     def __init__(self, params: OtterParameters, waves: WaveField, current: OceanCurrent,
-                 x0: np.ndarray, surface_heave: bool = False) -> None:
+                 x0: np.ndarray, surface_heave: bool = False, wind: Wind | None = None) -> None:
         self.params = params
+        self.wind = wind  # the world's wind (None: still air)
         self.surface_heave = surface_heave  # heave restoring on z + ζ (the hull rides the sea); off: the paper's
         self.waves = waves
         self.current = current
@@ -69,7 +71,7 @@ class JsonPhysics:
         self.n_max, self.n_min = float(limits.n_max), float(limits.n_min)
         self._plants: dict[float, tuple[Plant, int]] = {}
         self._plant: Plant | None = None
-        self._sensors = sensor_function(params, waves, current, surface_heave)
+        self._sensors = sensor_function(params, waves, current, surface_heave, wind)
         if worth_compiling(self._sensors):  # an irregular sea: as large as the plant step, so compiled like it
             self._sensors = compiled(self._sensors)
         self._sx = np.zeros(NX_PLANT)
@@ -109,7 +111,7 @@ class JsonPhysics:
         if entry is None:
             k = substeps_for(frame_dt)
             plant = Plant(self.params, self.waves, self.current, dt=frame_dt / k, integrator="rk4", x0=self.x0,
-                          surface_heave=self.surface_heave)
+                          surface_heave=self.surface_heave, wind=self.wind)
             if len(self._plants) >= MAX_PLANTS:
                 stale = next(d for d, (p, _) in self._plants.items() if p is not self._plant)
                 del self._plants[stale]

@@ -251,14 +251,18 @@ def test_world_from_a_scenario_and_flags_as_the_simulator_reads_it() -> None:
     """--scenario gives vessel, sea and start pose; --waves and --heading given too override their parts."""
     root = Path(__file__).resolve().parents[2]
     args = build_parser().parse_args(["--json-backend", "9002", "--scenario", str(root / "scenarios/balanced.yaml")])
-    vessel, waves, current, x0 = build_world(args)
+    vessel, waves, current, x0, wind = build_world(args)
     assert str(vessel) == "published" and waves == sea_preset("paper").waves() and current == OceanCurrent()
+    assert wind is None  # still air: the scenario has none
     assert x0[5] == pytest.approx(math.radians(90.0)) and x0.shape == (14,)
     args = build_parser().parse_args(["--scenario", str(root / "scenarios/balanced.yaml"), "--waves", "calm",
                                       "--heading", "-45", "--json-backend", "0.0.0.0:9100"])
-    _, waves, _, x0 = build_world(args)
+    _, waves, _, x0, _ = build_world(args)
     assert waves == CalmWater() and x0[5] == pytest.approx(math.radians(-45.0))
     assert args.json_backend == ("0.0.0.0", 9100)
+    args = build_parser().parse_args(["--json-backend", "9002", "--vessel", "corrected"])
+    vessel, *_ = build_world(args)
+    assert str(vessel) == "corrected"  # --vessel sets the plant, as sim-vehicle's own flag
 
 
 def test_a_lower_frame_count_that_is_not_zero_restarts_the_run() -> None:
@@ -280,7 +284,7 @@ def test_heave_and_sea_state_flags() -> None:
     is the simulator's NATO sea; the sea is averaged over the world's own hull."""
     def world(*flags: str) -> tuple[object, bool]:
         args = build_parser().parse_args(["--json-backend", "9002", *flags])
-        _, waves, _, _ = build_world(args)
+        _, waves, _, _, _ = build_world(args)
         return waves, surface_heave(args, waves)
 
     waves, heave = world("--sea", "jonswap:1.75,6,-90")

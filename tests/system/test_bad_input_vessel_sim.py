@@ -123,6 +123,10 @@ CASES: dict[str, list[tuple[str, ...]]] = {
                                                (f"{JSON} --sea-state x", "[0, 8]")],
     "sim-vehicle --json-backend --heave": [(f"{JSON} --heave none", "invalid choice")],
     "sim-vehicle --json-backend --current": [(f"{JSON} --current {NAN},0", FINITE)],
+    "sim-vehicle --json-backend --vessel": [(f"{JSON} --vessel titanic", "--vessel: 'titanic' is neither a named set"),
+                                            (f"{JSON} --vessel bad_config.yaml", "unknown key 'system_id'")],
+    "sim-vehicle --vessel": [(f"{SIM} --vessel titanic", "--vessel: 'titanic' is neither a named set"),
+                             (f"{SIM} --vessel list.yaml", "expected a vessel mapping")],
     "sim-vehicle --json-backend --scenario": [(f"{JSON} --scenario no/such.yaml", "no/such.yaml"),
                                               (f"{JSON} --scenario empty.yaml", "empty.yaml")],
     "sim-vehicle --json-backend --heading": [(f"{JSON} --heading 400", "[-360, 360]"),
@@ -145,6 +149,8 @@ NO_BAD_VALUE: dict[str, str] = {
     "sim-vehicle --json-backend": "hands the whole command line to the JSON-backend parser, whose own --json-backend "
                                   "has the cases ('sim-vehicle --json-backend --json-backend')",
     "sim-vehicle --json-backend --verbose": "a switch: no value to get wrong",
+    "sim-vehicle --version": "prints the version and exits 0; takes no value",
+    "vessel --version": "prints the version and exits 0; takes no value",
 }
 
 
