@@ -72,3 +72,18 @@ def test_check_says_which_model_it_flies(tmp_path: Path) -> None:
               "--timeout", "0.5", "--solves", "0"])
     line = next(line for line in out.getvalue().splitlines() if line.startswith("model: "))
     assert "corrected with zeta_roll 0.12" in line and "boat.yaml" in line
+
+
+def test_the_companions_nmpc_is_built_from_its_model_alone_whatever_the_scenarios_boat_and_water() -> None:
+    from mavbridge.companion.flight import build_nmpc
+    from mavbridge.companion.wave_gate import make_wave_source
+
+    scenario = scenario_from_mapping({"vessel": {"base": "corrected", "payload_mass": 60},
+                                      "sea": {"current_speed_mps": 0.5, "current_dir_deg": 90, "wind_speed_mps": 8},
+                                      "controller": {"solver": "rti", "model": {"base": "published",
+                                                                                "zeta_roll": 0.1}}}, "s.yaml")
+    waves = make_wave_source("estimated", scenario.sea.waves, 1.0, 0.0, None)
+    with build_nmpc(scenario, waves) as nmpc:
+        assert nmpc.params == scenario.model_params() != scenario.plant_params()
+        assert nmpc.current.speed_mps == 0.0 and nmpc.wind is None  # never told the water or the air
+        assert list(nmpc.disturbance) == [0.0, 0.0, 0.0, 0.0]  # until it learns them
