@@ -205,12 +205,25 @@ def mavlink_case(case: Case, output: str, out: Path) -> dict[str, float | None]:
             "loops": figures["balanced"].get("loops_around_waypoint")}
 
 
+def in_process(cases: list[Case], seeds: list[int], jobs: int, out: Path) -> None:
+    """The in-process family: every run, then the table; results.json in ``out``."""
+    periods = {c.name: free_roll_period(case_scenarios(c, 1, False)[0].plant_params()) for c in cases}
+    started = time.monotonic()
+    results = run_family(cases, seeds, jobs)
+    print(f"{len(results)} in-process runs in {time.monotonic() - started:.0f} s on {jobs} processes "
+          f"(published model's free roll {plant_decay(otter_parameters(), 'roll').period_s:.3f} s)\n")
+    rows = [case_row(c, seeds, results) for c in cases]
+    print_table(cases, rows, periods)
+    (out / "results.json").write_text(json.dumps({"rows": rows, "runs": results}, indent=1, default=str))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", default="1,2,3", help="sea seeds (default 1,2,3)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="processes (default: all cores)")
     parser.add_argument("--only", default=None, help="comma-separated case names (default: the whole family)")
     parser.add_argument("--mavlink", action="store_true", help=f"also fly {', '.join(MAVLINK_CASES)} over MAVLink")
+    parser.add_argument("--skip-family", action="store_true", help="fly only the MAVLink cases (with --mavlink)")
     parser.add_argument("--out", default=None, help="folder for results.json and the MAVLink runs (default: temp)")
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
@@ -219,14 +232,8 @@ def main() -> None:
         cases = [c for c in cases if c.name in args.only.split(",")]
     out = Path(args.out or tempfile.mkdtemp(prefix="robustness-"))
     out.mkdir(parents=True, exist_ok=True)
-    periods = {c.name: free_roll_period(case_scenarios(c, 1, False)[0].plant_params()) for c in cases}
-    started = time.monotonic()
-    results = run_family(cases, seeds, args.jobs)
-    print(f"{len(results)} in-process runs in {time.monotonic() - started:.0f} s on {args.jobs} processes "
-          f"(published model's free roll {plant_decay(otter_parameters(), 'roll').period_s:.3f} s)\n")
-    rows = [case_row(c, seeds, results) for c in cases]
-    print_table(cases, rows, periods)
-    (out / "results.json").write_text(json.dumps({"rows": rows, "runs": results}, indent=1, default=str))
+    if not args.skip_family:
+        in_process(cases, seeds, args.jobs, out)
     if args.mavlink:
         print("\nover MAVLink (mavbridge demo, paced, engaged 30 s after connecting, sea seed of the simulator's own):")
         for case in (c for c in family() if c.name in MAVLINK_CASES):
