@@ -144,7 +144,7 @@ def observe(observer: DisturbanceObserver, nmpc: RollAwareNmpc, t: float, x: np.
             say: Callable[[str], None] | None) -> None:
     """One period of the disturbance observer (``tau``: the command in effect from now, None: unknown), and the
     NMPC's later solves predict with its estimate; one line when it settles."""
-    if observer.update(t, x, tau, nmpc.model_wave()) and say is not None:
+    if observer.update(t, x, tau, nmpc.model_wave(), nmpc.wave_known) and say is not None:
         say(f"disturbance settled at t = {t:.1f} s: {observer.describe()}")
     nmpc.set_disturbance(observer.estimate)
 

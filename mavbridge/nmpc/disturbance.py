@@ -49,6 +49,9 @@ class ObserverSettings:
     drift_std_per_sqrt_s: tuple[float, float, float, float] = (0.01, 0.01, 0.0, 0.15)
     measurement_std: tuple[float, float, float] = (0.05, 0.08, 0.03)  # u, v (m/s), r (rad/s) over one period
     limits: tuple[float, float, float, float] = (2.0, 2.0, 60.0, 20.0)
+    # While the model knows no wave (before the estimate is confident, or after it dropped out) the waves' forces
+    # are in every error: the errors weigh this much less (variance), so the estimate does not learn the sea
+    unknown_wave_noise_factor: float = 10.0
 
 
 class DisturbanceObserver:
@@ -71,44 +74,37 @@ class DisturbanceObserver:
         self._drift = np.diag(np.square(self.settings.drift_std_per_sqrt_s)) * self.period_s
         self._noise = np.diag(np.square(self.settings.measurement_std))
         self._limits = np.asarray(self.settings.limits, float)
-        self._previous: tuple[np.ndarray, np.ndarray, float, np.ndarray] | None = None
+        self._previous: tuple[np.ndarray, np.ndarray, float, np.ndarray, bool] | None = None
         self.updates = 0
         self.settled_at_s: float | None = None
         self._mean_surface = nmpc.config.heave_feedback == "none"  # a hull riding the sea: as the NMPC does
-        self._wave_known = False
         self._calm_steps = 0
 
-    def update(self, t: float, x: np.ndarray, tau: np.ndarray | None, wave: np.ndarray) -> bool:
+    def update(self, t: float, x: np.ndarray, tau: np.ndarray | None, wave: np.ndarray,
+               wave_known: bool = True) -> bool:
         """One period: compare the measured state ``x`` at ``t`` with the model's prediction from the previous call
         (the command in effect since then and the wave input the NMPC plans with), and correct the estimate.
         ``tau`` is the command in effect from now on (τ_X N, τ_N N·m), None when it is not known (a pilot drives):
-        the next period is then not used. Returns True when the estimate settled at this call."""
+        the next period is then not used. ``wave_known``: the model knows the sea (a wave, or calm water); while it
+        does not, the errors hold the waves' forces and weigh less. Returns True when the estimate settled now."""
         x = on_mean_surface(x) if self._mean_surface else np.asarray(x, float)  # the state as the NMPC's model sees it
         previous, self._previous = self._previous, None
         if tau is not None and np.all(np.isfinite(x)):
-            self._previous = (x.copy(), np.asarray(tau, float).copy(), float(t), np.asarray(wave, float).copy())
+            self._previous = (x.copy(), np.asarray(tau, float).copy(), float(t), np.asarray(wave, float).copy(),
+                              wave_known)
         if previous is None or not math.isclose(t - previous[2], self.period_s, rel_tol=0.25):
             return False  # no command known over the period, or a gap: nothing to compare
-        x0, tau0, t0, wave0 = previous
-        self._reopen_when_the_wave_changes(wave0)
+        x0, tau0, t0, wave0, known = previous
         wave0[wave0.size - self.estimate.size:] = self.estimate
         predicted, jac = (np.asarray(v, float) for v in self._predict(x0, tau0, t0, wave0))
-        self._correct(x[list(MEASURED)] - predicted.ravel(), jac.reshape(len(MEASURED), -1))
+        noise = self._noise if known else self._noise * self.settings.unknown_wave_noise_factor
+        self._correct(x[list(MEASURED)] - predicted.ravel(), jac.reshape(len(MEASURED), -1), noise)
         return self._settled(t)
 
-    def _reopen_when_the_wave_changes(self, wave: np.ndarray) -> None:
-        """When the model starts (or stops) predicting with a wave, the estimate made without it held the wave's
-        mean push too (a boat drifting in head seas moves down-wave faster than the current): its uncertainty is
-        opened again, so the estimate relearns what the model with the wave does not explain."""
-        known = bool(wave[0] > 0.0)  # the regular wave's height (the first number of the model's wave input)
-        if known != self._wave_known:
-            self._wave_known = known
-            self.covariance = np.maximum(self.covariance, np.diag(np.square(self.settings.initial_std)))
-
-    def _correct(self, error: np.ndarray, jac: np.ndarray) -> None:
+    def _correct(self, error: np.ndarray, jac: np.ndarray, noise: np.ndarray) -> None:
         """The Kalman filter's update of the random-walk disturbance from the velocity errors."""
         p = self.covariance + self._drift
-        s = jac @ p @ jac.T + self._noise
+        s = jac @ p @ jac.T + noise
         gain = np.linalg.solve(s, jac @ p).T
         self.estimate = np.clip(self.estimate + gain @ error, -self._limits, self._limits)
         self.covariance = (np.eye(self.estimate.size) - gain @ jac) @ p
@@ -154,7 +150,7 @@ def observe_period(observer: DisturbanceObserver | None, nmpc: Any, state: Any, 
     if observer is None or not state.ready():
         return
     fresh = state.age_ms(now_ms) <= stale_s * 1000
-    if observer.update(now_ms / 1000.0, state.vector(), tau if fresh else None, nmpc.model_wave()):
+    if observer.update(now_ms / 1000.0, state.vector(), tau if fresh else None, nmpc.model_wave(), nmpc.wave_known):
         log(f"disturbance settled at t = {now_ms / 1000:.1f} s: {observer.describe()} (estimated from the boat's "
             f"motion)")
     nmpc.set_disturbance(observer.estimate)

@@ -115,6 +115,11 @@ class SeaInputs:
         return self._sea.model_wave()
 
     @property
+    def wave_known(self) -> bool:
+        """True when later solves predict with a known sea: a wave or calm water (``set_wave``), or a bank."""
+        return self._sea.wave_known or self._sea.bank_active
+
+    @property
     def disturbance(self) -> np.ndarray:
         """The disturbance later solves predict with (``set_disturbance``): current N, E (m/s), surge force (N),
         yaw moment (N·m)."""
