@@ -1,5 +1,5 @@
-"""The documentation stays true to the code (issue 31): its commands exist, its reference is complete, the
-site builds, and the README's links resolve.
+"""The documentation stays true to the code: its commands exist, its reference is complete, the site builds,
+its pages stay short and free of issue numbers, and the README's links resolve.
 
 * Every command shown in ``README.md``, ``deploy/README.md`` and ``docs/**/*.md`` — in a code block or an
   inline code span, starting with ``mavbridge``, ``sim-vehicle``, ``vessel`` or ``mission`` (bare, or from
@@ -10,6 +10,9 @@ site builds, and the README's links resolve.
   every field of their dataclasses, ``metrics.md`` every key of the shared figures of merit; the fix for a
   failure is ``.venv/bin/python docs/gen_reference.py`` (or, for metrics, a line in the page).
 * ``mkdocs build --strict`` succeeds (into a temporary folder, never the repository).
+* Every hand-written page under ``docs/`` (``docs/reference/`` is generated) is at most 300 lines, and no page
+  (nor ``README.md``, ``deploy/README.md``, ``CHANGELOG.md``) speaks of issue numbers in its prose ("issue 11",
+  "issues 3", "#32"): each failure names the page and the line.
 * Every relative link of ``README.md`` points at a file.
 """
 
@@ -261,6 +264,67 @@ def test_the_metrics_page_explains_every_shared_key() -> None:
     text = (DOCS / "reference" / "metrics.md").read_text(encoding="utf-8")
     missing = sorted(k for k in keys if f"`{k}`" not in text)
     assert not missing, f"docs/reference/metrics.md does not explain {missing}"
+
+
+# -- short pages, no issue numbers ----------------------------------------------------------------------------
+
+PAGE_LINES_MAX = 300
+ISSUE_NUMBER = re.compile(r"\bissues?\s+#?\d+|(?<![\w&/#])#\d+\b", re.IGNORECASE)
+LINK_TARGET = re.compile(r"\]\([^)\s]*\)|\{\s*#[^}]*\}")  # a link's target, an attribute list's id
+
+
+def hand_written_pages() -> list[Path]:
+    """The site's pages a person writes: ``docs/**/*.md`` but the generated ``docs/reference/``."""
+    return [p for p in sorted(DOCS.rglob("*.md")) if p.relative_to(DOCS).parts[0] != "reference"]
+
+
+def long_pages(paths: list[Path], root: Path = ROOT) -> list[str]:
+    """``page: N lines`` for every page over ``PAGE_LINES_MAX`` lines (the page's path from ``root``)."""
+    counts = {p: len(p.read_text(encoding="utf-8").splitlines()) for p in paths}
+    return [f"{p.relative_to(root)}: {n} lines (at most {PAGE_LINES_MAX}; split it into two pages)"
+            for p, n in counts.items() if n > PAGE_LINES_MAX]
+
+
+def issue_mentions(text: str) -> list[tuple[int, str]]:
+    """(line number, the words) for each issue number in a page's prose: code blocks and link targets skipped."""
+    found, fenced = [], False
+    for number, line in enumerate(text.splitlines(), start=1):
+        if FENCE.match(line):
+            fenced = not fenced
+            continue
+        if not fenced:
+            found += [(number, m.group(0)) for m in ISSUE_NUMBER.finditer(LINK_TARGET.sub("", line))]
+    return found
+
+
+def test_no_hand_written_page_is_over_300_lines() -> None:
+    """A page a newcomer reads fits in a few minutes: one that needs more is two pages."""
+    pages = hand_written_pages()
+    assert len(pages) > 10, "no hand-written pages found under docs/"
+    too_long = long_pages(pages)
+    assert not too_long, "pages over the limit:\n" + "\n".join(too_long)
+
+
+def test_no_page_speaks_of_issue_numbers() -> None:
+    """Pages say what the software does and measured, not which issue asked for it: no "issue 11", no "#32"."""
+    paths = [*doc_files(), ROOT / "CHANGELOG.md"]
+    found = [f"{path.relative_to(ROOT)}:{number}: {words!r}" for path in paths if path.is_file()
+             for number, words in issue_mentions(path.read_text(encoding="utf-8"))]
+    assert not found, "issue numbers in the docs (say what, not which issue):\n" + "\n".join(found)
+
+
+def test_the_page_checks_catch_issue_numbers_and_long_pages(tmp_path: Path) -> None:
+    """The two checks above are not vacuous, and leave code, link targets and heading ids alone."""
+    text = ("Irregular seas (issue 11) came first.\nAs Issues #3 asked, see #32.\n"
+            "```bash\necho issue 5  # a code block is not prose\n```\n"
+            "[deploying](deploy.md#5-field-procedure), a heading { #s-12 }, `vessel` step 2 of 3, &#38; an entity.")
+    assert issue_mentions(text) == [(1, "issue 11"), (2, "Issues #3"), (2, "#32")]
+    page = tmp_path / "long.md"
+    page.write_text("line\n" * (PAGE_LINES_MAX + 1), encoding="utf-8")
+    assert long_pages([page], root=tmp_path) == [f"long.md: {PAGE_LINES_MAX + 1} lines (at most {PAGE_LINES_MAX}; "
+                                                 "split it into two pages)"]
+    page.write_text("line\n" * PAGE_LINES_MAX, encoding="utf-8")
+    assert long_pages([page], root=tmp_path) == []
 
 
 # -- the site builds, the README's links resolve ------------------------------------------------------------

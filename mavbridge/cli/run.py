@@ -99,7 +99,7 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--identify", action="store_true",
                      help="fly the identification sequence (throttle steps, a 20/20 zig-zag, hard turns released) "
                           "around where the boat is, no waypoint, for `mavbridge identify`; RC override only, within "
-                          "--max-range of where it starts (docs/identify.md)")
+                          "--max-range of where it starts (docs/how-to/identify.md)")
     add_link_arguments(run)
 
 
