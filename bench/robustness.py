@@ -78,7 +78,8 @@ def family() -> list[Case]:
     wind = {"wind_speed_mps": 8.0, "wind_from_deg": round(abeam, 1), "wind_gust_mps": 1.5}
     worst_vessel = {**up, "zeta_roll": 0.4 * base.zeta_roll, "propeller_scale": [1.0, 0.85]}
     return [
-        Case("roll-period-plus15", slower), Case("roll-period-plus35-payload-up", up), Case("roll-period-minus15", faster),
+        Case("roll-period-plus15", slower), Case("roll-period-plus35-payload-up", up),
+        Case("roll-period-minus15", faster),
         Case("payload-0kg", {"payload_mass": 0.0}), Case("payload-60kg", {"payload_mass": 60.0}),
         Case("roll-damping-x0.4", {"zeta_roll": 0.4 * base.zeta_roll}),  # (the hull's ζ_roll parameter scaled)
         Case("roll-damping-x2", {"zeta_roll": 2.0 * base.zeta_roll}),

@@ -38,9 +38,10 @@ SCENARIO = str(REPO / "scenarios" / "calm_short.yaml")  # a valid single-run sce
 SWEEP_SPEC = str(REPO / "scenarios" / "sweep-example.yaml")  # a valid sweep spec
 
 OTTER_CSV = ";current_time;lat;lon;current_course_over_ground;current_speed;current_orientation_1;" \
-    "current_orientation_2;current_orientation_3\n" + "".join(
+    "current_orientation_2;current_orientation_3;current_rotational_velocities_1;current_rotational_velocities_2;" \
+    "current_rotational_velocities_3\n" + "".join(
         f"2024-03-22_12:42:{10 + i // 10:02d}:{i % 10 * 100000:06d};{1711107730 + i / 10:.1f};59.9074{i:02d};10.7177;"
-        f"50.0;1.0;{(i % 7 - 3) * 0.8 if i else 0.0:.1f};0.5;50.0\n" for i in range(25))
+        f"50.0;1.0;{(i % 7 - 3) * 0.8 if i else 0.0:.1f};0.5;50.0;0.1;0.0;0.0\n" for i in range(25))
 
 FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None: an empty folder)
     "afile.txt": "keep me\n",  # an existing file: not a folder, not YAML of settings
@@ -56,7 +57,7 @@ FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None
 }
 
 # Flags every parser has: not a value to get wrong (help prints and exits 0 by design).
-HELP_REASON = "prints the help and exits 0; takes no value"
+HELP_REASON = "prints the help (or the version) and exits 0; takes no value"
 
 
 @dataclass(frozen=True)
@@ -74,12 +75,12 @@ class CaseTimeoutError(Exception):
 
 def flags(parser: argparse.ArgumentParser, path: str) -> Iterator[str]:
     """``"<path> <flag>"`` for every option (its first long name) and positional of ``parser`` and its
-    subcommands, help actions left out (see :data:`HELP_REASON`)."""
+    subcommands, help and version actions left out (see :data:`HELP_REASON`)."""
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for name, sub in action.choices.items():
                 yield from flags(sub, f"{path} {name}")
-        elif isinstance(action, argparse._HelpAction):
+        elif isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
             continue
         elif action.option_strings:
             longs = [o for o in action.option_strings if o.startswith("--")] or action.option_strings
