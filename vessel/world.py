@@ -1,6 +1,6 @@
 """One world: the physical world of a run — the plant's vessel, sea (waves, current, wind), start pose.
 
-The simulator (``sim-vehicle --waves/--scenario``), the in-process experiment plants and the plots all
+The simulator (``sim-vehicle --sea/--scenario``), the in-process experiment plants and the plots all
 read the world from here, and the NMPC's simulation truth is the same ``World.sea``. Named presets are
 the only place a sea is spelled out in code: ``paper`` (the paper's regular sea, H 1.75 m, λ 35 m,
 T 6 s, travelling West, −90°) and ``calm``.
@@ -42,7 +42,7 @@ SEA_PRESETS: Mapping[str, SeaState] = MappingProxyType({
     "paper": SeaState(),  # SeaState's defaults are the paper's sea: 1.75 m, 35 m, 6 s, travelling to -90°
     "calm": SeaState(height_m=0.0),
 })
-"""Named seas for ``sim-vehicle --waves NAME`` and ``sea: NAME`` in a scenario file."""
+"""Named seas for ``sim-vehicle --sea NAME``, ``vessel maneuver --sea NAME`` and ``sea: NAME`` in a scenario file."""
 
 
 @dataclass(frozen=True)
