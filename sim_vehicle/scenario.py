@@ -29,7 +29,7 @@ from vessel.sea.irregular_sea import IrregularSea, parse_sea_spec
 from vessel.sea.state import SeaState, Start
 from vessel.sea.waves import RegularWaves, WaveField
 from vessel.vessel_spec import load_vessel
-from vessel.world import SEA_PRESETS, World, load_world, sea_preset
+from vessel.world import SEA_PRESETS, World, check_whole_scenario, load_world, sea_preset
 
 SEA_HELP = (f"the sea's waves: a named sea ({' or '.join(SEA_PRESETS)}: the paper's 1.75 m, 35 m, 6 s waves "
             "from the East), regular H,LENGTH,PERIOD,DIR (m, m, s, deg: H >= 0, LENGTH and PERIOD > 0) or an "
@@ -113,6 +113,7 @@ def sim_world(scenario: Path | None, sea: str | None, current: str | None, home:
     if scenario is not None:
         with naming("--scenario"):
             world = load_world(scenario)
+            check_whole_scenario(scenario)  # the sections beyond the world, as mavbridge reads them
     else:
         world = World(sea=SEA_PRESETS["calm"], start=Start(heading_deg=home.heading_deg))
     if sea is not None:

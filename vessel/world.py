@@ -201,3 +201,24 @@ def load_world(path: str | Path) -> World:
         raise ConfigError(f"{path}: a set of runs; give the simulator a single-run scenario")
     with relative_to(path):
         return world_from_mapping(data, str(path))
+
+
+SCENARIO_CHECKS = "otter_rollaware.scenario_checks"
+"""Entry-point group of checkers of a whole scenario file: a package that reads more of the file than the world
+(``mavbridge``: the waypoint, controller, experiment sections) registers a callable taking the file's path and
+raising a one-line ConfigError (``pyproject.toml``). A reader of the world alone (``sim-vehicle --scenario``)
+runs them, and so refuses what ``mavbridge`` refuses without importing it (design.md: sim_vehicle never imports
+mavbridge); without ``mavbridge`` installed the world is still checked and the rest of the file is nobody's."""
+
+
+def check_whole_scenario(path: str | Path) -> list[str]:
+    """Run every registered checker (:data:`SCENARIO_CHECKS`) on the scenario file ``path``; each raises a
+    one-line ConfigError on a bad field. The names of the checkers that ran, sorted (none when none is
+    registered)."""
+    from importlib.metadata import entry_points
+
+    ran = []
+    for point in sorted(entry_points(group=SCENARIO_CHECKS), key=lambda p: p.name):
+        point.load()(path)
+        ran.append(point.name)
+    return ran

@@ -177,3 +177,21 @@ def test_scenario_irregular_sea_reaches_the_simulator(tmp_path: Path) -> None:
     with (tmp_path / "logs" / "state.csv").open() as f:
         elevations = [float(r["wave_elevation_m"]) for r in csv.DictReader(f)]
     assert len(set(elevations)) > 5 and max(map(abs, elevations)) > 0.0
+
+
+def test_mavbridge_checks_every_scenario_file_the_simulator_reads(tmp_path: Path) -> None:
+    """`sim-vehicle --scenario` refuses what `mavbridge` refuses, through the entry point mavbridge registers
+    (vessel.world.check_whole_scenario), never by importing it; a file that mavbridge takes passes."""
+    from vessel.config import ConfigError
+    from vessel.world import check_whole_scenario
+
+    good = tmp_path / "good.yaml"
+    good.write_text("controller: {horizon: 15, solver: nrti}\nwaypoint: {acceptance_radius_m: 2}\n")
+    assert check_whole_scenario(good) == ["mavbridge"]
+    for body, field in (("waypoint: {acceptance_radus_m: 2}", "acceptance_radus_m"),
+                        ("controller: {solver: ipopts}", "controller.solver"),
+                        ("controller: {horizon: 15.5}", "controller.horizon")):
+        path = tmp_path / "bad.yaml"
+        path.write_text(body + "\n")
+        with pytest.raises(ConfigError, match=field):
+            sim_world(path, None, None, Home())

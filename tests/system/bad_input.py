@@ -54,6 +54,10 @@ FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None
     "bad_config.yaml": "system_id: 300\n",  # a companion YAML with a field out of range
     "cfg_ok.yaml": "system_id: 250\n",  # a valid companion YAML (a bad flag on top must name the flag)
     "otter.csv": OTTER_CSV,  # a valid Otter API log (mavbridge report/replay): a placeholder row, then 2 s of motion
+    # scenarios whose world is fine and whose other sections are not: refused by every reader of scenario files
+    "typo_waypoint.yaml": "waypoint: {acceptance_radus_m: 2}\n",
+    "bad_solver.yaml": "controller: {solver: ipopts}\n",
+    "half_horizon.yaml": "controller: {horizon: 15.5}\n",
 }
 
 # Flags every parser has: not a value to get wrong (help prints and exits 0 by design).
