@@ -100,7 +100,7 @@ def round_trip(frames: int) -> None:
         port = probe.getsockname()[1]
     repo = Path(__file__).resolve().parents[1]
     proc = subprocess.Popen([sys.executable, "-m", "sim_vehicle.cli", "--json-backend", f"127.0.0.1:{port}",
-                             "--waves", "paper", "--seed", "1"], cwd=repo, stderr=subprocess.DEVNULL,
+                             "--sea", "paper", "--seed", "1"], cwd=repo, stderr=subprocess.DEVNULL,
                             env={**os.environ, "OMP_NUM_THREADS": "1"})
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.settimeout(1.0)

@@ -5,7 +5,7 @@ Run: OMP_NUM_THREADS=1 python bench/mavlink_estimated.py [--seeds 1,2,3] [--outp
 
 Each seed is one pair of real `mavbridge demo --lockstep --seed N` runs: `sim-vehicle` in the paper's sea
 with its realistic defaults (the hull heaving with the sea, a hidden phase drawn from the seed, sensor
-noise), the waypoint uploaded with MAVSDK, and `mavbridge run --waves estimated` on the output path given
+noise), the waypoint uploaded with MAVSDK, and `mavbridge run --wave-source estimated` on the output path given
 (RC override in MANUAL, or SET_ATTITUDE_TARGET in GUIDED): once with the paper's Balanced weights, once
 with ``--direct`` (R = 0). Lockstep with a fixed start time makes a pair repeat
 exactly on any machine; the companion's estimator has watched the drifting boat from its connection

@@ -3,7 +3,7 @@
 Run: OMP_NUM_THREADS=1 python bench/mavlink_repeats.py [--runs 5] [--seeds 1] [--paths rc_override,attitude_target]
      [--solver nrti] [--attitude-form heading|rate|tau] [--speedup 10] [--keep DIR]
 
-Each run is `mavbridge demo --lockstep --seed N --waves scenario` (a real `sim-vehicle`, MAVSDK's upload,
+Each run is `mavbridge demo --lockstep --seed N --wave-source scenario` (a real `sim-vehicle`, MAVSDK's upload,
 `mavbridge run`), Balanced. Prints every run's average roll and arrival, then per path the spread
 (max − min) / mean of each; issue 15 asks for five runs within 1 %. Runs may go side by side with other
 work: lockstep makes simulated time wait for every command, so load slows a run but does not change it.
@@ -50,7 +50,7 @@ def main() -> int:
             rolls, times = [], []
             for run in range(1, args.runs + 1):
                 m = run_demo(seed, False, args.speedup, root / f"{output}-seed{seed}-run{run}", output,
-                             "--solver", args.solver, "--waves", "scenario",
+                             "--solver", args.solver, "--wave-source", "scenario",
                              *form_flags(output, args.attitude_form))
                 t = arrival(m)
                 print(f"| {output} | {seed} | {run} | {m['avg_roll_deg']:.4f} | {t if t is not None else 'n/a'} |",

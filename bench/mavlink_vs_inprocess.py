@@ -1,14 +1,14 @@
 """Benchmark: Balanced and Direct in-process (τ and propeller plants) and over MAVLink on both output paths.
 
-Run: OMP_NUM_THREADS=1 python bench/mavlink_vs_inprocess.py [--seeds 1,2] [--solver nrti] [--waves scenario]
+Run: OMP_NUM_THREADS=1 python bench/mavlink_vs_inprocess.py [--seeds 1,2] [--solver nrti] [--wave-source scenario]
      [--paths rc_override,attitude_target] [--attitude-form heading|rate|tau] [--no-in-process] [--speedup 10]
      [--keep DIR]
 
 In-process: the experiment runner on the paper's sea, once per plant. Over MAVLink: `mavbridge demo
 --lockstep --seed N` (a real `sim-vehicle`, MAVSDK's waypoint upload, `mavbridge run`), once on RC override
 (MANUAL) and once on SET_ATTITUDE_TARGET (GUIDED), Balanced and ``--direct`` (R = 0) for each seed. With
-``--waves scenario`` (the default) the companion flies on the simulator's true sea and the simulator has
-exact sensors and the phase from boot, so the seeds repeat a run (the repeat check); ``--waves estimated``
+``--wave-source scenario`` (the default) the companion flies on the simulator's true sea and the simulator has
+exact sensors and the phase from boot, so the seeds repeat a run (the repeat check); ``--wave-source estimated``
 flies on the companion's own estimate. One table: average and maximum roll, arrival, the cut of Balanced
 against Direct on the same path, the arrival against the in-process propeller-plant Balanced run, and the
 step time (median / p99). Issue 15 asks for a cut >= 35 % and an arrival within 10 % on each path.
@@ -55,7 +55,8 @@ def in_process(plant: str, direct: bool, solver: str) -> dict[str, Any]:
 
 def over_mavlink(output: str, direct: bool, seed: int, args: argparse.Namespace, out: Path) -> dict[str, Any]:
     """One lockstep demo with this bench's solver and waves; the companion's metrics.json."""
-    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver, "--waves", args.waves,
+    return run_demo(seed, direct, args.speedup, out, output, "--solver", args.solver,
+                    "--wave-source", args.wave_source,
                     *form_flags(output, args.attitude_form))
 
 
@@ -82,7 +83,7 @@ def main() -> int:
     p = demo_parser(__doc__.splitlines()[0], [1, 2])
     p.add_argument("--solver", choices=("asrti", "nrti"), default="nrti",
                    help="NMPC solver (default nrti, the companion's)")
-    p.add_argument("--waves", choices=("scenario", "estimated"), default="scenario",
+    p.add_argument("--wave-source", choices=("scenario", "estimated"), default="scenario",
                    help="the companion's waves over MAVLink (default scenario: the simulator's truth)")
     p.add_argument("--paths", type=paths, default=list(PATHS),
                    help="output paths over MAVLink, comma-separated (default rc_override,attitude_target)")

@@ -35,7 +35,7 @@ def main() -> None:
         common = ["--no-tcp", "--no-out", "--params-store", str(Path(tmp) / "p.json")]
         for speedup in (1, 20):
             sim_s = opts.seconds * speedup
-            wall, cpu = _run(["--no-tcp", "--params-store", str(Path(tmp) / "q.json"), "--waves", "paper",
+            wall, cpu = _run(["--no-tcp", "--params-store", str(Path(tmp) / "q.json"), "--sea", "paper",
                               "--speedup", str(speedup), "--duration", str(sim_s)])
             print(
                 f"--speedup {speedup}, paper waves, default streams to both UDP outputs: {sim_s:g} s simulated in "
@@ -50,7 +50,7 @@ def main() -> None:
                     "0",
                     "--duration",
                     str(sim_s),
-                    "--waves",
+                    "--sea",
                     waves,
                     "--log-dir",
                     str(Path(tmp) / waves),

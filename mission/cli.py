@@ -12,7 +12,9 @@ from pathlib import Path
 from mission import transfer
 from mission.files import check_output_file, read_mission_file, write_mission_file
 from mission.plan import FRAME_GLOBAL, Mission, MissionError, MissionItem, check_latlon, check_range, validate
+from vessel.addresses import check_device, check_network
 from vessel.argtypes import OneLineParser, add_version, positive_metres
+from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
 EXIT_USAGE = 2
@@ -54,6 +56,26 @@ def _connection(text: str) -> str:
     if not (port.isdigit() and 1 <= int(port) <= 65535) or not (host or scheme in ("udpin", "udp")):
         raise argparse.ArgumentTypeError(f"{text}: expected {scheme}://HOST:PORT with PORT in [1, 65535]")
     return f"{scheme}://{rest}"
+
+
+URL_KINDS = {"udpin": "listen_udp", "udp": "listen_udp", "udpout": "send_udp", "tcpout": "tcp_client",
+             "tcp": "tcp_client", "tcpin": "tcp_server"}  # MAVSDK's network schemes, as vessel.addresses names them
+
+
+def check_reachable(url: str, timeout_s: float) -> None:
+    """Before MAVSDK is asked (its complaints are raw lines, repeated, then a late exit): the URL's host resolves,
+    a listening address is this machine's, a TCP vehicle accepts within ``timeout_s``, a serial device is there.
+    A one-line MissionError naming --connect otherwise."""
+    scheme, _, rest = url.partition("://")
+    try:
+        if scheme == "serial":
+            device, _, baud = rest.rpartition(":")
+            check_device(device if baud.isdigit() else rest, f"--connect: {url}")
+            return
+        host, _, port = rest.rpartition(":")
+        check_network(URL_KINDS[scheme], host, int(port), f"--connect: {url}", min(timeout_s, 3.0))
+    except ConfigError as exc:
+        raise MissionError(str(exc)) from None
 
 
 def build_parser() -> OneLineParser:
@@ -136,6 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"mission {args.command}: error: --timeout: {args.timeout!r} {why} (0, 600] s", file=sys.stderr)
         return EXIT_USAGE
     try:
+        check_reachable(args.connect, args.timeout)
         return asyncio.run(_run(args))
     except MissionError as exc:
         print(f"mission {args.command}: error: {exc}", file=sys.stderr)

@@ -17,9 +17,9 @@ from sim_vehicle.cli_checks import check_outputs, check_params_store, check_seri
 from sim_vehicle.logs import fresh_log_dir
 from sim_vehicle.mavlink.signing import store_signing_passphrase
 from sim_vehicle.rover.params import ParamTable, is_param_name, read_parm
-from sim_vehicle.scenario import sim_world
+from sim_vehicle.scenario import SEA_HELP, sim_world
 from sim_vehicle.sim import Options, Simulator
-from vessel.argtypes import OneLineParser, add_version, naming
+from vessel.argtypes import OneLineParser, add_renamed, add_version, naming
 from vessel.config import ConfigError
 from vessel.geo import Home, parse_home
 from vessel.world import SEA_PRESETS, World
@@ -120,17 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="home position and initial heading (default ArduPilot's CMAC)",
     )
     p.add_argument(
-        "--waves",
-        choices=tuple(SEA_PRESETS),
-        default=None,
-        help="named sea (vessel.world presets): calm (default), or paper, the paper's regular waves",
-    )
-    p.add_argument(
         "--scenario",
         type=Path,
         metavar="FILE",
         help="scenario YAML: the plant's vessel, sea state and start pose (heading, offset from home, "
-        "velocity); --waves/--sea/--current given too override its sea, --vessel its vessel",
+        "velocity); --sea/--current given too override its sea, --vessel its vessel (default: none)",
     )
     p.add_argument(
         "--vessel",
@@ -139,12 +133,8 @@ def build_parser() -> argparse.ArgumentParser:
              "<OtterParameters field>: value} (default: the scenario's vessel, else published); the companion is "
              "never told it",
     )
-    p.add_argument(
-        "--sea",
-        metavar="H,LENGTH,PERIOD,DIR",
-        help="regular waves instead of --waves: height m, wavelength m, period s, travel direction deg; or an "
-             "irregular sea jonswap:HS,TP,DIR[,GAMMA[,SPREADING]] / pm:HS,TP,DIR (m, s, deg)",
-    )
+    p.add_argument("--sea", metavar="NAME|SPEC", help=SEA_HELP)
+    add_renamed(p, "--waves", "--sea", choices=tuple(SEA_PRESETS))
     p.add_argument("--sea-state", type=sea_state_number, metavar="N",
                    help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
     p.add_argument("--seed", type=seed_number, metavar="N",
@@ -314,8 +304,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     try:
         home = args.home or Home()
-        with naming("--scenario"):  # before writing
-            world = sim_world(args.scenario, args.waves, args.sea, args.current, home, args.sea_state, args.vessel)
+        world = sim_world(args.scenario, args.sea, args.current, home, args.sea_state, args.vessel)  # before writing
         outputs = [] if args.no_out else (args.out or [_output(o) for o in DEFAULT_OUTPUTS])
         check_outputs(outputs)
         if args.serial is not None:

@@ -78,7 +78,7 @@ class SimProcess:
             str(self.tcp_port),
             "--speedup",
             str(speedup),
-            *(["--waves", waves] if waves else []),
+            *(["--sea", waves] if waves else []),
             "--params-store",
             str(self.workdir / "params.json"),
             "--log-dir",

@@ -1,11 +1,12 @@
-"""The simulator's world from its command line: ``--scenario``, ``--waves``, ``--sea``, ``--sea-state``,
-``--current``, ``--home``; and the sea's hidden phase origin drawn from ``--seed``.
+"""The simulator's world from its command line: ``--scenario``, ``--sea``, ``--sea-state``, ``--current``,
+``--vessel``, ``--home``; and the sea's hidden phase origin drawn from ``--seed``.
 
 The world (vessel, sea, start) comes from ``vessel.world`` — ``load_world`` for a scenario file (the loader
-``mavbridge`` uses too, with the same rule for unknown sections), a named preset for ``--waves`` — and the
-flags given on top replace parts of it: ``--waves``/``--sea`` the waves, ``--current`` the current. Without
-a scenario the boat starts at rest at home, pointing the home heading. ``--sea`` takes the regular
-``H,LENGTH,PERIOD,DIR`` or an irregular ``jonswap:HS,TP,DIR[,GAMMA[,SPREADING]]`` / ``pm:HS,TP,DIR``.
+``mavbridge`` uses too, with the same rule for unknown sections) — and the flags given on top replace parts of
+it: ``--sea`` the waves, ``--current`` the current, ``--vessel`` the hull. Without a scenario the boat starts at
+rest at home, pointing the home heading, in calm water. ``--sea`` takes a named sea (``paper``, ``calm``: the
+``vessel.world`` presets; ``--waves NAME`` is its old name), the regular ``H,LENGTH,PERIOD,DIR`` or an irregular
+``jonswap:HS,TP,DIR[,GAMMA[,SPREADING]]`` / ``pm:HS,TP,DIR``.
 
 :func:`seeded_waves` gives the sea a phase origin nobody is told: regular waves a phase in [0, 2π),
 irregular seas a time origin in [0, 1 h) (every component's phase advanced by ωᵢ·t₀), both from the
@@ -28,8 +29,12 @@ from vessel.sea.irregular_sea import IrregularSea, parse_sea_spec
 from vessel.sea.state import SeaState, Start
 from vessel.sea.waves import RegularWaves, WaveField
 from vessel.vessel_spec import load_vessel
-from vessel.world import World, load_world, sea_preset, world_preset
+from vessel.world import SEA_PRESETS, World, check_whole_scenario, load_world, sea_preset
 
+SEA_HELP = (f"the sea's waves: a named sea ({' or '.join(SEA_PRESETS)}: the paper's 1.75 m, 35 m, 6 s waves "
+            "from the East), regular H,LENGTH,PERIOD,DIR (m, m, s, deg: H >= 0, LENGTH and PERIOD > 0) or an "
+            "irregular jonswap:HS,TP,DIR[,GAMMA[,SPREADING]] / pm:HS,TP,DIR (m, s, deg); default: the scenario's "
+            "sea, else calm. --waves NAME is its old name")
 TIME_ORIGIN_MAX_S = 3600.0  # an irregular sea's hidden time origin is drawn from [0, this)
 
 
@@ -57,7 +62,10 @@ def _checked(sea: SeaState, what: str) -> SeaState:
 
 
 def parse_sea(text: str, base: SeaState) -> SeaState:
-    """``H_M,LENGTH_M,PERIOD_S,DIR_DEG`` (regular) or ``jonswap:…``/``pm:…`` (irregular) -> ``base``, these waves."""
+    """A named sea (its waves, ``base``'s current and wind), ``H_M,LENGTH_M,PERIOD_S,DIR_DEG`` (regular) or
+    ``jonswap:…``/``pm:…`` (irregular) -> ``base``, these waves."""
+    if text in SEA_PRESETS:
+        return base.with_waves_of(sea_preset(text, "--sea"))
     if ":" in text:
         return dataclasses.replace(base, spectrum=parse_sea_spec(text, "--sea"))
     height, length, period, direction = parse_numbers(text, 4, "--sea")
@@ -98,17 +106,16 @@ def parse_current(text: str, base: SeaState) -> SeaState:
     return sea
 
 
-def sim_world(scenario: Path | None, waves: str | None, sea: str | None, current: str | None,
-              home: Home, sea_state: int | None = None, vessel: str | None = None) -> World:
-    """The world the simulator runs in, from the flags as given (None: not given); one-line ConfigErrors.
-    ``vessel`` (``--vessel``: a named set or a vessel file) replaces the scenario's plant."""
+def sim_world(scenario: Path | None, sea: str | None, current: str | None, home: Home,
+              sea_state: int | None = None, vessel: str | None = None) -> World:
+    """The world the simulator runs in, from the flags as given (None: not given); one-line ConfigErrors, each
+    naming its flag. ``vessel`` (``--vessel``: a named set or a vessel file) replaces the scenario's plant."""
     if scenario is not None:
-        world = load_world(scenario)
-        if waves is not None:
-            world = dataclasses.replace(world, sea=world.sea.with_waves_of(sea_preset(waves, "--waves")))
+        with naming("--scenario"):
+            world = load_world(scenario)
+            check_whole_scenario(scenario)  # the sections beyond the world, as mavbridge reads them
     else:
-        world = world_preset(waves or "calm")
-        world = dataclasses.replace(world, start=Start(heading_deg=home.heading_deg))
+        world = World(sea=SEA_PRESETS["calm"], start=Start(heading_deg=home.heading_deg))
     if sea is not None:
         world = dataclasses.replace(world, sea=parse_sea(sea, world.sea))
     if sea_state is not None:

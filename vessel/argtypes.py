@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from vessel.config import ConfigError
 
@@ -127,3 +128,26 @@ def add_version(parser: argparse.ArgumentParser) -> None:
     """``--version``: the console script's name and the installed version, then exit 0."""
     parser.add_argument("--version", action="version", version=version_line(parser.prog),
                         help="print the installed version and exit")
+
+
+class RenamedFlag(argparse.Action):
+    """An old flag name kept so that scripts keep working: its value goes where the new flag's does, and one line on
+    stderr says the new name (``sim-vehicle: --waves is now --sea; the old name still works``)."""
+
+    def __init__(self, option_strings: list[str], dest: str, new_name: str = "", **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, **kwargs)
+        self.new_name = new_name
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        """Store ``values`` as the new flag would, and say the new name once per use."""
+        sys.stderr.write(f"{parser.prog}: {option_string} is now {self.new_name} (the old name still works, "
+                         "for now)\n")
+        setattr(namespace, self.dest, values)
+
+
+def add_renamed(parser: argparse.ArgumentParser, old: str, new: str, **kwargs: Any) -> None:
+    """Keep ``old`` as a deprecated name of the flag ``new`` (already added): same destination, hidden from the
+    help, one line naming ``new`` when used. ``kwargs``: the old flag's own ``choices``/``type``."""
+    dest = next(a.dest for a in parser._actions if new in a.option_strings)
+    parser.add_argument(old, dest=dest, action=RenamedFlag, new_name=new, help=argparse.SUPPRESS, **kwargs)

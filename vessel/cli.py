@@ -7,7 +7,7 @@ import math
 import sys
 from collections.abc import Sequence
 
-from vessel.argtypes import OneLineParser, add_version, check_output_file, naming, plot_formats
+from vessel.argtypes import OneLineParser, add_renamed, add_version, check_output_file, naming, plot_formats
 from vessel.config import ConfigError
 from vessel.maneuver import PRESETS, Maneuver, maneuver_figures, plot, run_maneuver, write_csv
 from vessel.params import PARAMETER_SETS, load_parameters, otter_parameters
@@ -49,8 +49,10 @@ def build_parser() -> OneLineParser:
     group.add_argument("--parameter-set", choices=PARAMETER_SETS, default="published",
                        help="named Otter parameter set (default: published, quirks included)")
     group.add_argument("--params", metavar="FILE", help="YAML parameter file (base set + overrides)")
-    man.add_argument("--waves", choices=tuple(SEA_PRESETS), default="calm",
-                     help="named sea (vessel.world presets): calm, or paper, the paper's waves from the East")
+    man.add_argument("--sea", choices=tuple(SEA_PRESETS), default="calm", metavar="NAME",
+                     help=f"a named sea (vessel.world presets, one of {', '.join(SEA_PRESETS)}: paper is the paper's "
+                          "waves from the East; default calm; --waves is its old name)")
+    add_renamed(man, "--waves", "--sea", choices=tuple(SEA_PRESETS))
     man.add_argument("--csv", metavar="PATH",
                      help="write t_s and the states, units in the names (north_m, roll_rad, ...)")
     man.add_argument("--plot", metavar="PATH", help="write a PNG of the track and time series")
@@ -71,11 +73,11 @@ def _maneuver_from_args(args: argparse.Namespace) -> Maneuver:
         raise ConfigError("--left and --right are required without --preset (percent of n_max, [-100, 100])")
     with naming("--params"):
         params = load_parameters(args.params) if args.params else otter_parameters(args.parameter_set)
-    sea = SEA_PRESETS[args.waves]
+    sea = SEA_PRESETS[args.sea]
     decays = [name for name in ("roll", "pitch") if settings.get(f"{name}_deg", 0.0) != 0.0]
     if decays and sea.height_m > 0:  # waves drive the roll: the 'decay' would be the wave's period, never damped
-        raise ConfigError(f"--waves {args.waves}: a free {' and '.join(decays)} decay cannot be measured in waves "
-                          f"(they drive the motion: its period would be the wave's {sea.period_s:g} s); use --waves "
+        raise ConfigError(f"--sea {args.sea}: a free {' and '.join(decays)} decay cannot be measured in waves "
+                          f"(they drive the motion: its period would be the wave's {sea.period_s:g} s); use --sea "
                           "calm, or no initial roll/pitch")
     waves = sea.waves()
     return Maneuver(**settings, integrator=args.integrator, params=params, waves=waves)

@@ -1,6 +1,6 @@
 """One world: the physical world of a run — the plant's vessel, sea (waves, current, wind), start pose.
 
-The simulator (``sim-vehicle --waves/--scenario``), the in-process experiment plants and the plots all
+The simulator (``sim-vehicle --sea/--scenario``), the in-process experiment plants and the plots all
 read the world from here, and the NMPC's simulation truth is the same ``World.sea``. Named presets are
 the only place a sea is spelled out in code: ``paper`` (the paper's regular sea, H 1.75 m, λ 35 m,
 T 6 s, travelling West, −90°) and ``calm``.
@@ -42,7 +42,7 @@ SEA_PRESETS: Mapping[str, SeaState] = MappingProxyType({
     "paper": SeaState(),  # SeaState's defaults are the paper's sea: 1.75 m, 35 m, 6 s, travelling to -90°
     "calm": SeaState(height_m=0.0),
 })
-"""Named seas for ``sim-vehicle --waves NAME`` and ``sea: NAME`` in a scenario file."""
+"""Named seas for ``sim-vehicle --sea NAME``, ``vessel maneuver --sea NAME`` and ``sea: NAME`` in a scenario file."""
 
 
 @dataclass(frozen=True)
@@ -201,3 +201,24 @@ def load_world(path: str | Path) -> World:
         raise ConfigError(f"{path}: a set of runs; give the simulator a single-run scenario")
     with relative_to(path):
         return world_from_mapping(data, str(path))
+
+
+SCENARIO_CHECKS = "otter_rollaware.scenario_checks"
+"""Entry-point group of checkers of a whole scenario file: a package that reads more of the file than the world
+(``mavbridge``: the waypoint, controller, experiment sections) registers a callable taking the file's path and
+raising a one-line ConfigError (``pyproject.toml``). A reader of the world alone (``sim-vehicle --scenario``)
+runs them, and so refuses what ``mavbridge`` refuses without importing it (design.md: sim_vehicle never imports
+mavbridge); without ``mavbridge`` installed the world is still checked and the rest of the file is nobody's."""
+
+
+def check_whole_scenario(path: str | Path) -> list[str]:
+    """Run every registered checker (:data:`SCENARIO_CHECKS`) on the scenario file ``path``; each raises a
+    one-line ConfigError on a bad field. The names of the checkers that ran, sorted (none when none is
+    registered)."""
+    from importlib.metadata import entry_points
+
+    ran = []
+    for point in sorted(entry_points(group=SCENARIO_CHECKS), key=lambda p: p.name):
+        point.load()(path)
+        ran.append(point.name)
+    return ran

@@ -9,6 +9,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from vessel.addresses import check_device, check_network
 from vessel.argtypes import naming
 from vessel.argtypes import positive_metres as positive_metres  # re-exported for the CLIs
 from vessel.config import ConfigError, describe_range
@@ -108,6 +109,27 @@ def check_connection(url: str, flag: str) -> None:
         raise ConfigError(f"{flag}: {url}: no such serial device; expected {CONNECT_FORMS}")
 
 
+LINK_KINDS = {"udpin": "listen_udp", "udp": "listen_udp", "udpout": "send_udp", "udpbcast": "send_udp",
+              "tcp": "tcp_client", "tcpin": "tcp_server"}  # pymavlink's network forms, in vessel.addresses' words
+
+
+def check_reachable(url: str, flag: str) -> None:
+    """Before anything is built or a run folder made: a connection string that passed :func:`check_connection`
+    can be opened here, one line naming ``flag`` otherwise (vessel.addresses): its host resolves, a listening
+    address is this machine's, a TCP autopilot accepts, a serial device is there. pymavlink's other forms are
+    left to it."""
+    prefix, colon, rest = url.partition(":")
+    if colon and prefix in OTHER_FORMS:
+        return
+    if not (colon and prefix in LINK_KINDS):
+        if not colon or "/" in prefix or Path(url).exists():  # a serial device, with or without its baud
+            check_device(url if Path(url).exists() or "," not in url else url.rpartition(",")[0], f"{flag}: {url}")
+            return
+        prefix, rest = "udpin", url  # a bare HOST:PORT: pymavlink listens on UDP
+    host, _, port = rest.rpartition(":")
+    check_network(LINK_KINDS[prefix], host, int(port), f"{flag}: {url}")
+
+
 def config_from_flags(path: str | None, flags: Mapping[str, tuple[str, Any]]) -> Any:
     """The companion YAML (or the defaults) with the flags given on top: ``flags`` maps a CompanionConfig field
     to (flag, value or None). A bad flag is reported as the flag ("--sysid: 300 is outside the allowed range
@@ -127,7 +149,9 @@ def config_from_flags(path: str | None, flags: Mapping[str, tuple[str, Any]]) ->
             raise ConfigError(f"{flag}: {str(exc).partition(': ')[2] or exc}") from None
     with naming("--config"):
         config = load_companion_config(path, **given)
-    check_connection(config.connect, "--connect" if "connect" in given else f"--config {path}: connect")
+    flag = "--connect" if "connect" in given else f"--config {path}: connect"
+    check_connection(config.connect, flag)
+    check_reachable(config.connect, flag)
     return config
 
 

@@ -16,7 +16,7 @@ from mavbridge.cli.run import add_demo_parser, add_run_parser, demo_command, run
 from mavbridge.cli.signing import add_signing_parser, signing_command
 from mavbridge.nmpc.config import SOLVERS
 from vessel import ConfigError
-from vessel.argtypes import OneLineParser, add_version
+from vessel.argtypes import OneLineParser, add_renamed, add_version
 
 PLANTS = ("tau", "propellers")  # mirrors mavbridge.lab.scenario.PLANTS (kept import-light)
 WAVE_SOURCES = ("truth", "estimated")  # mirrors mavbridge.lab.scenario.WAVE_SOURCES
@@ -41,10 +41,12 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
     exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
     exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
-    exp.add_argument("--waves", choices=WAVE_SOURCES, default=None,
-                     help="override every run's estimation.waves: truth (the true wave to the NMPC) or estimated "
-                          "(the wave estimator on simulated sensors at 20 Hz); the plant's realism (heave, hidden "
-                          "phase) stays as the scenario's estimation section says")
+    exp.add_argument("--wave-source", choices=WAVE_SOURCES, default=None,
+                     help="where the NMPC's waves come from, over every run's estimation.waves: truth (the true wave "
+                          "to the NMPC) or estimated (the wave estimator on simulated sensors at 20 Hz); default: "
+                          "each run's own (truth unless its file says). The plant's realism (heave, hidden phase) "
+                          "stays as the scenario's estimation section says. --waves is its old name")
+    add_renamed(exp, "--waves", "--wave-source", choices=WAVE_SOURCES)
     from mavbridge.field.cli import add_replay_parser, add_report_parser  # (the rooms' parsers import
     from mavbridge.identify.cli import add_identify_parser
     from mavbridge.preflight.cli import add_check_parser  # mavbridge.cli.args: imported here, a room imported
@@ -79,8 +81,8 @@ def _experiment(args: argparse.Namespace) -> int:
         scenarios = [dataclasses.replace(s, controller=s.controller.replace(solver=args.solver)) for s in scenarios]
     if args.plant:
         scenarios = [dataclasses.replace(s, plant=args.plant) for s in scenarios]
-    if args.waves:
-        scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.waves))
+    if args.wave_source:
+        scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.wave_source))
                      for s in scenarios]
     from mavbridge.lab.runlog import fresh_run_folder
 

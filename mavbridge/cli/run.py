@@ -25,7 +25,7 @@ from mavbridge.companion.choices import OUTPUTS, WAVE_SOURCES
 from mavbridge.companion.outputs import ATTITUDE_FORMS
 from mavbridge.link.signing import add_link_arguments
 from mavbridge.nmpc.config import SOLVERS
-from vessel.argtypes import seed_number
+from vessel.argtypes import add_renamed, seed_number
 from vessel.config import ConfigError
 from vessel.geo import DEFAULT_MAX_RANGE_M
 
@@ -69,8 +69,11 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
     run.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
-    run.add_argument("--waves", choices=WAVE_SOURCES, help="estimated (default: from the boat's own motion) or "
-                                                           "scenario (the scenario's sea: simulation truth only)")
+    run.add_argument("--wave-source", choices=WAVE_SOURCES,
+                     help="where the NMPC's waves come from: estimated (default, or the YAML's waves: from the boat's "
+                          "own motion) or scenario (the scenario's sea: simulation truth only). --waves is its old "
+                          "name")
+    add_renamed(run, "--waves", "--wave-source", choices=WAVE_SOURCES)
     run.add_argument("--waypoint", type=parse_north_east, metavar="N,E", help="waypoint in metres from home (testing)")
     run.add_argument("--max-range", type=positive_metres, metavar="M",
                      help=f"never engage on a waypoint farther than this from home or the boat (m, default "
@@ -116,8 +119,10 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--sim-params", metavar="FILE", help="a .parm file of the simulator's defaults (e.g. "
                       "deploy/otter-guided-tau.parm for --attitude-form tau)")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
-    demo.add_argument("--waves", choices=WAVE_SOURCES, default="estimated",
-                      help="the companion's waves: estimated (default) or scenario (fly on the simulator's truth)")
+    demo.add_argument("--wave-source", choices=WAVE_SOURCES, default="estimated",
+                      help="where the companion's waves come from: estimated (default) or scenario (fly on the "
+                           "simulator's truth). --waves is its old name")
+    add_renamed(demo, "--waves", "--wave-source", choices=WAVE_SOURCES)
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
     demo.add_argument("--lockstep", action="store_true", help="simulator and companion in lockstep, commanding "
                                                               "from a fixed autopilot time: a reproducible run")
@@ -145,7 +150,7 @@ def run_command(args: argparse.Namespace) -> int:
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = config_from_flags(args.config, {
         **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
-        "waves": ("--waves", args.waves), "lockstep": ("--lockstep", args.lockstep),
+        "waves": ("--wave-source", args.wave_source), "lockstep": ("--lockstep", args.lockstep),
         "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
         "engage_after_s": ("--engage-after", args.engage_after),
         "delay_compensation": ("--delay-compensation", args.delay_compensation),
@@ -249,5 +254,5 @@ def demo_command(args: argparse.Namespace) -> int:
         raise ConfigError(f"--engage-after: {args.engage_after:g} is not finite; allowed [0, 3600] s")
     if not 0.0 <= args.engage_after <= 3600.0:
         raise ConfigError(f"--engage-after: {args.engage_after:g} is outside the allowed range [0, 3600] s")
-    return run_demo(scenario, out, speedup, args.output, args.waves, args.lockstep, args.seed, args.attitude_form,
+    return run_demo(scenario, out, speedup, args.output, args.wave_source, args.lockstep, args.seed, args.attitude_form,
                     args.sim_params, None if args.lockstep else args.engage_after)

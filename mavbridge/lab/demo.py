@@ -3,7 +3,7 @@
 Parses the scenario once and writes it, resolved, to ``<run folder>/scenario.yaml``; both children read
 that one file with the one loader: `sim-vehicle --scenario` its world (vessel, sea, start), `mavbridge run
 --scenario` all of it. Then it uploads the waypoint with `mission upload` (MAVSDK), runs `mavbridge run`
-(which arms and sets the mode, and flies on the wave estimated from the boat's motion unless ``--waves
+(which arms and sets the mode, and flies on the wave estimated from the boat's motion unless ``--wave-source
 scenario``), waits for the arrival or t_max, stops every process it started by its own handles, prints
 the figures and leaves a run folder with tlogs, CSVs, metrics and plots.
 """
@@ -116,7 +116,7 @@ def _interrupt(signum: int, frame: object) -> None:
 def sim_realism(waves: str) -> list[str]:
     """The simulator's sea and sensors for the demo: realistic (its defaults: the hull heaving with the sea,
     a phase the companion is never told, sensor noise) when the companion estimates the waves; with
-    ``--waves scenario`` (simulation-only truth) the phase from boot and exact sensors, so that the truth
+    ``--wave-source scenario`` (simulation-only truth) the phase from boot and exact sensors, so that the truth
     the companion reads is the simulator's."""
     return [] if waves == "estimated" else ["--sea-phase", "boot", "--ideal-sensors"]
 
@@ -139,7 +139,7 @@ def demo_commands(scenario: Scenario, out: Path, resolved: str, ports: tuple[int
                *(["--params", sim_params] if sim_params else [])]
     companion_cmd = [python, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{companion_port}",
                      "--output", output, "--out", str(out / "companion"), "--arm", "--set-mode",
-                     "--scenario", resolved, "--waves", waves, "--solver", scenario.controller.solver,
+                     "--scenario", resolved, "--wave-source", waves, "--solver", scenario.controller.solver,
                      *(["--attitude-form", attitude_form] if attitude_form else []),
                      *(["--engage-after", f"{engage_after_s:g}"] if engage_after_s is not None else [])]
     if lockstep:

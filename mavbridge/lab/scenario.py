@@ -243,6 +243,13 @@ def scenario_from_mapping(data: Any, where: str, name: str | None = None) -> Sce
     return _parse(Scenario, {**settings, "world": world.to_mapping()}, where)
 
 
+def check_scenario_file(path: str | Path) -> None:
+    """Read the scenario file as `mavbridge` does, every section, and keep nothing: a bad field is the one-line
+    ConfigError it would be here. Registered for any reader of scenario files (an entry point run by
+    vessel.world.check_whole_scenario), so that ``sim-vehicle --scenario`` refuses what `mavbridge` refuses."""
+    load_scenarios(path)
+
+
 def load_scenarios(path: str | Path) -> list[Scenario]:
     """Every run a scenario file defines (one for a single scenario, the named runs for a set)."""
     path = Path(path)

@@ -22,9 +22,9 @@ from sim_vehicle.argtypes import finite_number, positive_seconds, sea_state_numb
 from sim_vehicle.json_backend.backend import JsonBackend, open_socket, serve
 from sim_vehicle.json_backend.log import JsonStateCsv, write_sea_record
 from sim_vehicle.json_backend.model import JsonPhysics
-from sim_vehicle.scenario import seeded_waves, sim_world
+from sim_vehicle.scenario import SEA_HELP, seeded_waves, sim_world
 from vessel import OceanCurrent, WaveField
-from vessel.argtypes import naming
+from vessel.argtypes import add_renamed
 from vessel.config import ConfigError
 from vessel.geo import Home
 from vessel.sea.irregular import IrregularWaves
@@ -78,11 +78,8 @@ def build_parser() -> argparse.ArgumentParser:
                    default=f"{DEFAULT_HOST}:{DEFAULT_PORT}", metavar="[HOST:]PORT",
                    help=f"UDP address the firmware sends servo packets to (default {DEFAULT_HOST}:{DEFAULT_PORT}; "
                         "0.0.0.0:PORT for a firmware on another machine)")
-    p.add_argument("--waves", choices=tuple(SEA_PRESETS), default=None,
-                   help="sea state: calm (default), or the paper's 1.75 m / 35 m / 6 s waves")
-    p.add_argument("--sea", metavar="H,LENGTH,PERIOD,DIR",
-                   help="regular waves: height m, wavelength m, period s, travel direction deg; or an irregular "
-                        "sea jonswap:HS,TP,DIR[,GAMMA[,SPREADING]] / pm:HS,TP,DIR (m, s, deg)")
+    p.add_argument("--sea", metavar="NAME|SPEC", help=SEA_HELP)
+    add_renamed(p, "--waves", "--sea", choices=tuple(SEA_PRESETS))
     p.add_argument("--sea-state", type=sea_state_number, metavar="N",
                    help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
     p.add_argument("--heave", choices=("surface", "paper"), default=None,
@@ -92,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vessel", metavar="SET|FILE", help="the simulated boat's hull: a named set (published, "
                    "corrected) or a vessel YAML file (default: the scenario's vessel, else published)")
     p.add_argument("--scenario", type=Path, metavar="FILE",
-                   help="scenario YAML: vessel parameter set, sea and start pose; --waves/--sea/--current override")
+                   help="scenario YAML: vessel parameter set, sea and start pose; --sea/--current override "
+                        "(default: none)")
     p.add_argument("--heading", type=_heading, default=None, metavar="DEG",
                    help=f"initial heading, deg (default {Home().heading_deg:g}, the simulator's home heading)")
     p.add_argument("--seed", type=seed_number, default=None, metavar="N",
@@ -110,8 +108,7 @@ def build_world(args: argparse.Namespace) -> tuple[VesselSpec, WaveField, OceanC
     An irregular sea is averaged over the waterplane of the world's vessel, as the simulator's
     (``sim_vehicle.physics.Physics.create``).
     """
-    with naming("--scenario"):
-        world = sim_world(args.scenario, args.waves, args.sea, args.current, Home(), args.sea_state, args.vessel)
+    world = sim_world(args.scenario, args.sea, args.current, Home(), args.sea_state, args.vessel)
     x0 = world.plant_state()
     if args.heading is not None:
         x0[5] = math.radians(args.heading)

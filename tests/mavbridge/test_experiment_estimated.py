@@ -1,4 +1,4 @@
-"""``mavbridge experiment --waves estimated``: the realistic in-process loop (hidden phase, heave, sensors).
+"""``mavbridge experiment --wave-source estimated``: the realistic in-process loop (hidden phase, heave, sensors).
 
 Real plant, real sensors model, real estimator, real CasADi solves; no mocks. The acceptance runs
 follow issue 12 on the paper's sea: the boat under way at 1.5 m/s heading 90°, hidden phase, hull
@@ -89,7 +89,7 @@ def test_waves_flag_flies_on_the_estimate_and_logs_it(tmp_path: Path, capsys: py
     path = tmp_path / "tiny.yaml"
     path.write_text(yaml.safe_dump(TINY), encoding="utf-8")
     out = tmp_path / "out"
-    assert main(["experiment", str(path), "--out", str(out), "--jobs", "1", "--waves", "estimated"]) == 0
+    assert main(["experiment", str(path), "--out", str(out), "--jobs", "1", "--wave-source", "estimated"]) == 0
     metrics = json.loads((out / "tiny" / "metrics.json").read_text())
     assert metrics["wave_source"] == "estimated"
     assert metrics["time_to_confident_s"] is None  # 3 s is far too short to be confident

@@ -248,14 +248,14 @@ def test_a_gap_in_frame_counts_is_counted_and_stepped_once() -> None:
 
 
 def test_world_from_a_scenario_and_flags_as_the_simulator_reads_it() -> None:
-    """--scenario gives vessel, sea and start pose; --waves and --heading given too override their parts."""
+    """--scenario gives vessel, sea and start pose; --sea and --heading given too override their parts."""
     root = Path(__file__).resolve().parents[2]
     args = build_parser().parse_args(["--json-backend", "9002", "--scenario", str(root / "scenarios/balanced.yaml")])
     vessel, waves, current, x0, wind = build_world(args)
     assert str(vessel) == "published" and waves == sea_preset("paper").waves() and current == OceanCurrent()
     assert wind is None  # still air: the scenario has none
     assert x0[5] == pytest.approx(math.radians(90.0)) and x0.shape == (14,)
-    args = build_parser().parse_args(["--scenario", str(root / "scenarios/balanced.yaml"), "--waves", "calm",
+    args = build_parser().parse_args(["--scenario", str(root / "scenarios/balanced.yaml"), "--sea", "calm",
                                       "--heading", "-45", "--json-backend", "0.0.0.0:9100"])
     _, waves, _, x0, _ = build_world(args)
     assert waves == CalmWater() and x0[5] == pytest.approx(math.radians(-45.0))
@@ -290,7 +290,7 @@ def test_heave_and_sea_state_flags() -> None:
     waves, heave = world("--sea", "jonswap:1.75,6,-90")
     assert isinstance(waves, IrregularWaves) and heave
     assert world("--sea", "jonswap:1.75,6,-90", "--heave", "paper")[1] is False
-    assert world("--waves", "paper")[1] is False and world("--waves", "paper", "--heave", "surface")[1] is True
+    assert world("--sea", "paper")[1] is False and world("--sea", "paper", "--heave", "surface")[1] is True
     waves, heave = world("--sea-state", "4")
     assert isinstance(waves, IrregularWaves) and heave
     expected = IrregularSea(sea_state=4).wave_field(otter_parameters())

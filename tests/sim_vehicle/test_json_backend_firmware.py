@@ -182,7 +182,7 @@ def start_backend(tmp_path: Path, *extra: str) -> Backend:
     """Start the backend in the paper's waves with a fixed seed, logging to tmp_path/run; wait until bound."""
     port = free_udp_port()
     log_dir = tmp_path / "run"
-    cmd = [sys.executable, "-m", "sim_vehicle.cli", "--json-backend", f"127.0.0.1:{port}", "--waves", "paper",
+    cmd = [sys.executable, "-m", "sim_vehicle.cli", "--json-backend", f"127.0.0.1:{port}", "--sea", "paper",
            "--seed", "7", "--log-dir", str(log_dir), "-v", *extra]
     backend = Backend(cmd, port, log_dir)
     backend.wait_listening()

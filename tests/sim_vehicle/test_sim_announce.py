@@ -11,7 +11,7 @@ from sim_vehicle.harness import free_port, sim_vehicle_command
 
 def test_start_lines_name_sea_seed_ports_and_log_folder(tmp_path: Path) -> None:
     tcp, udp = free_port(), free_port(socket.SOCK_DGRAM)
-    done = subprocess.run([*sim_vehicle_command(), "--tcp", str(tcp), "--out", f"udp:127.0.0.1:{udp}", "--waves",
+    done = subprocess.run([*sim_vehicle_command(), "--tcp", str(tcp), "--out", f"udp:127.0.0.1:{udp}", "--sea",
                            "paper", "--seed", "7", "--duration", "0.5", "--speedup", "10", "--log-dir",
                            str(tmp_path / "logs"), "--params-store", str(tmp_path / "p.json")],
                           capture_output=True, text=True, timeout=60)

@@ -1,4 +1,4 @@
-"""`sim-vehicle --scenario/--waves/--sea`: one world, read by the one loader that mavbridge uses too."""
+"""`sim-vehicle --scenario/--sea`: one world, read by the one loader that mavbridge uses too."""
 
 from __future__ import annotations
 
@@ -59,9 +59,9 @@ def test_the_paper_scenarios_load_for_the_simulator() -> None:
 
 
 def test_waves_flag_scenario_default_and_demo_share_the_preset_object() -> None:
-    """`--waves paper`, a scenario's `sea: paper` and the companion's default scenario: the same object."""
-    assert sim_world(None, "paper", None, None, Home()).sea is SEA_PRESETS["paper"]
-    assert sim_world(None, None, None, None, Home()).sea is SEA_PRESETS["calm"]
+    """`--sea paper`, a scenario's `sea: paper` and the companion's default scenario: the same object."""
+    assert sim_world(None, "paper", None, Home()).sea == SEA_PRESETS["paper"]
+    assert sim_world(None, None, None, Home()).sea is SEA_PRESETS["calm"]
     assert Scenario().sea is SEA_PRESETS["paper"] and World().sea is SEA_PRESETS["paper"]
     paper = SEA_PRESETS["paper"]
     assert (paper.height_m, paper.length_m, paper.period_s, paper.travel_dir_deg) == (1.75, 35.0, 6.0, -90.0)
@@ -71,12 +71,12 @@ def test_waves_flag_scenario_default_and_demo_share_the_preset_object() -> None:
 def test_flags_over_a_scenario_replace_only_their_part(tmp_path: Path) -> None:
     path = tmp_path / "s.yaml"
     path.write_text("sea: {height_m: 1.0, current_speed_mps: 0.4, current_dir_deg: 30}\nstart: {heading_deg: 10}\n")
-    world = sim_world(path, "calm", None, None, Home())
-    assert world.sea.height_m == 0.0 and world.sea.current_speed_mps == 0.4  # --waves keeps the current
-    world = sim_world(path, None, "0.5,20,4,45", "0.1,-90", Home())
+    world = sim_world(path, "calm", None, Home())
+    assert world.sea.height_m == 0.0 and world.sea.current_speed_mps == 0.4  # --sea NAME keeps the current
+    world = sim_world(path, "0.5,20,4,45", "0.1,-90", Home())
     assert (world.sea.height_m, world.sea.travel_dir_deg, world.sea.current_dir_deg) == (0.5, 45.0, -90.0)
     assert world.start.heading_deg == 10.0
-    assert sim_world(None, None, None, None, Home(heading_deg=200.0)).start.heading_deg == 200.0
+    assert sim_world(None, None, None, Home(heading_deg=200.0)).start.heading_deg == 200.0
 
 
 def test_sea_literal_yaml_preset_name(tmp_path: Path) -> None:
@@ -177,3 +177,21 @@ def test_scenario_irregular_sea_reaches_the_simulator(tmp_path: Path) -> None:
     with (tmp_path / "logs" / "state.csv").open() as f:
         elevations = [float(r["wave_elevation_m"]) for r in csv.DictReader(f)]
     assert len(set(elevations)) > 5 and max(map(abs, elevations)) > 0.0
+
+
+def test_mavbridge_checks_every_scenario_file_the_simulator_reads(tmp_path: Path) -> None:
+    """`sim-vehicle --scenario` refuses what `mavbridge` refuses, through the entry point mavbridge registers
+    (vessel.world.check_whole_scenario), never by importing it; a file that mavbridge takes passes."""
+    from vessel.config import ConfigError
+    from vessel.world import check_whole_scenario
+
+    good = tmp_path / "good.yaml"
+    good.write_text("controller: {horizon: 15, solver: nrti}\nwaypoint: {acceptance_radius_m: 2}\n")
+    assert check_whole_scenario(good) == ["mavbridge"]
+    for body, field in (("waypoint: {acceptance_radus_m: 2}", "acceptance_radus_m"),
+                        ("controller: {solver: ipopts}", "controller.solver"),
+                        ("controller: {horizon: 15.5}", "controller.horizon")):
+        path = tmp_path / "bad.yaml"
+        path.write_text(body + "\n")
+        with pytest.raises(ConfigError, match=field):
+            sim_world(path, None, None, Home())

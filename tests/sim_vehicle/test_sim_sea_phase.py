@@ -44,7 +44,7 @@ def _run(tmp_path: Path, name: str, *flags: str) -> tuple[np.ndarray, np.ndarray
     return t, zeta, slope_e, proc.stderr
 
 
-@pytest.mark.parametrize("sea", [["--waves", "paper"], ["--sea", "jonswap:1.75,6,-90"]], ids=["regular", "jonswap"])
+@pytest.mark.parametrize("sea", [["--sea", "paper"], ["--sea", "jonswap:1.75,6,-90"]], ids=["regular", "jonswap"])
 def test_seed_sets_crest_timing(tmp_path: Path, sea: list[str]) -> None:
     """Different seeds: different elevations at the same boot times; the same seed: the same record."""
     t1, z1, s1, err1 = _run(tmp_path, "a", *sea, "--seed", "11")
@@ -61,20 +61,20 @@ def test_seed_sets_crest_timing(tmp_path: Path, sea: list[str]) -> None:
 
 def test_fresh_seed_by_default(tmp_path: Path) -> None:
     """Without --seed each start draws its own phase origin (and says which in its start line)."""
-    _, z1, _, err1 = _run(tmp_path, "a", "--waves", "paper")
-    _, _, _, err2 = _run(tmp_path, "b", "--waves", "paper")
+    _, z1, _, err1 = _run(tmp_path, "a", "--sea", "paper")
+    _, _, _, err2 = _run(tmp_path, "b", "--sea", "paper")
     seeds = [json.loads((tmp_path / n / "sea.json").read_text())["seed"] for n in ("a", "b")]
     assert seeds[0] != seeds[1]
     assert f"seed {seeds[0]}" in err1 and f"seed {seeds[1]}" in err2
     # the drawn seed is the one the sea used (two random phases may by chance give nearly the same record,
     # so the records are not compared with each other): replaying it gives the same elevations
-    _, replay, _, _ = _run(tmp_path, "a-replay", "--waves", "paper", "--seed", str(seeds[0]))
+    _, replay, _, _ = _run(tmp_path, "a-replay", "--sea", "paper", "--seed", str(seeds[0]))
     assert np.array_equal(z1, replay)
 
 
 def test_sea_phase_boot_keeps_the_paper_sea(tmp_path: Path) -> None:
     """--sea-phase boot: phase 0 at boot, ζ = (H/2)·sin(ωt − k·s) at the boat as before (for truth tests)."""
-    t, z, _, _ = _run(tmp_path, "a", "--waves", "paper", "--sea-phase", "boot", "--ideal-sensors")
+    t, z, _, _ = _run(tmp_path, "a", "--sea", "paper", "--sea-phase", "boot", "--ideal-sensors")
     with (tmp_path / "a" / "state.csv").open() as f:
         east = np.array([float(r["east_m"]) for r in csv.DictReader(f)])
     omega, k = 2 * np.pi / 6.0, 2 * np.pi / 35.0

@@ -23,7 +23,7 @@ def _sim_cli(*args: str) -> subprocess.CompletedProcess[str]:
 def test_vessel_flag_sets_the_plant_over_the_scenario(tmp_path: Path) -> None:
     boat = tmp_path / "heavy.yaml"
     boat.write_text("base: corrected\npayload_mass: 55\npropeller_scale: [1.0, 0.85]\n")
-    out = _sim_cli("--waves", "calm", "--vessel", str(boat), "--log-dir", str(tmp_path / "logs"))
+    out = _sim_cli("--sea", "calm", "--vessel", str(boat), "--log-dir", str(tmp_path / "logs"))
     assert out.returncode == 0, out.stderr
     sea = json.loads((tmp_path / "logs" / "sea.json").read_text())
     assert sea["vessel"] == {"base": "corrected", "payload_mass": 55.0, "propeller_scale": [1.0, 0.85]}

@@ -55,10 +55,14 @@ FIXTURE_FILES: dict[str, str | None] = {  # name in the tmp folder -> text (None
     "bad_config.yaml": "system_id: 300\n",  # a companion YAML with a field out of range
     "cfg_ok.yaml": "system_id: 250\n",  # a valid companion YAML (a bad flag on top must name the flag)
     "otter.csv": OTTER_CSV,  # a valid Otter API log (mavbridge report/replay): a placeholder row, then 2 s of motion
+    # scenarios whose world is fine and whose other sections are not: refused by every reader of scenario files
+    "typo_waypoint.yaml": "waypoint: {acceptance_radus_m: 2}\n",
+    "bad_solver.yaml": "controller: {solver: ipopts}\n",
+    "half_horizon.yaml": "controller: {horizon: 15.5}\n",
 }
 
 # Flags every parser has: not a value to get wrong (help prints and exits 0 by design).
-HELP_REASON = "prints the help and exits 0; takes no value"
+HELP_REASON = "prints the help (or the version) and exits 0; takes no value"
 
 
 @dataclass(frozen=True)
@@ -76,12 +80,12 @@ class CaseTimeoutError(Exception):
 
 def flags(parser: argparse.ArgumentParser, path: str) -> Iterator[str]:
     """``"<path> <flag>"`` for every option (its first long name) and positional of ``parser`` and its
-    subcommands, help actions left out (see :data:`HELP_REASON`)."""
+    subcommands, help and version actions left out (see :data:`HELP_REASON`)."""
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for name, sub in action.choices.items():
                 yield from flags(sub, f"{path} {name}")
-        elif isinstance(action, argparse._HelpAction):
+        elif isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
             continue
         elif action.option_strings:
             longs = [o for o in action.option_strings if o.startswith("--")] or action.option_strings

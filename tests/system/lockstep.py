@@ -13,7 +13,7 @@ from sim_vehicle.harness import SimProcess
 # wave, so that the sea (phase from boot) meets the boat as at t = 0 of the in-process runs
 START_AT_S = 162.0
 # the lockstep tests compare with in-process runs on the true sea: the companion flies on it too
-LOCKSTEP = ("--lockstep", "--start-at", str(START_AT_S), "--waves", "scenario")
+LOCKSTEP = ("--lockstep", "--start-at", str(START_AT_S), "--wave-source", "scenario")
 # a tick waits up to 20 s wall (only a hung companion times out; the first tick includes the cold solve);
 # from START_AT_S on time is held even before the first command, so the first tick is exactly START_AT_S
 SIM_LOCKSTEP = ["--lockstep", "--lockstep-timeout", "20", "--lockstep-start", str(START_AT_S)]

@@ -41,7 +41,12 @@ def _link_cases(base: str) -> dict[str, list[tuple[str, ...]]]:
         f"mavbridge {command} --connect": [(f"{base} --connect udpin:0.0.0.0:99999", "99999"),
                                            (f"{base} --connect udpin:0.0.0.0",),
                                            (f"{base} --connect tcp:localhost:port",),
-                                           (f"{base} --connect no/such/tty", "no/such/tty")],
+                                           (f"{base} --connect no/such/tty", "no/such/tty"),
+                                           (f"{base} --connect udpin:nothing.invalid:14999", "cannot resolve"),
+                                           (f"{base} --connect udpout:nothing.invalid:14550", "cannot resolve"),
+                                           (f"{base} --connect tcp:127.0.0.1:1", "nothing accepts"),
+                                           (f"{base} --connect udpin:192.0.2.1:14551", "not an address"),
+                                           (f"{base} --connect /dev/no-such-tty,57600", "no such serial")],
         f"mavbridge {command} --baud": [(f"{base} --baud 300", "1200"), (f"{base} --baud fast",)],
         f"mavbridge {command} --sysid": [(f"{base} --sysid 300", "[1, 255]"), (f"{base} --sysid 0", "[1, 255]"),
                                          (f"{base} --config cfg_ok.yaml --sysid 300", "[1, 255]"),
@@ -81,9 +86,12 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge experiment --only": [(f"{EXP} --only nope", "nope")],
     "mavbridge experiment --solver": [(f"{EXP} --solver fast", CHOICE)],
     "mavbridge experiment --plant": [(f"{EXP} --plant sails", CHOICE)],
-    "mavbridge experiment --waves": [(f"{EXP} --waves guessed", CHOICE)],
+    "mavbridge experiment --wave-source": [(f"{EXP} --wave-source guessed", CHOICE),
+                                           (f"{EXP} --wave-source scenario", CHOICE)],
+    "mavbridge experiment --waves": [(f"{EXP} --waves guessed", CHOICE)],  # the old name of --wave-source
     **_link_cases(RUN),
-    "mavbridge run --waves": [(f"{RUN} --waves truth", CHOICE)],
+    "mavbridge run --wave-source": [(f"{RUN} --wave-source truth", CHOICE)],
+    "mavbridge run --waves": [(f"{RUN} --waves truth", CHOICE)],  # the old name of --wave-source
     "mavbridge run --attitude-form": [(f"{RUN} --attitude-form yaw", CHOICE),
                                       (f"{RUN} --attitude-form tau", "--output attitude_target only")],
     "mavbridge run --arm": [(f"{RUN} --dry-run --arm", "--dry-run")],
@@ -110,7 +118,8 @@ CASES: dict[str, list[tuple[str, ...]]] = {
                                     (f"{DEMO} --sim-params adir", "adir")],
     "mavbridge demo --scenario": [(f"{DEMO} --scenario no/such.yaml", "no/such.yaml"),
                                   (f"{DEMO} --scenario adir", "adir")],
-    "mavbridge demo --waves": [(f"{DEMO} --waves truth", CHOICE)],
+    "mavbridge demo --wave-source": [(f"{DEMO} --wave-source truth", CHOICE)],
+    "mavbridge demo --waves": [(f"{DEMO} --waves truth", CHOICE)],  # the old name of --wave-source
     "mavbridge demo --seed": [(f"{DEMO} --seed -1", "[0, 4294967295]"),
                               (f"{DEMO} --seed 4294967296", "[0, 4294967295]"),
                               (f"{DEMO} --seed 1.5", "integer"), (f"{DEMO} --seed nan", "integer")],
@@ -200,10 +209,10 @@ CASES.update({
                                     (f"mavbridge replay otter.csv --waypoint {NAN},0", FINITE)],
     "mavbridge replay --from": [(f"{REPLAY} --from -1", "[0, inf)"), (f"{REPLAY} --from {NAN}", "[0, inf)"),
                                 (f"{REPLAY} --from soon",)],
-    "mavbridge identify log": [("mavbridge identify nothing.csv", "nothing.csv"),
-                               ("mavbridge identify afile.txt", "afile.txt")],
+    "mavbridge identify log": [("mavbridge identify no/such.tlog", "no/such.tlog"),
+                               ("mavbridge identify afile.txt", "afile.txt", "not a log")],
     "mavbridge identify --out": [("mavbridge identify otter.csv --out afile.txt", "afile.txt")],
-    "mavbridge identify --base": [("mavbridge identify otter.csv --base titanic", "titanic")],
+    "mavbridge identify --base": [("mavbridge identify otter.csv --base nope", "nope")],
     "mavbridge replay --to": [(f"{REPLAY} --to -1", "[0, inf)"), (f"{REPLAY} --from 10 --to 5", "--from")],
 })
 
@@ -215,7 +224,6 @@ NO_BAD_VALUE: dict[str, str] = {
     "mavbridge demo --lockstep": "a switch: no value to get wrong",
     "mavbridge demo --direct": "a switch: no value to get wrong",
     "mavbridge sweep --yes": "a switch: no value to get wrong",
-    "mavbridge --version": "prints the version and exits 0; takes no value",
     "mavbridge replay --plan-all": "a switch: no value to get wrong",
 }
 

@@ -49,7 +49,9 @@ CASES: dict[str, list[tuple[str, ...]]] = {
                                  (f"{MAN} --params adir", "adir"),
                                  (f"{MAN} --params broken.yaml", "broken.yaml"),
                                  (f"{MAN} --params list.yaml", "list.yaml")],
-    "vessel maneuver --waves": [(f"{MAN} --waves stormy", "invalid choice")],
+    "vessel maneuver --sea": [(f"{MAN} --sea stormy", "invalid choice"),
+                              ("vessel maneuver --preset roll-decay --sea paper", "decay")],
+    "vessel maneuver --waves": [(f"{MAN} --waves stormy", "invalid choice")],  # the old name of --sea
     "vessel maneuver --csv": [(f"{MAN} --csv adir", "adir"), (f"{MAN} --csv no/such/x.csv", "no/such"),
                               (f"{MAN} --csv afile.txt/x.csv", "afile.txt")],
     "vessel maneuver --plot": [(f"{MAN} --plot x.xyz", "x.xyz"), (f"{MAN} --plot adir", "adir"),
@@ -86,10 +88,13 @@ CASES: dict[str, list[tuple[str, ...]]] = {
                               (f"{SIM} --speedup {NAN}", FINITE), (f"{SIM} --speedup x",)],
     "sim-vehicle --home": [(f"{SIM} --home 1,2,3", "LAT,LON,ALT,HEADING"), (f"{SIM} --home {NAN},0,0,0", FINITE),
                            (f"{SIM} --home 95,0,0,0", "[-89, 89]")],
-    "sim-vehicle --waves": [(f"{SIM} --waves stormy", "invalid choice")],
+    "sim-vehicle --waves": [(f"{SIM} --waves stormy", "invalid choice")],  # the old name of --sea
     "sim-vehicle --scenario": [(f"{SIM} --scenario no/such.yaml", "no/such.yaml"), (f"{SIM} --scenario adir", "adir"),
                                (f"{SIM} --scenario empty.yaml", "empty.yaml"),
-                               (f"{SIM} --scenario broken.yaml", "broken.yaml")],
+                               (f"{SIM} --scenario broken.yaml", "broken.yaml"),
+                               (f"{SIM} --scenario typo_waypoint.yaml", "acceptance_radus_m"),
+                               (f"{SIM} --scenario bad_solver.yaml", "controller.solver", "ipopts"),
+                               (f"{SIM} --scenario half_horizon.yaml", "controller.horizon", "15.5")],
     "sim-vehicle --sea": [(f"{SIM} --sea 1.75,0,6,-90",), (f"{SIM} --sea {NAN},35,6,0", FINITE),
                           (f"{SIM} --sea 1,2,3",), (f"{SIM} --sea -1,35,6,0",), (f"{SIM} --sea 1.75,35,0,0",)],
     "sim-vehicle --sea-state": [(f"{SIM} --sea-state 9", "[0, 8]"), (f"{SIM} --sea-state x", "[0, 8]")],
@@ -128,7 +133,8 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "sim-vehicle --vessel": [(f"{SIM} --vessel titanic", "--vessel: 'titanic' is neither a named set"),
                              (f"{SIM} --vessel list.yaml", "expected a vessel mapping")],
     "sim-vehicle --json-backend --scenario": [(f"{JSON} --scenario no/such.yaml", "no/such.yaml"),
-                                              (f"{JSON} --scenario empty.yaml", "empty.yaml")],
+                                              (f"{JSON} --scenario empty.yaml", "empty.yaml"),
+                                              (f"{JSON} --scenario bad_solver.yaml", "controller.solver")],
     "sim-vehicle --json-backend --heading": [(f"{JSON} --heading 400", "[-360, 360]"),
                                              (f"{JSON} --heading {NAN}", FINITE)],
     "sim-vehicle --json-backend --seed": [(f"{JSON} --seed -1",)],
@@ -149,8 +155,6 @@ NO_BAD_VALUE: dict[str, str] = {
     "sim-vehicle --json-backend": "hands the whole command line to the JSON-backend parser, whose own --json-backend "
                                   "has the cases ('sim-vehicle --json-backend --json-backend')",
     "sim-vehicle --json-backend --verbose": "a switch: no value to get wrong",
-    "sim-vehicle --version": "prints the version and exits 0; takes no value",
-    "vessel --version": "prints the version and exits 0; takes no value",
 }
 
 

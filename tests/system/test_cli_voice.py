@@ -34,6 +34,23 @@ def test_a_bare_command_prints_its_usage_and_commands(name: str) -> None:
 
 
 def test_a_roll_decay_in_waves_is_refused_in_one_line() -> None:
-    done = _run("vessel.cli", "maneuver", "--preset", "roll-decay", "--waves", "paper")
+    done = _run("vessel.cli", "maneuver", "--preset", "roll-decay", "--sea", "paper")
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "decay" in done.stderr
     assert done.stdout == ""
+
+
+RENAMED = [("vessel.cli", ("maneuver", "--preset", "roll-decay", "--waves", "paper"), "--sea", "decay"),
+           ("sim_vehicle.cli", ("--waves", "paper", "--no-tcp", "--no-out", "--duration", "0.2", "--speedup", "0"),
+            "--sea", "regular waves H 1.75 m"),
+           ("mavbridge.cli", ("run", "--waves", "scenario", "--dry-run", "--arm"), "--wave-source", "--dry-run")]
+
+
+@pytest.mark.parametrize(("module", "args", "new", "then"), RENAMED, ids=[r[0] for r in RENAMED])
+def test_an_old_flag_name_still_works_and_says_its_new_one(module: str, args: tuple[str, ...], new: str,
+                                                            then: str) -> None:
+    """``--waves`` meant a named sea (vessel, sim-vehicle) or where the companion's waves come from (mavbridge):
+    each meaning has its own name now, and the old one is taken, with one line naming the new one first."""
+    done = _run(module, *args)
+    lines = done.stderr.strip().splitlines()
+    assert lines[0].endswith(f"--waves is now {new} (the old name still works, for now)"), done.stderr
+    assert then in done.stderr + done.stdout, done

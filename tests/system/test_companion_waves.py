@@ -1,7 +1,7 @@
 """The companion flies on the estimated wave, never on the simulator's sea: real processes over UDP loopback.
 
 `sim-vehicle` runs a sea that differs from the companion's scenario (another direction, period and
-length); `mavbridge run` with its default ``--waves estimated`` must fly to the waypoint, and whatever it
+length); `mavbridge run` with its default ``--wave-source estimated`` must fly to the waypoint, and whatever it
 estimated (companion.csv) must be the simulator's sea, not the scenario's. On a simulator with ideal
 sensors and a hull that does not heave (the paper's plant) the estimator has only the slopes and the
 Doppler shift, so a confident estimate is not guaranteed: every confident row must match the simulator's

@@ -25,7 +25,7 @@ def test_a_startup_after_the_lockstep_start_is_said(tmp_path: Path) -> None:
     with SimProcess(tmp_path / "sim", speedup=1, waves="paper", udp_outs=1,
                     extra=[HOME, "--wipe", "--lockstep", "--lockstep-timeout", "5", "--lockstep-start", "0.1"]) as sim:
         cmd = [sys.executable, "-m", "mavbridge.cli", "run", "--connect", f"udpin:127.0.0.1:{sim.udp_ports[0]}",
-               "--solver", "asrti", "--waves", "scenario", "--arm", "--set-mode", "--out", str(tmp_path / "run"),
+               "--solver", "asrti", "--wave-source", "scenario", "--arm", "--set-mode", "--out", str(tmp_path / "run"),
                "--waypoint", "85,75", "--lockstep", "--start-at", "0.1", "--max-time", "1"]
         try:
             done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)

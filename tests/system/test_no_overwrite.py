@@ -22,7 +22,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 
 def _sim(log_dir: Path, workdir: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*sim_vehicle_command(), "--tcp", str(free_port()), "--no-out", "--waves", "paper",
+    return subprocess.run([*sim_vehicle_command(), "--tcp", str(free_port()), "--no-out", "--sea", "paper",
                            "--speedup", "10", "--duration", "3", "--log-dir", str(log_dir), "--params-store",
                            str(workdir / "params.json"), "--seed", "0"], capture_output=True, text=True, timeout=120)
 

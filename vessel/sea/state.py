@@ -96,7 +96,7 @@ class SeaState:
         return None if wind.calm else wind
 
     def with_waves_of(self, other: SeaState) -> SeaState:
-        """This sea's current with ``other``'s waves (``sim-vehicle --waves`` over a scenario's sea)."""
+        """This sea's current with ``other``'s waves (``sim-vehicle --sea NAME`` over a scenario's sea)."""
         current = {name: getattr(self, name) for name in CURRENT_FIELDS}
         return dataclasses.replace(other, **current)
 
@@ -117,7 +117,7 @@ class SeaState:
 
 
 CURRENT_FIELDS = ("current_speed_mps", "current_dir_deg", "wind_speed_mps", "wind_from_deg", "wind_gust_mps",
-                  "wind_seed")  # what --waves NAME keeps of a scenario's sea: all but the waves
+                  "wind_seed")  # what --sea NAME keeps of a scenario's sea: all but the waves
 
 
 def describe_irregular(sea: IrregularSea) -> str:

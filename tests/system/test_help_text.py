@@ -1,0 +1,157 @@
+"""Every flag's help says its default (or that it is required, or a switch) and, for a number, its range: walked
+over every command's and subcommand's parser (mavbridge and each subcommand, sim-vehicle and its JSON backend,
+mission and each subcommand, vessel and each subcommand), so that a flag added without them fails here."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from collections.abc import Iterator
+
+import pytest
+
+import mavbridge.cli
+import mission.cli
+import sim_vehicle.cli
+import sim_vehicle.json_backend.cli
+import vessel.cli
+
+PARSERS = {"mavbridge": mavbridge.cli.build_parser, "sim-vehicle": sim_vehicle.cli.build_parser,
+           "sim-vehicle --json-backend": sim_vehicle.json_backend.cli.build_parser, "mission": mission.cli.build_parser,
+           "vessel": vessel.cli.build_parser}
+SWITCHES = (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._StoreConstAction, argparse._CountAction,
+            argparse.BooleanOptionalAction, argparse._HelpAction, argparse._VersionAction)
+DEFAULT = re.compile(r"default|required|\(none\)|optional|always|as given", re.IGNORECASE)
+RANGE = re.compile(r"[\[(]\s*-?[\d.]+|[<>]=?\s*-?\d|≥|≤|\d\s*(\.\.|–|to)\s*\d|whole number|integer in")
+
+
+NOT_YET: frozenset[str] = frozenset({  # still to write: the list only shrinks (the test fails on one now complete)
+    "mavbridge experiment --solver",
+    "mavbridge experiment --plant",
+    "mavbridge run --config",
+    "mavbridge run --connect",
+    "mavbridge run --baud",
+    "mavbridge run --sysid",
+    "mavbridge run --compid",
+    "mavbridge run --output",
+    "mavbridge run --waypoint",
+    "mavbridge run --max-time",
+    "mavbridge run --start-at",
+    "mavbridge run --command-retries",
+    "mavbridge run --signing-passphrase-file",
+    "mavbridge demo --output",
+    "mavbridge check --config",
+    "mavbridge check --connect",
+    "mavbridge check --baud",
+    "mavbridge check --sysid",
+    "mavbridge check --compid",
+    "mavbridge check --output",
+    "mavbridge check --port",
+    "mavbridge check --waypoint",
+    "mavbridge check --timeout",
+    "mavbridge check --command-retries",
+    "mavbridge check --signing-passphrase-file",
+    "mavbridge tune --min-reduction",
+    "mavbridge tune --max-time",
+    "mavbridge tune --solver",
+    "mavbridge signing setup --config",
+    "mavbridge signing setup --connect",
+    "mavbridge signing setup --baud",
+    "mavbridge signing setup --signing-passphrase-file",
+    "mavbridge signing setup --timeout",
+    "mavbridge report --format",
+    "mavbridge replay --format",
+    "mavbridge replay --attitude-form",
+    "mavbridge replay --waypoint",
+    "mavbridge replay --from",
+    "mavbridge replay --to",
+    "sim-vehicle --serial",
+    "sim-vehicle --speedup",
+    "sim-vehicle --sea-state",
+    "sim-vehicle --current",
+    "sim-vehicle --hide-params",
+    "sim-vehicle --signing-passphrase",
+    "sim-vehicle --log-dir",
+    "sim-vehicle --duration",
+    "sim-vehicle --lockstep-start",
+    "sim-vehicle --json-backend --sea-state",
+    "sim-vehicle --json-backend --current",
+    "sim-vehicle --json-backend --log-dir",
+    "sim-vehicle --json-backend --duration",
+    "mission upload --timeout",
+    "mission upload --waypoint",
+    "mission upload --latlon",
+    "mission download --timeout",
+    "mission download --out",
+    "mission clear --timeout",
+    "vessel maneuver --preset",
+    "vessel maneuver --left",
+    "vessel maneuver --right",
+    "vessel maneuver --roll-deg",
+    "vessel maneuver --pitch-deg",
+    "vessel maneuver --zigzag-deg",
+    "vessel maneuver --integrator",
+    "vessel maneuver --params",
+    "vessel maneuver --csv",
+    "vessel maneuver --plot",
+    "vessel sea --spectrum",
+    "vessel sea --sea-state",
+    "vessel sea --plot",
+})
+
+
+def _numeric(action: argparse.Action) -> bool:
+    """A flag whose value is one number (int, float, or a type whose name or doc says so)."""
+    kind = action.type
+    if kind in (int, float):
+        return True
+    text = f"{getattr(kind, '__name__', '')} {getattr(kind, '__doc__', '') or ''}".lower()
+    if kind is None or action.choices is not None or re.search(r"url|connection|,|pair|device|list", text):
+        return False  # a string, a choice, or several values (their forms are checked as bad input)
+    return bool(re.search(r"number|seconds|metres|port|speed-up|speedup|seed", text))
+
+
+def options(parser: argparse.ArgumentParser, path: str) -> Iterator[tuple[str, argparse.Action]]:
+    """(command path and flag, action) for every visible option of ``parser`` and its subcommands."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from options(sub, f"{path} {name}")
+        elif action.option_strings and action.help != argparse.SUPPRESS:
+            yield f"{path} {action.option_strings[-1]}", action
+
+
+def problems(action: argparse.Action) -> list[str]:
+    """What the flag's help leaves unsaid."""
+    text = action.help or ""
+    if isinstance(action, SWITCHES):
+        return [] if text else ["no help"]
+    found = []
+    if not (DEFAULT.search(text) or action.required):
+        found.append("no default")
+    if _numeric(action) and not RANGE.search(text):
+        found.append("no range")
+    if action.choices is not None and not any(str(c) in text for c in action.choices) and action.metavar is None:
+        found.append("choices not named")  # argparse shows {a,b} in the usage when there is no metavar
+    return found
+
+
+def _all() -> list[tuple[str, argparse.Action]]:
+    return [item for name, build in PARSERS.items() for item in options(build(), name)]
+
+
+def test_every_flag_says_its_default_and_range() -> None:
+    """No flag's help is incomplete, but for those of :data:`NOT_YET` (each still incomplete: the list shrinks)."""
+    bad = {name: problems(action) for name, action in _all() if problems(action)}
+    new = {name: why for name, why in bad.items() if name not in NOT_YET}
+    assert not new, "flags whose help is incomplete:\n" + "\n".join(f"  {k}: {', '.join(v)}" for k, v in new.items())
+    done = sorted(set(NOT_YET) - set(bad))
+    assert not done, f"complete now: take them off NOT_YET: {done}"
+
+
+@pytest.mark.parametrize("name", sorted(PARSERS))
+def test_help_prints(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Every parser's --help prints and exits 0 (its format strings are valid)."""
+    with pytest.raises(SystemExit) as done:
+        PARSERS[name]().parse_args(["--help"])
+    assert done.value.code == 0 and "usage:" in capsys.readouterr().out
