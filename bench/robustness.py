@@ -224,6 +224,34 @@ def current_study(jobs: int) -> None:
         print(f"{case.name:14s}" + "".join(cells))
 
 
+def chart(rows: list[dict[str, Any]], path: Path) -> None:
+    """The family's cuts as bars (each seed a dot, the mean a bar) beside each case's bound, and the 30 % line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [r["case"] for r in rows]
+    fig, ax = plt.subplots(figsize=(9, 4.6), dpi=90)
+    y = range(len(rows))
+    means = [100 * sum(r["cuts"]) / len(r["cuts"]) for r in rows]
+    bounds = [100 * sum(r["bounds"]) / len(r["bounds"]) for r in rows]
+    ax.barh(y, means, color="#4c78a8", label="Balanced's cut on the estimate (mean of the seeds)")
+    for i, r in enumerate(rows):
+        ax.plot([100 * c for c in r["cuts"]], [i] * len(r["cuts"]), "o", color="#1f3b5c", markersize=3)
+    ax.plot(bounds, list(y), "|", color="#e45756", markersize=14, markeredgewidth=2, label="bound: told the truth")
+    ax.axvline(30, color="grey", linestyle="--", linewidth=1, label="30 %")
+    ax.set_yticks(list(y), names, fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xlabel("average-roll cut against Direct (%)")
+    ax.set_xlim(0, 60)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3, frameon=False)
+    ax.set_title("Boats that are not the model: the roll cut on the estimate, sea seeds 1-3", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def in_process(cases: list[Case], seeds: list[int], jobs: int, out: Path) -> None:
     """The in-process family: every run, then the table; results.json in ``out``."""
     periods = {c.name: free_roll_period(case_scenarios(c, 1, False)[0].plant_params()) for c in cases}
@@ -234,6 +262,8 @@ def in_process(cases: list[Case], seeds: list[int], jobs: int, out: Path) -> Non
     rows = [case_row(c, seeds, results) for c in cases]
     print_table(cases, rows, periods)
     (out / "results.json").write_text(json.dumps({"rows": rows, "runs": results}, indent=1, default=str))
+    chart(rows, out / "robustness.png")
+    print(f"chart: {out / 'robustness.png'} (the docs' copy: docs/images/robustness.png)")
 
 
 def main() -> None:
