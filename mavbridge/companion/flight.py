@@ -243,7 +243,7 @@ class Companion:
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
         self.gate.command_sent()  # the period's samples to the estimator's process, once the command is out
-        self.observe(now_ms, np.array(achieved_tau(self.nmpc.params, *result.tau)) if columns is not None else IDLE)
+        self.observe(now_ms, self._in_effect(result.tau if columns is not None else IDLE))
         self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
         if self.observer is not None:
             wave.update(self.observer.row())
@@ -255,6 +255,13 @@ class Companion:
         self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
         self.notices.progress(now_ms / 1000.0, math.hypot(target[0] - x[0], target[1] - x[1]), float(x[3]),
                               result.wall_time_s * 1e3)
+
+    def _in_effect(self, tau: np.ndarray) -> np.ndarray | None:
+        """The thrust the boat has from now on, for the observer: what the propellers give of the command sent on the
+        RC path; unknown (None) in GUIDED, where Rover's loops make it, or in a dry run with the boat armed."""
+        if self.output.sends and self.config.output == "rc_override":
+            return np.array(achieved_tau(self.nmpc.params, *tau))
+        return None if self.supervisor.armed else IDLE
 
     def _fail(self, link: Link, reason: str) -> None:
         """End the run as a failure (exit 1), standing down first."""

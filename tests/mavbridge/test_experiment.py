@@ -75,7 +75,6 @@ def test_experiment_set_runs_in_parallel_and_writes_table(tmp_path: Path) -> Non
     ["experiment", "{tiny}", "--only", "nobody"],
     ["experiment", "{bad}"],
     ["fly"],
-    [],
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path: Path, capsys: pytest.CaptureFixture, args: list[str]) -> None:
     tiny = _tiny(tmp_path)
@@ -86,6 +85,14 @@ def test_bad_input_exits_2_with_one_line(tmp_path: Path, capsys: pytest.CaptureF
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("mavbridge"), err
+    assert "Traceback" not in err
+
+
+def test_a_bare_mavbridge_prints_its_usage_and_commands_and_exits_2(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as info:
+        raise SystemExit(main([]))
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.startswith("usage: mavbridge") and "experiment" in err
     assert "Traceback" not in err
 
 

@@ -360,10 +360,10 @@ def test_waypoint_comes_from_the_mission_and_follows_its_changes(tmp_path: Path,
         assert _upload(gcs_port, "--waypoint", "300,0").returncode == 0  # far away: not reached in this test
         companion = companion_factory(companion_port, "--lockstep", waypoint=None)  # engages at its first command
         assert companion.wait_line("phase: engaged", 60), "\n".join(companion.lines)
-        assert companion.wait_line("1 waypoint(s) from the mission", 1)
+        assert companion.wait_line("1 waypoint from the mission", 1)
         done = _upload(gcs_port, "--waypoint", "15,20")  # the operator moves the goal mid-run
         assert done.returncode == 0, done.stderr
-        assert companion.wait_line("1 waypoint(s) from the mission", 30, count=2), "\n".join(companion.lines)
+        assert companion.wait_line("1 waypoint from the mission", 30, count=2), "\n".join(companion.lines)
         assert companion.wait(120) == 0
         metrics = companion.metrics()
         assert metrics["phase"] == "ARRIVED" and metrics["time_to_waypoint_s"] < 60, metrics

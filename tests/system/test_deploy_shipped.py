@@ -87,7 +87,7 @@ def test_companion_configuration_starts_as_shipped(tmp_path: Path, name: str) ->
             modem.close()
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
     assert "error" not in run.stdout + run.stderr, run.stdout[-3000:] + run.stderr
-    assert "1 waypoint(s) from the mission" in run.stdout
+    assert "1 waypoint from the mission" in run.stdout
     resolved = yaml.safe_load((out / "config.yaml").read_text())
     shipped = yaml.safe_load(config.read_text())
     changed = {k: (v, resolved["companion"][k]) for k, v in shipped.items()

@@ -71,6 +71,7 @@ class Flight:
     observer: Any = None  # the companion's disturbance observer (None: its config says none)
     stale_s: float = 0.5  # the companion's stale_state_s (the observer leaves a stale state out)
     start_s: float = 0.0  # the companion's start_at_s: before it, it takes no step (nor its observer's period)
+    rc_path: bool = True  # the companion flew the RC path (its observer knows the thrust only there)
     solve_ms: list[float] = field(default_factory=list)
     engaged_solve_ms: list[float] = field(default_factory=list)  # (the gate's steps: its summary's step time)
 
@@ -176,9 +177,9 @@ class Flight:
             self.prepared = True
         result = self.nmpc.solve(x, t, target, defer_advance=True)
         gate.command_sent()  # (as the companion, once its command is out)
-        if would:
-            self._observe(t, np.array(achieved_tau(self.nmpc.params, *result.tau)) if np.all(np.isfinite(result.tau))
-                          else IDLE)
+        if would:  # (as the companion: the RC path's command as the propellers give it; unknown in GUIDED)
+            given = result.tau if np.all(np.isfinite(result.tau)) else IDLE
+            self._observe(t, np.array(achieved_tau(self.nmpc.params, *given)) if self.rc_path else None)
         self.nmpc.advance()
         other = self.shadow if gate is self.gate else self.gate
         if other is not None:
@@ -283,6 +284,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     flight.prepare_at_engaging = config.start_at_s is not None
     flight.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
     flight.stale_s, flight.start_s = config.stale_state_s, config.start_at_s or 0.0
+    flight.rc_path = config.output == "rc_override"
     return flight
 
 
