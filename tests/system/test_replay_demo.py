@@ -47,7 +47,12 @@ def test_replay_of_a_lockstep_demo_is_the_live_flight(tmp_path: Path, capsys: py
         rows = [r for r in csv.DictReader(handle) if r["would_command"] == "1"]
     with (run / "companion" / "companion.csv").open(newline="") as handle:
         steps = {round(float(r["t_s"]), 3): r for r in csv.DictReader(handle)}
-    assert len(rows) == len(steps) > 500  # the companion's steps, no more, no fewer
+    # the companion's steps, no more, no fewer, but for the last: the replay also looks for the arrival between its
+    # steps (an ATTITUDE inside the acceptance radius); on a busy machine it was seen to arrive one step before the
+    # live run (861 of 862 steps, every command equal), so the live run's last step may be missing
+    times = [round(float(r["t_s"]), 3) for r in rows]
+    assert len(steps) > 500 and times == sorted(steps)[:len(times)] and len(steps) - len(rows) in (0, 1), \
+        (len(rows), len(steps), sorted(set(steps) - set(times)))
     for row in rows:  # each engaged step: the command the companion sent (logged in its tlog), to the microsecond
         for what in ("steering", "throttle"):
             assert row[f"logged_{what}_pwm_us"] != "", row["t_s"]

@@ -72,6 +72,7 @@ class Flight:
     stale_s: float = 0.5  # the companion's stale_state_s (the observer leaves a stale state out)
     start_s: float = 0.0  # the companion's start_at_s: before it, it takes no step (nor its observer's period)
     rc_path: bool = True  # the companion flew the RC path (its observer knows the thrust only there)
+    lockstep: bool = False  # the companion flew in lockstep (its observer then learns only while commanding)
     solve_ms: list[float] = field(default_factory=list)
     engaged_solve_ms: list[float] = field(default_factory=list)  # (the gate's steps: its summary's step time)
 
@@ -155,7 +156,7 @@ class Flight:
         would = self.would_command()
         if not would and t >= self.start_s:  # as the companion: the observer's period, idle when disarmed, unknown
             # when a pilot drives
-            self._observe(t, None if self.armed else IDLE)
+            self._observe(t, IDLE if not (self.armed or self.lockstep) else None)
         if not would and self.shadow is None:
             return
         x = self.state.vector()
@@ -284,7 +285,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     flight.prepare_at_engaging = config.start_at_s is not None
     flight.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
     flight.stale_s, flight.start_s = config.stale_state_s, config.start_at_s or 0.0
-    flight.rc_path = config.output == "rc_override"
+    flight.rc_path, flight.lockstep = config.output == "rc_override", config.lockstep
     return flight
 
 
