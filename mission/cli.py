@@ -87,17 +87,23 @@ def build_parser() -> OneLineParser:
     common.add_argument("--connect", type=_connection, default=transfer.DEFAULT_URL,
                         help=f"MAVSDK connection URL (default {transfer.DEFAULT_URL}; udpin:HOST:PORT, pymavlink's "
                              "form, is taken as udpin://HOST:PORT)")
-    common.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the vehicle")
+    common.add_argument("--timeout", type=float, default=10.0,
+                        help="seconds to wait for the vehicle, (0, 600] (default 10)")
     up = sub.add_parser("upload", parents=[common], help="upload a waypoint mission")
     source = up.add_mutually_exclusive_group(required=True)
-    source.add_argument("--waypoint", type=_pair, metavar="N,E", help="one waypoint, metres north,east of home")
-    source.add_argument("--latlon", type=_pair, metavar="LAT,LON", help="one waypoint in degrees")
+    source.add_argument("--waypoint", type=_pair, metavar="N,E",
+                        help="one waypoint, metres north,east of home, within --max-range (one of --waypoint, "
+                             "--latlon or FILE is required)")
+    source.add_argument("--latlon", type=_pair, metavar="LAT,LON",
+                        help="one waypoint in degrees, LAT in [-90, 90], LON in [-180, 180], within --max-range of "
+                             "the vehicle's home (one of --waypoint, --latlon or FILE is required)")
     source.add_argument("file", nargs="?", help="a QGroundControl .plan or QGC WPL 110 .waypoints file")
     up.add_argument("--max-range", type=positive_metres, default=DEFAULT_MAX_RANGE_M, metavar="M",
                     help=f"refuse a waypoint farther than this from home (m, default {DEFAULT_MAX_RANGE_M:g}: the "
                          "companion's engage limit)")
     down = sub.add_parser("download", parents=[common], help="download the stored mission")
-    down.add_argument("--out", metavar="FILE", help="write it as .plan or .waypoints (by extension)")
+    down.add_argument("--out", metavar="FILE", help="write it as .plan or as QGC WPL 110 .waypoints, .txt or "
+                                                    ".mission (by extension; default: none, printed only)")
     sub.add_parser("clear", parents=[common], help="clear the stored mission")
     return parser
 

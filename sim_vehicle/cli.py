@@ -17,7 +17,7 @@ from sim_vehicle.cli_checks import check_outputs, check_params_store, check_seri
 from sim_vehicle.logs import fresh_log_dir
 from sim_vehicle.mavlink.signing import store_signing_passphrase
 from sim_vehicle.rover.params import ParamTable, is_param_name, read_parm
-from sim_vehicle.scenario import SEA_HELP, sim_world
+from sim_vehicle.scenario import CURRENT_HELP, SEA_HELP, SEA_STATE_HELP, sim_world
 from sim_vehicle.sim import Options, Simulator
 from vessel.argtypes import OneLineParser, add_renamed, add_version, naming
 from vessel.config import ConfigError
@@ -109,9 +109,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=_serial,
         metavar="DEVICE[,BAUD]",
         help="also serve MAVLink on a serial device (a UART, USB adapter or /dev/pts/N) as SERIAL2: "
-        "needs SERIAL2_PROTOCOL 1 or 2, stream rates SR2_*, baud from SERIAL2_BAUD unless given",
+        "needs SERIAL2_PROTOCOL 1 or 2, stream rates SR2_*; BAUD in [1200, 4000000], else SERIAL2_BAUD's "
+        "(default: none, no serial port)",
     )
-    p.add_argument("--speedup", type=_speedup, default=1.0, help="simulated/wall time ratio (1 = real time)")
+    p.add_argument("--speedup", type=_speedup, default=1.0,
+                   help="simulated/wall time ratio, [0, 1000]: 1 = real time, 0 = as fast as possible (default 1)")
     p.add_argument(
         "--home",
         type=_home,
@@ -136,7 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sea", metavar="NAME|SPEC", help=SEA_HELP)
     add_renamed(p, "--waves", "--sea", choices=tuple(SEA_PRESETS))
     p.add_argument("--sea-state", type=sea_state_number, metavar="N",
-                   help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
+                   help=SEA_STATE_HELP)
     p.add_argument("--seed", type=seed_number, metavar="N",
                    help="seed of the sea's hidden phase origin and the sensor noise, integer in "
                         f"[0, {SEED_MAX}] (default: a fresh one each start, printed and written to sea.json)")
@@ -149,7 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="surface: the hull heaves with the sea; paper: the paper's model (default: paper with "
                         "--ideal-sensors in a regular sea, else surface)")
     p.add_argument(
-        "--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg"
+        "--current", metavar="SPEED,DIR", help=CURRENT_HELP
     )
     p.add_argument("--params", type=Path, metavar="FILE", help=".parm file of default values (NAME VALUE)")
     p.add_argument(
@@ -162,19 +164,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--wipe", action="store_true", help="forget stored parameters and missions first")
     p.add_argument("--hide-params", type=parameter_names, metavar="NAME,...",
                    help="serve these parameters as an autopilot whose firmware lacks them: not listed, a read or set "
-                        "answered as for an unknown name (the simulation still uses their values; for tests)")
+                        "answered as for an unknown name (the simulation still uses their values; for tests); each "
+                        "a parameter of this simulator (default: none)")
     p.add_argument("--no-param-error", action="store_true",
                    help="answer a read or set of an unknown parameter with nothing, as firmware before PARAM_ERROR "
                         "(default: PARAM_ERROR DOES_NOT_EXIST, as recent ArduPilot)")
     p.add_argument("--signing-passphrase", metavar="TEXT", help="MAVLink 2 signing on, key SHA-256(TEXT) as MAVProxy's "
-                   "`signing setup` makes it, stored with the parameters (unsigned accepted only on the TCP port)")
-    p.add_argument("--log-dir", type=Path, metavar="DIR", help="write sim_vehicle.tlog and state.csv here")
+                   "`signing setup` makes it, stored with the parameters (unsigned accepted only on the TCP port); "
+                   "default: the key stored in --params-store (an earlier --signing-passphrase or SETUP_SIGNING), "
+                   "else unsigned")
+    p.add_argument("--log-dir", type=Path, metavar="DIR",
+                   help="write sim_vehicle.tlog and state.csv here (default: none, no logs)")
     p.add_argument(
         "--no-rc-receiver",
         action="store_true",
         help="no simulated RC receiver: only overrides give RC (RC failsafe applies)",
     )
-    p.add_argument("--duration", type=positive_seconds, metavar="S", help="stop after S simulated seconds")
+    p.add_argument("--duration", type=positive_seconds, metavar="S",
+                   help="stop after S simulated seconds, S > 0 (default: none, run until SIGINT or SIGTERM)")
     p.add_argument(
         "--wait-for-client",
         action="store_true",

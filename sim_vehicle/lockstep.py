@@ -156,5 +156,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--lockstep-start", type=_seconds_in(0.0, 1e6), default=None, metavar="S",
         help="hold from simulated time S on even before the first command (the controller's first tick, e.g. "
-             "`mavbridge run --start-at S`, then sees exactly time S, however long its startup took)",
+             "`mavbridge run --start-at S`, then sees exactly time S, however long its startup took); S in "
+             "[0, 1e6] s (default: none, held from the controller's first command on)",
     )

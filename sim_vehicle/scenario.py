@@ -35,6 +35,10 @@ SEA_HELP = (f"the sea's waves: a named sea ({' or '.join(SEA_PRESETS)}: the pape
             "from the East), regular H,LENGTH,PERIOD,DIR (m, m, s, deg: H >= 0, LENGTH and PERIOD > 0) or an "
             "irregular jonswap:HS,TP,DIR[,GAMMA[,SPREADING]] / pm:HS,TP,DIR (m, s, deg); default: the scenario's "
             "sea, else calm. --waves NAME is its old name")
+SEA_STATE_HELP = ("irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp), "
+                  "in place of --sea's or the scenario's waves (default: none: theirs, else calm)")
+CURRENT_HELP = ("uniform current: SPEED m/s in [0, 5] and DIR, the direction it flows to, deg in [-360, 360] "
+                "(default: the scenario's current, else none)")
 TIME_ORIGIN_MAX_S = 3600.0  # an irregular sea's hidden time origin is drawn from [0, this)
 
 

@@ -36,26 +36,37 @@ def build_parser() -> OneLineParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     man = sub.add_parser("maneuver", help="run a standard open-water maneuver on the bare plant",
                          description="Shaft commands are percent of n_max (negative = reverse).")
-    man.add_argument("--preset", choices=sorted(PRESETS), help="a named maneuver; flags given override it")
-    man.add_argument("--left", type=_number, help="left (port) shaft speed, %% of n_max, [-100, 100]")
-    man.add_argument("--right", type=_number, help="right (starboard) shaft speed, %% of n_max, [-100, 100]")
+    man.add_argument("--preset", choices=sorted(PRESETS),
+                     help=f"a named maneuver, one of {', '.join(sorted(PRESETS))}; flags given override it "
+                          "(default: none: --left and --right are required)")
+    man.add_argument("--left", type=_number, help="left (port) shaft speed, %% of n_max, [-100, 100] (default: "
+                                                  "the preset's; required without --preset)")
+    man.add_argument("--right", type=_number, help="right (starboard) shaft speed, %% of n_max, [-100, 100] "
+                                                   "(default: the preset's; required without --preset)")
     man.add_argument("--duration", type=_number, help="simulated time in s, (0, 3600] (default 60)")
     man.add_argument("--dt", type=_number, help="integration step in s, (0, 0.1] (default 0.01)")
-    man.add_argument("--roll-deg", type=_number, help="initial roll in degrees, [-60, 60]")
-    man.add_argument("--pitch-deg", type=_number, help="initial pitch in degrees, [-60, 60]")
-    man.add_argument("--zigzag-deg", type=_number, help="zig-zag: swap sides at ±this heading change")
-    man.add_argument("--integrator", choices=INTEGRATORS, default="rk4")
+    man.add_argument("--roll-deg", type=_number, help="initial roll in degrees, [-60, 60] (default: the preset's, "
+                                                      "else 0)")
+    man.add_argument("--pitch-deg", type=_number, help="initial pitch in degrees, [-60, 60] (default: the preset's, "
+                                                       "else 0)")
+    man.add_argument("--zigzag-deg", type=_number, help="zig-zag: swap sides at ±this heading change, deg, [0, 90]; 0 "
+                                                        "= no zig-zag (default: the preset's, else 0)")
+    man.add_argument("--integrator", choices=INTEGRATORS, default="rk4",
+                     help="the plant's integrator: rk4 (default) or euler")
     group = man.add_mutually_exclusive_group()
     group.add_argument("--parameter-set", choices=PARAMETER_SETS, default="published",
                        help="named Otter parameter set (default: published, quirks included)")
-    group.add_argument("--params", metavar="FILE", help="YAML parameter file (base set + overrides)")
+    group.add_argument("--params", metavar="FILE", help="YAML parameter file (base set + overrides; default: "
+                                                       "none, --parameter-set's set)")
     man.add_argument("--sea", choices=tuple(SEA_PRESETS), default="calm", metavar="NAME",
                      help=f"a named sea (vessel.world presets, one of {', '.join(SEA_PRESETS)}: paper is the paper's "
                           "waves from the East; default calm; --waves is its old name)")
     add_renamed(man, "--waves", "--sea", choices=tuple(SEA_PRESETS))
     man.add_argument("--csv", metavar="PATH",
-                     help="write t_s and the states, units in the names (north_m, roll_rad, ...)")
-    man.add_argument("--plot", metavar="PATH", help="write a PNG of the track and time series")
+                     help="write t_s and the states, units in the names (north_m, roll_rad, ...) (default: none, "
+                          "figures printed only)")
+    man.add_argument("--plot", metavar="PATH", help="write a plot of the track and time series, its format by the "
+                                                    "extension (.png, .pdf, .svg, ...; default: none)")
     seacli.add_parser(sub)
     return parser
 

@@ -14,6 +14,19 @@ from vessel.argtypes import naming
 from vessel.argtypes import positive_metres as positive_metres  # re-exported for the CLIs
 from vessel.config import ConfigError, describe_range
 
+DEFAULT_CONNECT = "udpin:0.0.0.0:14551"  # mirrors CompanionConfig's defaults (kept import-light: no pymavlink for
+DEFAULT_BAUD, DEFAULT_SYSID, DEFAULT_COMPID = 921600, 255, 191  # --help); tests/system/test_help_text.py holds them
+
+
+def from_config(name: str, fallback: str) -> str:
+    """The default of a flag that overrides a companion YAML field: the --config file's, else the built-in one."""
+    return f"default: the --config file's {name}, else {fallback}"
+
+
+CONFIG_HELP = "default: none: the built-in settings, which suit the simulator"
+CONNECT_HELP = ("pymavlink connection: udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT (PORT in [1, 65535]) or a "
+                f"serial device such as /dev/ttyAMA0 ({from_config('connect', DEFAULT_CONNECT)})")
+BAUD_HELP = f"serial baud rate, [1200, 4000000] ({from_config('baud', str(DEFAULT_BAUD))})"
 REAL_TIME_SOLVER = "nrti"  # the default of run, check, demo and the service; ipopt (the paper's) only by name
 SOLVER_HELP = (f"NMPC solver (default {REAL_TIME_SOLVER}, the real-time one, whatever the scenario file says; "
                "ipopt is the paper's reference: too slow for real time here)")

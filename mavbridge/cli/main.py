@@ -39,8 +39,12 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--jobs", type=positive, default=None,
                      help="parallel processes (default: all cores)")
     exp.add_argument("--only", default=None, help="comma-separated run names to run (default: all)")
-    exp.add_argument("--solver", choices=SOLVERS, default=None, help="override every run's controller.solver")
-    exp.add_argument("--plant", choices=PLANTS, default=None, help="override every run's plant")
+    exp.add_argument("--solver", choices=SOLVERS, default=None,
+                     help=f"override every run's controller.solver: {', '.join(SOLVERS)} (default: each run's own, "
+                          "ipopt unless its file says)")
+    exp.add_argument("--plant", choices=PLANTS, default=None,
+                     help="override every run's plant: tau (rigid body driven by τ) or propellers (shaft-speed plant) "
+                          "(default: each run's own, tau unless its file says)")
     exp.add_argument("--wave-source", choices=WAVE_SOURCES, default=None,
                      help="where the NMPC's waves come from, over every run's estimation.waves: truth (the true wave "
                           "to the NMPC) or estimated (the wave estimator on simulated sensors at 20 Hz); default: "

@@ -11,9 +11,15 @@ from pathlib import Path
 from typing import Any
 
 from mavbridge.cli.args import (
+    BAUD_HELP,
+    CONFIG_HELP,
+    CONNECT_HELP,
+    DEFAULT_COMPID,
+    DEFAULT_SYSID,
     REAL_TIME_SOLVER,
     SOLVER_HELP,
     config_from_flags,
+    from_config,
     link_flags,
     model_line,
     parse_north_east,
@@ -59,12 +65,18 @@ def add_run_parser(sub: Any) -> None:
     run = sub.add_parser("run", help="fly the roll-aware NMPC over MAVLink (the companion process)",
                          description="Connect to an ArduPilot Rover, take the waypoint from its mission, and "
                                      "command it with the NMPC while it is armed in the configured mode.")
-    run.add_argument("--config", help="companion YAML (connection, ids, output, timeouts); flags override it")
-    run.add_argument("--connect", help="pymavlink connection: udpin:0.0.0.0:14551, tcp:HOST:PORT, /dev/ttyAMA0")
-    run.add_argument("--baud", type=int, help="serial baud rate (default 921600)")
-    run.add_argument("--sysid", type=int, help="our system id (default 255 = ArduPilot's SYSID_MYGCS)")
-    run.add_argument("--compid", type=int, help="our component id (default 191, onboard computer)")
-    run.add_argument("--output", choices=OUTPUTS, help="rc_override (MANUAL) or attitude_target (GUIDED)")
+    run.add_argument("--config", help=f"companion YAML (connection, ids, output, timeouts); flags override it "
+                                      f"({CONFIG_HELP})")
+    run.add_argument("--connect", help=CONNECT_HELP)
+    run.add_argument("--baud", type=int, help=BAUD_HELP)
+    run.add_argument("--sysid", type=int,
+                     help=f"our system id, [1, 255] ({from_config('system_id', str(DEFAULT_SYSID))} = ArduPilot's "
+                          "SYSID_MYGCS)")
+    run.add_argument("--compid", type=int,
+                     help=f"our component id, [1, 255] ({from_config('component_id', str(DEFAULT_COMPID))}, onboard "
+                          "computer)")
+    run.add_argument("--output", choices=OUTPUTS, help=f"rc_override (MANUAL) or attitude_target (GUIDED) "
+                                                       f"({from_config('output', 'rc_override')})")
     run.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
@@ -74,7 +86,9 @@ def add_run_parser(sub: Any) -> None:
                           "own motion) or scenario (the scenario's sea: simulation truth only). --waves is its old "
                           "name")
     add_renamed(run, "--waves", "--wave-source", choices=WAVE_SOURCES)
-    run.add_argument("--waypoint", type=parse_north_east, metavar="N,E", help="waypoint in metres from home (testing)")
+    run.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
+                     help="waypoint in metres north,east of home, within --max-range (testing; default: the "
+                          "autopilot's mission)")
     run.add_argument("--max-range", type=positive_metres, metavar="M",
                      help=f"never engage on a waypoint farther than this from home or the boat (m, default "
                           f"{DEFAULT_MAX_RANGE_M:g}, the limit of `mavbridge check` and `mission upload`)")
@@ -85,13 +99,15 @@ def add_run_parser(sub: Any) -> None:
                           "(default 0: as soon as the start is done)")
     run.add_argument("--set-mode", action="store_true", help="switch to the output's mode at start")
     run.add_argument("--dry-run", action="store_true", help="compute and log commands, send none")
-    run.add_argument("--max-time", type=float, help="stop after this many seconds engaged (autopilot time)")
+    run.add_argument("--max-time", type=float, help=f"stop after this many seconds engaged (autopilot time), "
+                                                    f"[0.1, 1e6] s ({from_config('max_time_s', 'no limit')})")
     run.add_argument("--out", help="run folder for tlog, CSV and metrics (default runs/companion-<time>)")
     run.add_argument("--lockstep", action="store_true", default=None,
                      help="simulation only, against sim-vehicle --lockstep: wait for each solve fully, no "
                           "wall-clock deadline (reproducible runs; never on a real boat)")
-    run.add_argument("--start-at", type=float, metavar="S", help="command from this autopilot time (s) on, not "
-                                                                  "before: comparable runs start in the same world")
+    run.add_argument("--start-at", type=float, metavar="S",
+                     help=f"command from this autopilot time on, not before: comparable runs start in the same "
+                          f"world; [0, 1e6] s ({from_config('start_at_s', 'none: from the first step')})")
     run.add_argument("--delay-compensation", action=argparse.BooleanOptionalAction, default=None,
                      help="predict the state over the link's measured delay before planning (default on; "
                           "--no-delay-compensation acts on the state as received, for comparison)")
@@ -114,7 +130,8 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--speedup", type=_speedup, default=None,
                       help=f"simulation speed (default: {DEMO_SPEEDUP:g}, or 1 with the ipopt solver)")
     demo.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
-    demo.add_argument("--output", choices=OUTPUTS, default="rc_override")
+    demo.add_argument("--output", choices=OUTPUTS, default="rc_override",
+                      help="the companion's output: rc_override (MANUAL, the default) or attitude_target (GUIDED)")
     demo.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help=ATTITUDE_FORM_HELP)
     demo.add_argument("--sim-params", metavar="FILE", help="a .parm file of the simulator's defaults (e.g. "
                       "deploy/otter-guided-tau.parm for --attitude-form tau)")

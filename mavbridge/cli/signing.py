@@ -12,6 +12,7 @@ import argparse
 import math
 from typing import Any
 
+from mavbridge.cli.args import BAUD_HELP, CONFIG_HELP, CONNECT_HELP
 from vessel.config import ConfigError
 
 SENDS = 3
@@ -27,11 +28,14 @@ def add_signing_parser(sub: Any) -> None:
     setup = actions.add_parser("setup", help="send SETUP_SIGNING to the autopilot and check that it signs",
                                description="Send SETUP_SIGNING with the key from the passphrase file, then "
                                            "check that the autopilot's heartbeats arrive signed with it.")
-    setup.add_argument("--config", help="companion YAML (connection, ids, signing_passphrase_file)")
-    setup.add_argument("--connect", help="pymavlink connection (tcp:HOST:5760 or USB reach an unsigned port)")
-    setup.add_argument("--baud", type=int, help="serial baud rate (default 921600)")
-    setup.add_argument("--signing-passphrase-file", metavar="FILE", help="the passphrase (first line of FILE)")
-    setup.add_argument("--timeout", type=float, default=30.0, help="wait this long for the autopilot (s)")
+    setup.add_argument("--config", help=f"companion YAML (connection, ids, signing_passphrase_file; {CONFIG_HELP})")
+    setup.add_argument("--connect", help=f"{CONNECT_HELP}; tcp:HOST:5760 or USB reach an unsigned port")
+    setup.add_argument("--baud", type=int, help=BAUD_HELP)
+    setup.add_argument("--signing-passphrase-file", metavar="FILE",
+                       help="the passphrase (first line of FILE; default: the --config file's signing_passphrase_file: "
+                            "one of them is required)")
+    setup.add_argument("--timeout", type=float, default=30.0, help="wait this long for the autopilot, (0, 600] s "
+                                                                   "(default 30)")
 
 
 def signing_command(args: argparse.Namespace) -> int:

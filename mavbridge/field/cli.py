@@ -42,7 +42,7 @@ def log_time(text: str) -> float:
 
 
 def _log_flags(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--format", choices=FORMATS, default="auto", help=FORMAT_HELP)
+    parser.add_argument("--format", choices=FORMATS, default="auto", help=f"{FORMAT_HELP} (default auto)")
     parser.add_argument("--sysid", type=system_id, help=SYSID_HELP)
     parser.add_argument("--config", help=CONFIG_HELP)
     parser.add_argument("--scenario", help=SCENARIO_HELP)
@@ -76,13 +76,18 @@ def add_replay_parser(sub: Any) -> None:
     _log_flags(replay)
     replay.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
     replay.add_argument("--output", choices=OUTPUTS, help="the command path to replay: rc_override (MANUAL) or "
-                                                          "attitude_target (GUIDED); default the --config's")
-    replay.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help="attitude_target's form (default the "
-                                                                        "--config's)")
+                                                          "attitude_target (GUIDED) (default: the --config's, else the "
+                                                          "companion run's own for its tlog, else rc_override)")
+    replay.add_argument("--attitude-form", choices=ATTITUDE_FORMS,
+                        help=f"attitude_target's form: {', '.join(ATTITUDE_FORMS)} (default: the --config's, else "
+                             "the companion run's own for its tlog, else tau)")
     replay.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
-                        help="fly to this point (m north, east of the log's home) instead of the log's mission")
-    replay.add_argument("--from", dest="start", type=log_time, metavar="S", help="replay from this time of the log (s)")
-    replay.add_argument("--to", dest="stop", type=log_time, metavar="S", help="replay up to this time of the log (s)")
+                        help="fly to this point (m north, east of the log's home) instead of the log's mission "
+                             "(default: the log's mission)")
+    replay.add_argument("--from", dest="start", type=log_time, metavar="S",
+                        help="replay from this time of the log, s >= 0 (default 0: its start)")
+    replay.add_argument("--to", dest="stop", type=log_time, metavar="S",
+                        help="replay up to this time of the log, s > --from (default: its end)")
     replay.add_argument("--plan-all", action="store_true",
                         help="also plan where the companion would not command (disarmed, another mode), on a wave "
                              "gate of their own (default: off; as the companion, the NMPC then plans from its "

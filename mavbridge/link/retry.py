@@ -112,10 +112,10 @@ def retry_count(text: str) -> int:
 def add_retry_arguments(parser: Any) -> None:
     """--command-timeout and --command-retries (run and check share them)."""
     parser.add_argument("--command-timeout", type=positive_seconds, metavar="S",
-                        help="wait this long (wall s) for each COMMAND_ACK / PARAM_VALUE before sending again "
-                             "(default 1, or the YAML's command_timeout_s)")
+                        help="wait this long (wall s) for each COMMAND_ACK / PARAM_VALUE before sending again, "
+                             "(0, 60] s (default 1, or the YAML's command_timeout_s)")
     parser.add_argument("--command-retries", type=retry_count, metavar="N",
-                        help="send a command again this many times before giving up "
+                        help="send a command again this many times before giving up, [0, 1000] "
                              "(default 5, or the YAML's command_retries)")
     parser.add_argument("--param-budget", type=positive_seconds, metavar="S",
                         help="wall seconds all parameter reads at start may take together, each asked again every "

@@ -95,4 +95,4 @@ def add_link_arguments(parser: Any) -> None:
     add_retry_arguments(parser)
     parser.add_argument("--signing-passphrase-file", metavar="FILE",
                         help="MAVLink 2 signing with the passphrase in FILE (key = SHA-256, as MAVProxy's "
-                             "`signing setup`); overrides the YAML's signing_passphrase_file")
+                             "`signing setup`; default: the YAML's signing_passphrase_file, else unsigned)")

@@ -7,10 +7,16 @@ import time
 from typing import Any
 
 from mavbridge.cli.args import (
+    BAUD_HELP,
+    CONFIG_HELP,
+    CONNECT_HELP,
+    DEFAULT_COMPID,
+    DEFAULT_SYSID,
     REAL_TIME_SOLVER,
     SOLVER_HELP,
     config_from_flags,
     count,
+    from_config,
     link_flags,
     model_line,
     parse_north_east,
@@ -36,12 +42,16 @@ def add_check_parser(sub: Any) -> None:
                                        "the companion relies on, the achieved stream rates, GPS and home, the "
                                        "mission, and the NMPC's solve time on this computer. Prints PASS/WARN/"
                                        "FAIL per item; exit code 1 on any FAIL.")
-    check.add_argument("--config", help="companion YAML (the same file `mavbridge run` uses)")
-    check.add_argument("--connect", help="pymavlink connection: udpin:0.0.0.0:14551, tcp:HOST:PORT, /dev/ttyAMA0")
-    check.add_argument("--baud", type=int, help="serial baud rate (default 921600)")
-    check.add_argument("--sysid", type=int, help="our system id (default 255)")
-    check.add_argument("--compid", type=int, help="our component id (default 191)")
-    check.add_argument("--output", choices=OUTPUTS, help="the output to check for")
+    check.add_argument("--config", help=f"companion YAML (the same file `mavbridge run` uses; {CONFIG_HELP})")
+    check.add_argument("--connect", help=CONNECT_HELP)
+    check.add_argument("--baud", type=int, help=BAUD_HELP)
+    check.add_argument("--sysid", type=int, help=f"our system id, [1, 255] "
+                                                 f"({from_config('system_id', str(DEFAULT_SYSID))})")
+    check.add_argument("--compid", type=int, help=f"our component id, [1, 255] "
+                                                  f"({from_config('component_id', str(DEFAULT_COMPID))})")
+    check.add_argument("--output", choices=OUTPUTS,
+                       help=f"the output to check for: rc_override (MANUAL) or attitude_target (GUIDED) "
+                            f"({from_config('output', 'rc_override')})")
     check.add_argument("--attitude-form", choices=ATTITUDE_FORMS, help="attitude_target: the form to check for "
                        "(tau: Rover's D gains 0, WP_SPEED letting full throttle through; default from config)")
     check.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
@@ -49,14 +59,16 @@ def add_check_parser(sub: Any) -> None:
     check.add_argument("--solves", type=count, default=DEFAULT_SOLVES,
                        help=f"NMPC solves to time (default {DEFAULT_SOLVES}; 0 skips the solve-time check)")
     check.add_argument("--port", type=int, default=2, metavar="N",
-                       help="stream-rate set of the companion's port: SRn_* / MAV(n+1)_* (default 2 = SERIAL2 on "
-                            "a typical Rover; the simulator's 127.0.0.1:14551 output is 2 as well)")
+                       help="stream-rate set of the companion's port: SRn_* / MAV(n+1)_*, [0, 9] (default 2 = "
+                            "SERIAL2 on a typical Rover; the simulator's 127.0.0.1:14551 output is 2 as well)")
     check.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
-                       help="check this waypoint instead of the mission")
+                       help="check this waypoint (m north,east of home) instead of the mission (default: the "
+                            "autopilot's mission; FAIL at --max-range or farther)")
     check.add_argument("--max-range", type=positive_metres, default=DEFAULT_MAX_RANGE_M, metavar="M",
                        help=f"largest distance of a waypoint from home in m (default {DEFAULT_MAX_RANGE_M:g}, the "
                             "companion's engage limit)")
-    check.add_argument("--timeout", type=float, help="wait this long for the autopilot (s; default from config)")
+    check.add_argument("--timeout", type=float, help=f"wait this long for the autopilot, [0.5, 600] s "
+                                                     f"({from_config('connect_timeout_s', '30')})")
     add_link_arguments(check)
 
 

@@ -54,15 +54,20 @@ def add_tune_parser(sub: argparse._SubParsersAction) -> None:
                                    "waypoint, raise S where progress is slow; report the fastest weights that "
                                    "meet the target and re-run them from several start headings.")
     p.add_argument("scenario", help="a single-scenario YAML file (sea, start, waypoint, controller settings)")
-    p.add_argument("--min-reduction", type=float, default=None, help="average-roll reduction vs Direct, 0..0.95")
-    p.add_argument("--max-time", type=float, default=None, help="latest arrival, s (> 0)")
+    p.add_argument("--min-reduction", type=float, default=None,
+                   help="average-roll reduction vs Direct, a fraction in (0, 0.95) (default: none; give it, "
+                        "--max-time or both)")
+    p.add_argument("--max-time", type=float, default=None,
+                   help="latest arrival, s, > 0 (default: none; give it, --min-reduction or both)")
     p.add_argument("--executor", type=_executor_flag, default="local",
                    help="local (default) | dask-local:N | tcp://HOST:PORT")
     p.add_argument("--jobs", type=positive, default=None, help="processes for the local executor (default: all cores)")
     p.add_argument("--out", default=None, help="output folder (default: runs/tune-<scenario name>); reused to resume")
     p.add_argument("--headings", default=None, help="start headings for the robustness re-runs, deg "
                                                      "(default 90,60,120,30,150)")
-    p.add_argument("--solver", choices=SOLVERS, default=None, help="override the scenario's controller.solver")
+    p.add_argument("--solver", choices=SOLVERS, default=None,
+                   help=f"override the scenario's controller.solver: {', '.join(SOLVERS)} (default: the scenario's, "
+                        "ipopt unless its file says)")
     p.add_argument("--sea-seeds", default=None, metavar="N,...",
                    help="an irregular sea: fly every trial on each of these draws (a draw's seed sets both "
                         "sea.spectrum.seed and estimation.seed, the sensor noise; 0..2147483647) and tune on the mean, "

@@ -22,7 +22,7 @@ from sim_vehicle.argtypes import finite_number, positive_seconds, sea_state_numb
 from sim_vehicle.json_backend.backend import JsonBackend, open_socket, serve
 from sim_vehicle.json_backend.log import JsonStateCsv, write_sea_record
 from sim_vehicle.json_backend.model import JsonPhysics
-from sim_vehicle.scenario import SEA_HELP, seeded_waves, sim_world
+from sim_vehicle.scenario import CURRENT_HELP, SEA_HELP, SEA_STATE_HELP, seeded_waves, sim_world
 from vessel import OceanCurrent, WaveField
 from vessel.argtypes import add_renamed
 from vessel.config import ConfigError
@@ -81,11 +81,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sea", metavar="NAME|SPEC", help=SEA_HELP)
     add_renamed(p, "--waves", "--sea", choices=tuple(SEA_PRESETS))
     p.add_argument("--sea-state", type=sea_state_number, metavar="N",
-                   help="irregular JONSWAP sea of NATO sea state N in [0, 8] (paper Table I: Hs mid-band, modal Tp)")
+                   help=SEA_STATE_HELP)
     p.add_argument("--heave", choices=("surface", "paper"), default=None,
                    help="surface: the hull heaves with the sea; paper: the paper's model (default: surface in an "
                         "irregular sea, paper in a regular one, as the simulator with its ideal sensors)")
-    p.add_argument("--current", metavar="SPEED,DIR", help="uniform current: m/s and direction it flows to, deg")
+    p.add_argument("--current", metavar="SPEED,DIR", help=CURRENT_HELP)
     p.add_argument("--vessel", metavar="SET|FILE", help="the simulated boat's hull: a named set (published, "
                    "corrected) or a vessel YAML file (default: the scenario's vessel, else published)")
     p.add_argument("--scenario", type=Path, metavar="FILE",
@@ -95,9 +95,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"initial heading, deg (default {Home().heading_deg:g}, the simulator's home heading)")
     p.add_argument("--seed", type=seed_number, default=None, metavar="N",
                    help="seed of the sea's phase origin (default: a fresh one, written to the run folder)")
-    p.add_argument("--log-dir", type=Path, metavar="DIR", help="write state.csv and sea.json here")
+    p.add_argument("--log-dir", type=Path, metavar="DIR",
+                   help="write state.csv and sea.json here (default: none, no logs)")
     p.add_argument("--duration", type=positive_seconds, metavar="S",
-                   help="stop after S s of physics time")
+                   help="stop after S s of physics time, S > 0 (default: none, run until SIGINT or SIGTERM)")
     p.add_argument("-v", "--verbose", action="store_true", help="log restarts and rate changes to stderr")
     return p
 

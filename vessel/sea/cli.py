@@ -54,13 +54,14 @@ def add_parser(sub: Any) -> None:
     """Register the `sea` subcommand on the `vessel` subparsers."""
     p = sub.add_parser("sea", help="record an irregular sea at a fixed point (CSV, Hm0/Tp, plot)",
                        description=__doc__.splitlines()[0])
-    p.add_argument("--spectrum", choices=SPECTRA, default="jonswap", help="jonswap or pm (Pierson–Moskowitz)")
+    p.add_argument("--spectrum", choices=SPECTRA, default="jonswap", help="jonswap (default) or pm (Pierson–Moskowitz)")
     helps = {"--hs": "significant height Hs in m, (0, 30] (default: sea state mid-band, else 1.75)",
              "--tp": "peak period Tp in s, [1, 30] (default: sea state modal period, else 6)",
              "--gamma": "JONSWAP peak enhancement, [1, 10] (default 3.3)",
              "--dir": "direction the waves travel to, deg, 0 = North, [-360, 360] (default -90: West)",
              "--spreading": "cos-2s spreading exponent s >= 0; 0 = long-crested (default)",
-             "--sea-state": "NATO sea state of the paper's Table I, [0, 8]",
+             "--sea-state": "NATO sea state of the paper's Table I, [0, 8] (default: none: --hs and --tp, else 1.75 m "
+                            "and 6 s)",
              "--seed": "integer seed of frequencies, phases and directions (default 7)",
              "--components": "number of wave components, [10, 5000] (default 200)",
              "--depth": "water depth in m for dispersion, [0.5, 10000] (default deep water)",
@@ -71,7 +72,8 @@ def add_parser(sub: Any) -> None:
     for flag, text in helps.items():
         p.add_argument(flag, metavar=flag.lstrip("-").replace("-", "_").upper(), help=text)
     p.add_argument("--csv", metavar="FILE", required=True, help="write t_s,elevation_m,slope_n_rad,slope_e_rad")
-    p.add_argument("--plot", metavar="FILE.png", help="draw the record and its spectrum against the target")
+    p.add_argument("--plot", metavar="FILE.png", help="draw the record and its spectrum against the target, the "
+                   "format by the extension (.png, .pdf, .svg, ...; default: none)")
 
 
 def _parse(text: str, flag: str, meta: Any, kind: type) -> float | int:
