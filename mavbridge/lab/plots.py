@@ -16,15 +16,33 @@ def _pyplot():
     return plt
 
 
+WIDE = 0.6  # north span below this fraction of the east span: the chart is drawn wide
+MAX_RATIO = 3.0  # a chart is never longer than this many times its width (a straight run is not a sliver)
+
+
+def _no_sliver(lo_e: float, hi_e: float, lo_n: float, hi_n: float) -> tuple[float, float, float, float]:
+    """The chart's limits widened about their middle so that neither side is more than MAX_RATIO times the other."""
+    span_e, span_n = hi_e - lo_e, hi_n - lo_n
+    if span_e > MAX_RATIO * span_n:
+        pad = (span_e / MAX_RATIO - span_n) / 2
+        lo_n, hi_n = lo_n - pad, hi_n + pad
+    elif span_n > MAX_RATIO * span_e:
+        pad = (span_n / MAX_RATIO - span_e) / 2
+        lo_e, hi_e = lo_e - pad, hi_e + pad
+    return lo_e, hi_e, lo_n, hi_n
+
+
 def plot_path(path: Path, north: np.ndarray, east: np.ndarray, waypoint: tuple[float, float], radius: float,
               waves, t_end: float, title: str) -> None:
     """Path as on a chart (east right, north up) over the sea surface at the end of the run."""
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 6.0))
     lo_e = min(east.min(), waypoint[1]) - 15
     hi_e = max(east.max(), waypoint[1]) + 15
     lo_n = min(north.min(), waypoint[0]) - 15
     hi_n = max(north.max(), waypoint[0]) + 15
+    lo_e, hi_e, lo_n, hi_n = _no_sliver(lo_e, hi_e, lo_n, hi_n)
+    wide = (hi_n - lo_n) < WIDE * (hi_e - lo_e)  # a long run across: a wide chart, the colour bar under it
+    fig, ax = plt.subplots(figsize=(7.0, 7.0 * (hi_n - lo_n) / (hi_e - lo_e) + 2.0) if wide else (6.4, 6.0))
     ge, gn = np.meshgrid(np.linspace(lo_e, hi_e, 300), np.linspace(lo_n, hi_n, 300))
     zeta = np.asarray(waves.elevation(gn, ge, t_end), float) * np.ones_like(ge)
     if np.any(zeta != 0):
@@ -36,7 +54,8 @@ def plot_path(path: Path, north: np.ndarray, east: np.ndarray, waypoint: tuple[f
         else:  # an irregular sea has no single crest line: outline the highest 15 % of the surface
             ax.contour(ge, gn, zeta, levels=[float(np.percentile(zeta, 85))], colors="navy", linewidths=0.8)
             lines = "highest 15 %"
-        fig.colorbar(mesh, ax=ax, label=f"sea surface at t = {t_end:.1f} s (m); lines: {lines}")
+        fig.colorbar(mesh, ax=ax, label=f"sea surface at t = {t_end:.1f} s (m); lines: {lines}",
+                     orientation="horizontal" if wide else "vertical")
     ax.plot(east, north, "k-", lw=1.6, label="path")
     ax.plot(east[0], north[0], "go", label="start")
     ax.plot(waypoint[1], waypoint[0], "r*", ms=14, label="waypoint")
