@@ -63,10 +63,12 @@ class RunResult:
     estimator_ms: list[float] = field(default_factory=list)  # the wave source's work per step (realistic loop)
 
 
-def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: np.ndarray, t: float,
+def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth | None, x: np.ndarray, t: float,
                  shafts: tuple[float, float] | None) -> dict[str, float | None]:
     """Per-row columns the in-process loop knows besides the state: shaft speeds, the true sea at the boat
-    (slope α along the travel direction, rad, and the wave force along it, N) and the wave it plans with."""
+    (slope α along the travel direction, rad, and the wave force along it, N) and, with ``truth`` (the paper's
+    set-up, which plans with it), the wave it plans with. A run with a wave feed leaves those to the feed, so
+    that the columns hold only what its source gave: empty before the estimator's first fit."""
     columns: dict[str, float | None] = dict(zip(("n1_rad_s", "n2_rad_s"), shafts or (None, None), strict=True))
     alpha = force = 0.0
     if hasattr(waves, "slope_along_travel"):
@@ -75,7 +77,7 @@ def _sea_columns(scenario: Scenario, waves: WaveField, truth: ScenarioTruth, x: 
         weight = params.matrices().m_total * params.g
         force = -0.5 * weight * math.sin(2 * alpha)
     columns.update(wave_slope_rad=alpha, wave_force_n=force)
-    estimate = truth.estimate(t)
+    estimate = truth.estimate(t) if truth is not None else None
     if estimate is not None:
         columns.update(estimate.row())
     return columns
@@ -91,7 +93,7 @@ def _closed_loop(scenario: Scenario, nmpc: RollAwareNmpc, plant: Any, record: Ru
     """
     cfg, params = scenario.controller, scenario.model_params()  # the controller turns τ into commands
     waves = feed.truth if feed is not None else scenario.sea.waves(scenario.plant_params())
-    truth = ScenarioTruth(waves)
+    truth = ScenarioTruth(waves) if feed is None else None  # with a feed, its source fills the wave columns
     wp = np.array([scenario.waypoint.north_m, scenario.waypoint.east_m])
     n_steps_max = math.floor(scenario.t_max_s / cfg.period_s + 1e-9)
     step, next_report = 0, progress_every_s

@@ -18,6 +18,7 @@ import yaml
 
 from mavbridge.cli import main
 from mavbridge.lab.experiment import run_scenario
+from mavbridge.lab.runlog import WAVE_COLUMNS
 from mavbridge.lab.scenario import load_scenarios, scenario_from_mapping
 from mavbridge.waves.inloop import hidden_sea
 
@@ -97,7 +98,8 @@ def test_waves_flag_flies_on_the_estimate_and_logs_it(tmp_path: Path, capsys: py
     assert metrics["estimator_ms_median"] > 0
     with (out / "tiny" / "timeseries.csv").open() as handle:
         rows = list(csv.DictReader(handle))
-    assert len(rows) == 31 and any(row["wave_confidence"] != "" for row in rows)
+    # 3 s is too short for the estimator's first fit: its columns stay empty, never filled with the truth
+    assert len(rows) == 31 and all(row[name] == "" for row in rows for name in WAVE_COLUMNS)
     assert (out / "tiny" / "wave_estimate.png").stat().st_size > 0
     assert "without the roll term" in capsys.readouterr().out
 
