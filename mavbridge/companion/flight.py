@@ -207,7 +207,7 @@ class Companion:
         if not self.supervisor.may_command():
             if self.commands.commanding:
                 self.commands.release(link)
-            self.observe(now_ms, self._idle_or_unknown())
+            self.observe(now_ms, idle_or_unknown(self))
             return
         if self.state.age_ms(now_ms) > self.config.stale_state_s * 1000:
             self.events.stale += 1
@@ -243,7 +243,7 @@ class Companion:
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
         self.gate.command_sent()  # the period's samples to the estimator's process, once the command is out
-        self.observe(now_ms, self._in_effect(result.tau if columns is not None else IDLE))
+        self.observe(now_ms, thrust_in_effect(self, result.tau if columns is not None else IDLE))
         self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
         if self.observer is not None:
             wave.update(self.observer.row())
@@ -255,19 +255,6 @@ class Companion:
         self.record.step(now_ms / 1000.0, x, result, phase=phase, sent=int(self.output.sends), **wave, **columns)
         self.notices.progress(now_ms / 1000.0, math.hypot(target[0] - x[0], target[1] - x[1]), float(x[3]),
                               result.wall_time_s * 1e3)
-
-    def _idle_or_unknown(self) -> np.ndarray | None:
-        """The thrust while the companion does not command: idle when the boat is disarmed, else unknown (a pilot
-        drives). In lockstep (simulation only) unknown: there the arming lands among a held tick's messages as the
-        machine's timing has it, and a replay of the run could not tell which period was the first disarmed one."""
-        return IDLE if not (self.supervisor.armed or self.config.lockstep) else None
-
-    def _in_effect(self, tau: np.ndarray) -> np.ndarray | None:
-        """The thrust the boat has from now on, for the observer: what the propellers give of the command sent on the
-        RC path; unknown (None) in GUIDED, where Rover's loops make it, or in a dry run with the boat armed."""
-        if self.output.sends and self.config.output == "rc_override":
-            return np.array(achieved_tau(self.nmpc.params, *tau))
-        return self._idle_or_unknown()
 
     def _fail(self, link: Link, reason: str) -> None:
         """End the run as a failure (exit 1), standing down first."""
@@ -389,3 +376,19 @@ def write_logs(c: Companion) -> None:
     c.log(f"{first}; logs in {c.out_dir}")
     for line in rest:
         c.log(line)
+
+
+def idle_or_unknown(c: Companion) -> np.ndarray | None:
+    """The thrust while the companion does not command, for its observer: idle when the boat is disarmed, else
+    unknown (a pilot drives). In lockstep (simulation only) unknown: there the arming lands among a held tick's
+    messages as the machine's timing has it, and a replay of the run could not tell which period was the first
+    disarmed one."""
+    return IDLE if not (c.supervisor.armed or c.config.lockstep) else None
+
+
+def thrust_in_effect(c: Companion, tau: np.ndarray) -> np.ndarray | None:
+    """The thrust the boat has from now on, for the observer: what the propellers give of the command sent on the RC
+    path; unknown (None) in GUIDED, where Rover's loops make it, or in a dry run with the boat armed."""
+    if c.output.sends and c.config.output == "rc_override":
+        return np.array(achieved_tau(c.nmpc.params, *tau))
+    return idle_or_unknown(c)
