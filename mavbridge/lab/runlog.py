@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -135,10 +135,12 @@ def _cell(value: Any) -> str:
     return str(value)
 
 
-def write_csv(path: Path, rows: Iterable[Mapping[str, Any]]) -> None:
-    """The rows under the LOG_COLUMNS header; a column a row lacks is left empty."""
+def write_csv(path: Path, rows: Iterable[Mapping[str, Any]], columns: Sequence[str] = LOG_COLUMNS,
+              extras: str = "raise") -> None:
+    """The rows under the ``columns`` header (default LOG_COLUMNS); a column a row lacks is left empty, one the
+    header lacks refused (``extras`` "ignore": left out)."""
     with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=LOG_COLUMNS, restval="", extrasaction="raise")
+        writer = csv.DictWriter(handle, fieldnames=list(columns), restval="", extrasaction=extras)
         writer.writeheader()
         for row in rows:
             writer.writerow({key: _cell(value) for key, value in row.items()})

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -11,7 +10,7 @@ import numpy as np
 
 from mavbridge.companion.rover_modes import mode_name
 from mavbridge.field.boat import BOAT_COLUMNS
-from mavbridge.lab.runlog import STATE_COLUMNS, WAVE_COLUMNS
+from mavbridge.lab.runlog import STATE_COLUMNS, WAVE_COLUMNS, write_csv
 from vessel.wording import counted
 
 if TYPE_CHECKING:
@@ -24,21 +23,9 @@ LOGGED_COLUMNS = ("logged_steering_pwm_us", "logged_throttle_pwm_us")  # the com
 COLUMNS = ("t_s", "mode", "armed", "would_command", *STATE_COLUMNS, *COMMAND_COLUMNS, *LOGGED_COLUMNS, *BOAT_COLUMNS,
            *WAVE_COLUMNS, "roll_term", "solve_ms", "status", "fallback")
 
-def _cell(value: Any) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, float):
-        return "nan" if not math.isfinite(value) else f"{value:.6g}"
-    return str(value)
-
-
 def write_rows(path: Path, rows: list[dict[str, Any]]) -> None:
-    """replay.csv: COLUMNS, a column a row lacks left empty."""
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=COLUMNS, restval="", extrasaction="ignore")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: _cell(v) for k, v in row.items()})
+    """replay.csv: COLUMNS, a column a row lacks left empty (the run log's own writer)."""
+    write_csv(path, rows, COLUMNS, extras="ignore")
 
 
 def summary_lines(flight: Flight, trial: Trial, req: ReplayRequest, solver: str) -> list[str]:
