@@ -72,6 +72,8 @@ class Flight:
     stale_s: float = 0.5  # the companion's stale_state_s (the observer leaves a stale state out)
     start_s: float = 0.0  # the companion's start_at_s: before it, it takes no step (nor its observer's period)
     rc_path: bool = True  # the companion flew the RC path (its observer knows the thrust only there)
+    home_from_mission: bool = False  # the log holds a mission's download: the companion knew its home from item 0,
+    # not from an earlier HOME_POSITION (on a busy machine its download ends later)
     lockstep: bool = False  # the companion flew in lockstep (its observer then learns only while commanding)
     solve_ms: list[float] = field(default_factory=list)
     engaged_solve_ms: list[float] = field(default_factory=list)  # (the gate's steps: its summary's step time)
@@ -93,7 +95,8 @@ class Flight:
         elif kind == "RC_CHANNELS_OVERRIDE":
             self._logged(t, msg)
         elif kind in HOME_MESSAGES:
-            if self.home is not None and (kind == "HOME_POSITION" or getattr(msg, "seq", -1) == 0):
+            mission_home = getattr(msg, "seq", -1) == 0
+            if self.home is not None and (mission_home or (kind == "HOME_POSITION" and not self.home_from_mission)):
                 self.state.set_home(*self.home)  # the companion knows positions from its mission download on
                 self.home, self.prepare_at_s = None, t + MEASURE_S
         else:
@@ -286,6 +289,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     flight.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
     flight.stale_s, flight.start_s = config.stale_state_s, config.start_at_s or 0.0
     flight.rc_path, flight.lockstep = config.output == "rc_override", config.lockstep
+    flight.home_from_mission = bool(trial.waypoints)
     return flight
 
 
