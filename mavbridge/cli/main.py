@@ -45,12 +45,13 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--plant", choices=PLANTS, default=None,
                      help="override every run's plant: tau (rigid body driven by τ) or propellers (shaft-speed plant) "
                           "(default: each run's own, tau unless its file says)")
-    exp.add_argument("--wave-source", choices=WAVE_SOURCES, default=None,
+    exp.add_argument("--wave-source", choices=(*WAVE_SOURCES, "scenario"), default=None,
                      help="where the NMPC's waves come from, over every run's estimation.waves: truth (the true wave "
                           "to the NMPC) or estimated (the wave estimator on simulated sensors at 20 Hz); default: "
-                          "each run's own (truth unless its file says). The plant's realism (heave, hidden phase) "
-                          "stays as the scenario's estimation section says. --waves is its old name")
-    add_renamed(exp, "--waves", "--wave-source", choices=WAVE_SOURCES)
+                          "each run's own (truth unless its file says; scenario, as the companion says it, is the "
+                          "same). The plant's realism (heave, hidden phase) stays as the scenario's estimation section "
+                          "says. --waves is its old name")
+    add_renamed(exp, "--waves", "--wave-source", choices=(*WAVE_SOURCES, "scenario"))
     from mavbridge.field.cli import add_replay_parser, add_report_parser  # (the rooms' parsers import
     from mavbridge.identify.cli import add_identify_parser
     from mavbridge.preflight.cli import add_check_parser  # mavbridge.cli.args: imported here, a room imported
@@ -86,7 +87,8 @@ def _experiment(args: argparse.Namespace) -> int:
     if args.plant:
         scenarios = [dataclasses.replace(s, plant=args.plant) for s in scenarios]
     if args.wave_source:
-        scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=args.wave_source))
+        source = "truth" if args.wave_source == "scenario" else args.wave_source
+        scenarios = [dataclasses.replace(s, estimation=dataclasses.replace(s.estimation, waves=source))
                      for s in scenarios]
     from mavbridge.lab.runlog import fresh_run_folder
 

@@ -47,6 +47,14 @@ ATTITUDE_FORM_HELP = ("attitude_target: tau (default: the rate and speed targets
                       "then its rate loop)")
 
 
+SOURCE_NAMES = (*WAVE_SOURCES, "truth")  # truth: `mavbridge experiment`'s name for the scenario's sea
+
+
+def companion_source(name: str | None) -> str | None:
+    """The companion's name for a --wave-source value (truth, as the experiment says it, is its scenario)."""
+    return "scenario" if name == "truth" else name
+
+
 def _speedup(text: str) -> float:
     """A speedup in (0, 100]."""
     try:
@@ -81,11 +89,11 @@ def add_run_parser(sub: Any) -> None:
     run.add_argument("--scenario", help="scenario YAML for controller, vessel and sea (default: the paper's "
                                         "Balanced run)")
     run.add_argument("--solver", choices=SOLVERS, default=REAL_TIME_SOLVER, help=SOLVER_HELP)
-    run.add_argument("--wave-source", choices=WAVE_SOURCES,
+    run.add_argument("--wave-source", choices=SOURCE_NAMES,
                      help="where the NMPC's waves come from: estimated (default, or the YAML's waves: from the boat's "
-                          "own motion) or scenario (the scenario's sea: simulation truth only). --waves is its old "
-                          "name")
-    add_renamed(run, "--waves", "--wave-source", choices=WAVE_SOURCES)
+                          "own motion) or scenario (the scenario's sea: simulation truth only; truth, as `mavbridge "
+                          "experiment` says it, is the same). --waves is its old name")
+    add_renamed(run, "--waves", "--wave-source", choices=SOURCE_NAMES)
     run.add_argument("--waypoint", type=parse_north_east, metavar="N,E",
                      help="waypoint in metres north,east of home, within --max-range (testing; default: the "
                           "autopilot's mission)")
@@ -136,10 +144,10 @@ def add_demo_parser(sub: Any) -> None:
     demo.add_argument("--sim-params", metavar="FILE", help="a .parm file of the simulator's defaults (e.g. "
                       "deploy/otter-guided-tau.parm for --attitude-form tau)")
     demo.add_argument("--scenario", help="scenario YAML (default: the paper's Balanced run)")
-    demo.add_argument("--wave-source", choices=WAVE_SOURCES, default="estimated",
+    demo.add_argument("--wave-source", choices=SOURCE_NAMES, default="estimated",
                       help="where the companion's waves come from: estimated (default) or scenario (fly on the "
-                           "simulator's truth). --waves is its old name")
-    add_renamed(demo, "--waves", "--wave-source", choices=WAVE_SOURCES)
+                           "simulator's truth; truth is the same). --waves is its old name")
+    add_renamed(demo, "--waves", "--wave-source", choices=SOURCE_NAMES)
     demo.add_argument("--out", help="run folder (default runs/demo-<time>)")
     demo.add_argument("--lockstep", action="store_true", help="simulator and companion in lockstep, commanding "
                                                               "from a fixed autopilot time: a reproducible run")
@@ -167,7 +175,7 @@ def run_command(args: argparse.Namespace) -> int:
         raise ConfigError("--dry-run sends nothing: it cannot be combined with --arm or --set-mode")
     config = config_from_flags(args.config, {
         **link_flags(args), "output": ("--output", args.output), "max_time_s": ("--max-time", args.max_time),
-        "waves": ("--wave-source", args.wave_source), "lockstep": ("--lockstep", args.lockstep),
+        "waves": ("--wave-source", companion_source(args.wave_source)), "lockstep": ("--lockstep", args.lockstep),
         "start_at_s": ("--start-at", args.start_at), "max_range_m": ("--max-range", args.max_range),
         "engage_after_s": ("--engage-after", args.engage_after),
         "delay_compensation": ("--delay-compensation", args.delay_compensation),
@@ -271,5 +279,5 @@ def demo_command(args: argparse.Namespace) -> int:
         raise ConfigError(f"--engage-after: {args.engage_after:g} is not finite; allowed [0, 3600] s")
     if not 0.0 <= args.engage_after <= 3600.0:
         raise ConfigError(f"--engage-after: {args.engage_after:g} is outside the allowed range [0, 3600] s")
-    return run_demo(scenario, out, speedup, args.output, args.wave_source, args.lockstep, args.seed, args.attitude_form,
-                    args.sim_params, None if args.lockstep else args.engage_after)
+    return run_demo(scenario, out, speedup, args.output, companion_source(args.wave_source), args.lockstep, args.seed,
+                    args.attitude_form, args.sim_params, None if args.lockstep else args.engage_after)

@@ -87,11 +87,11 @@ CASES: dict[str, list[tuple[str, ...]]] = {
     "mavbridge experiment --solver": [(f"{EXP} --solver fast", CHOICE)],
     "mavbridge experiment --plant": [(f"{EXP} --plant sails", CHOICE)],
     "mavbridge experiment --wave-source": [(f"{EXP} --wave-source guessed", CHOICE),
-                                           (f"{EXP} --wave-source scenario", CHOICE)],
+                                           (f"{EXP} --wave-source stormy", CHOICE)],
     "mavbridge experiment --waves": [(f"{EXP} --waves guessed", CHOICE)],  # the old name of --wave-source
     **_link_cases(RUN),
-    "mavbridge run --wave-source": [(f"{RUN} --wave-source truth", CHOICE)],
-    "mavbridge run --waves": [(f"{RUN} --waves truth", CHOICE)],  # the old name of --wave-source
+    "mavbridge run --wave-source": [(f"{RUN} --wave-source stormy", CHOICE)],
+    "mavbridge run --waves": [(f"{RUN} --waves stormy", CHOICE)],  # the old name of --wave-source
     "mavbridge run --attitude-form": [(f"{RUN} --attitude-form yaw", CHOICE),
                                       (f"{RUN} --attitude-form tau", "--output attitude_target only")],
     "mavbridge run --arm": [(f"{RUN} --dry-run --arm", "--dry-run")],
@@ -118,8 +118,8 @@ CASES: dict[str, list[tuple[str, ...]]] = {
                                     (f"{DEMO} --sim-params adir", "adir")],
     "mavbridge demo --scenario": [(f"{DEMO} --scenario no/such.yaml", "no/such.yaml"),
                                   (f"{DEMO} --scenario adir", "adir")],
-    "mavbridge demo --wave-source": [(f"{DEMO} --wave-source truth", CHOICE)],
-    "mavbridge demo --waves": [(f"{DEMO} --waves truth", CHOICE)],  # the old name of --wave-source
+    "mavbridge demo --wave-source": [(f"{DEMO} --wave-source stormy", CHOICE)],
+    "mavbridge demo --waves": [(f"{DEMO} --waves stormy", CHOICE)],  # the old name of --wave-source
     "mavbridge demo --seed": [(f"{DEMO} --seed -1", "[0, 4294967295]"),
                               (f"{DEMO} --seed 4294967296", "[0, 4294967295]"),
                               (f"{DEMO} --seed 1.5", "integer"), (f"{DEMO} --seed nan", "integer")],

@@ -54,3 +54,15 @@ def test_an_old_flag_name_still_works_and_says_its_new_one(module: str, args: tu
     lines = done.stderr.strip().splitlines()
     assert lines[0].endswith(f"--waves is now {new} (the old name still works, for now)"), done.stderr
     assert then in done.stderr + done.stdout, done
+
+
+def test_one_name_for_the_true_sea_in_every_command() -> None:
+    """`truth` (the experiment's word) and `scenario` (the companion's) name the same sea in every --wave-source."""
+    from mavbridge.cli.main import build_parser
+    from mavbridge.cli.run import companion_source
+
+    parser = build_parser()
+    for command in ("run", "demo"):
+        assert companion_source(parser.parse_args([command, "--wave-source", "truth"]).wave_source) == "scenario"
+        assert companion_source(parser.parse_args([command, "--wave-source", "scenario"]).wave_source) == "scenario"
+    assert parser.parse_args(["experiment", "x.yaml", "--wave-source", "scenario"]).wave_source == "scenario"
