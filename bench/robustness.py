@@ -221,7 +221,28 @@ def current_study(jobs: int) -> None:
         for _, bound, how in modes:
             tag = "-bound" if bound else "" if how == "estimated" else f"-{how}"
             cells.append(f"{100 * _cut(results, f'{case.name}-s1{tag}')[0]:15.1f}%")
-        print(f"{case.name:14s}" + "".join(cells))
+        learnt = results[f"{case.name}-s1-balanced"]["disturbance"] or {}
+        print(f"{case.name:14s}" + "".join(cells)
+              + f"   estimated current N, E {learnt.get('current_north_m_s', 0):+.2f}, "
+              f"{learnt.get('current_east_m_s', 0):+.2f} m/s (true {learnt.get('true_current_north_m_s', 0):+.2f}, "
+              f"{learnt.get('true_current_east_m_s', 0):+.2f})")
+
+
+def ablate(name: str, seed: int, jobs: int) -> None:
+    """One case on one seed, Balanced against Direct: on the estimate as the family flies it, with no disturbance
+    estimate, and with the plant itself as the model (still estimating): which part a miss comes from."""
+    case = next(c for c in family() if c.name == name)
+    direct, balanced = case_scenarios(case, seed, False)
+    variants = {"as the family flies it": balanced,
+                "no disturbance estimate": case_scenarios(case, seed, False, "none")[1],
+                "the plant as the model": dataclasses.replace(
+                    balanced, name=f"{balanced.name}-plant-model",
+                    controller=balanced.controller.replace(model=balanced.vessel))}
+    runs = [direct, *variants.values()]
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
+        roll = [r["avg_roll_deg"] for r in pool.map(_run, runs, chunksize=1)]
+    for (label, _), balanced_roll in zip(variants.items(), roll[1:], strict=True):
+        print(f"{name} seed {seed}, {label}: cut {100 * (1 - balanced_roll / roll[0]):.1f} % (Direct {roll[0]:.3f}°)")
 
 
 def chart(rows: list[dict[str, Any]], path: Path) -> None:
@@ -273,6 +294,8 @@ def main() -> None:
     parser.add_argument("--only", default=None, help="comma-separated case names (default: the whole family)")
     parser.add_argument("--mavlink", action="store_true", help=f"also fly {', '.join(MAVLINK_CASES)} over MAVLink")
     parser.add_argument("--skip-family", action="store_true", help="fly only the MAVLink cases (with --mavlink)")
+    parser.add_argument("--ablate", metavar="CASE:SEED", default=None, help="one case on one seed with and "
+                        "without the disturbance estimate, and with the plant as the model")
     parser.add_argument("--current-study", action="store_true", help="only the current study: 0.5 m/s towards N, "
                         "towards W and none, not told / estimated / told, sea seed 1")
     parser.add_argument("--out", default=None, help="folder for results.json and the MAVLink runs (default: temp)")
@@ -280,6 +303,10 @@ def main() -> None:
     seeds = [int(s) for s in args.seeds.split(",")]
     if args.current_study:
         current_study(args.jobs)
+        return
+    if args.ablate:
+        name, _, seed = args.ablate.partition(":")
+        ablate(name, int(seed or 1), args.jobs)
         return
     cases = family()
     if args.only:

@@ -243,7 +243,7 @@ class Companion:
         self.output.aim(target)
         columns = self.commands.send(link, result, now_ms, self.state)
         self.gate.command_sent()  # the period's samples to the estimator's process, once the command is out
-        self.observe(now_ms, thrust_in_effect(self, result.tau if columns is not None else IDLE))
+        self.observe(now_ms, thrust_in_effect(self, result.tau if columns is not None else IDLE), x=x)
         self.nmpc.advance()  # the next period's preparation, once the command is out (see RollAwareNmpc.solve)
         if self.observer is not None:
             wave.update(self.observer.row())
@@ -380,10 +380,8 @@ def write_logs(c: Companion) -> None:
 
 def idle_or_unknown(c: Companion) -> np.ndarray | None:
     """The thrust while the companion does not command, for its observer: idle when the boat is disarmed, else
-    unknown (a pilot drives). In lockstep (simulation only) unknown: there the arming lands among a held tick's
-    messages as the machine's timing has it, and a replay of the run could not tell which period was the first
-    disarmed one."""
-    return IDLE if not (c.supervisor.armed or c.config.lockstep) else None
+    unknown (a pilot drives)."""
+    return None if c.supervisor.armed else IDLE
 
 
 def thrust_in_effect(c: Companion, tau: np.ndarray) -> np.ndarray | None:

@@ -143,14 +143,18 @@ class DisturbanceObserver:
 
 
 def observe_period(observer: DisturbanceObserver | None, nmpc: Any, state: Any, now_ms: int, tau: np.ndarray | None,
-                   stale_s: float, log: Callable[[str], None]) -> None:
-    """One control period: the observer compares the boat's state (when fresh) with the model's prediction under the
-    command in effect since the last period (``tau`` is the one from now on; None: unknown, a pilot drives), and the
-    NMPC's later solves predict with its estimate. One line when it settles."""
+                   stale_s: float, log: Callable[[str], None], x: np.ndarray | None = None) -> None:
+    """One control period: the observer compares the boat's state (when fresh; ``x``: the state vector the step
+    already made, else made here) with the model's prediction under the command in effect since the last period
+    (``tau`` is the one from now on; None: unknown, a pilot drives), and the NMPC's later solves predict with its
+    estimate (handed over only when it moved). One line when it settles."""
     if observer is None or not state.ready():
         return
     fresh = state.age_ms(now_ms) <= stale_s * 1000
-    if observer.update(now_ms / 1000.0, state.vector(), tau if fresh else None, nmpc.model_wave(), nmpc.wave_known):
+    before = observer.updates
+    if observer.update(now_ms / 1000.0, state.vector() if x is None else x, tau if fresh else None,
+                       nmpc.model_wave(), nmpc.wave_known):
         log(f"disturbance settled at t = {now_ms / 1000:.1f} s: {observer.describe()} (estimated from the boat's "
             f"motion)")
-    nmpc.set_disturbance(observer.estimate)
+    if observer.updates != before:
+        nmpc.set_disturbance(observer.estimate)

@@ -74,7 +74,6 @@ class Flight:
     rc_path: bool = True  # the companion flew the RC path (its observer knows the thrust only there)
     home_from_mission: bool = False  # the log holds a mission's download: the companion knew its home from item 0,
     # not from an earlier HOME_POSITION (on a busy machine its download ends later)
-    lockstep: bool = False  # the companion flew in lockstep (its observer then learns only while commanding)
     solve_ms: list[float] = field(default_factory=list)
     engaged_solve_ms: list[float] = field(default_factory=list)  # (the gate's steps: its summary's step time)
 
@@ -159,7 +158,7 @@ class Flight:
         would = self.would_command()
         if not would and t >= self.start_s:  # as the companion: the observer's period, idle when disarmed, unknown
             # when a pilot drives
-            self._observe(t, IDLE if not (self.armed or self.lockstep) else None)
+            self._observe(t, None if self.armed else IDLE)
         if not would and self.shadow is None:
             return
         x = self.state.vector()
@@ -288,7 +287,7 @@ def prepare_flight(req: ReplayRequest, trial: Trial, scenario: Any, config: Any,
     flight.prepare_at_engaging = config.start_at_s is not None
     flight.observer = DisturbanceObserver(nmpc) if config.disturbance == "estimated" else None
     flight.stale_s, flight.start_s = config.stale_state_s, config.start_at_s or 0.0
-    flight.rc_path, flight.lockstep = config.output == "rc_override", config.lockstep
+    flight.rc_path = config.output == "rc_override"
     flight.home_from_mission = bool(trial.waypoints)
     return flight
 
