@@ -1,0 +1,161 @@
+"""Closed-loop speed: the realistic in-process loop's real-time factor per core, and where its time goes.
+
+    OMP_NUM_THREADS=1 python bench/closed_loop_speed.py [--repeat 3] [--compare REV]
+
+Six runs as ``mavbridge experiment`` flies them (no files): Direct and Balanced in the paper's sea, a JONSWAP
+sea and NATO sea state 4, each realistic (estimator on simulated sensors, hidden phase, heave, the disturbance
+observer) on nrti. A run's simulated time is its watch (the estimator's, before t = 0) plus the run to the
+waypoint; its cost is the process's CPU time (every thread: per core, as a sweep of one run per core pays it)
+and its wall time. Each case is timed ``--repeat`` times after one warm-up run (compiled code cached, imports
+done) and its fastest kept. Prints the real-time factor (simulated / CPU seconds) per run, their median, and the
+top five entries (own time) of a cProfile of the paper-sea Balanced run.
+
+``--compare REV`` runs the same measurement on the code of git revision REV (a temporary worktree put first
+on the path of a second process) and prints both, before and after, in one table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import dataclasses
+import io
+import json
+import os
+import pstats
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = {  # name -> (scenario file, run, R or None for the run's own)
+    "paper sea, direct": ("estimated.yaml", "direct", None),
+    "paper sea, balanced": ("estimated.yaml", "balanced", None),
+    "JONSWAP, direct": ("jonswap_estimated.yaml", "direct", None),
+    "JONSWAP, balanced": ("jonswap_estimated.yaml", "balanced", None),
+    "NATO SS4, direct": ("nato_ss4_estimated.yaml", "nato_ss4_estimated", 0.0),
+    "NATO SS4, balanced": ("nato_ss4_estimated.yaml", "nato_ss4_estimated", 1550.0),
+}
+PROFILED = "paper sea, balanced"
+
+
+def scenario_of(case: str) -> Any:
+    """The case's scenario on nrti (and its R), as the code on the path loads it."""
+    from mavbridge.lab.scenario import load_scenarios
+
+    file, run, r = CASES[case]
+    scenario = {sc.name: sc for sc in load_scenarios(ROOT / "scenarios" / file)}[run]
+    controller = scenario.controller.replace(solver="nrti", **({"r": r} if r is not None else {}))
+    return dataclasses.replace(scenario, controller=controller)
+
+
+def simulated_s(scenario: Any, metrics: dict[str, Any]) -> float:
+    """The watch before t = 0 plus the run itself (s of simulated time)."""
+    watch = scenario.estimation.watch_s if scenario.estimation.realistic else 0.0
+    return float(watch) + float(metrics["simulated_s"])
+
+
+def time_case(case: str, repeat: int) -> dict[str, float]:
+    """The fastest of ``repeat`` runs: CPU s, wall s, simulated s."""
+    from mavbridge.lab.experiment import run_scenario
+
+    scenario = scenario_of(case)
+    best: dict[str, float] = {}
+    for _ in range(repeat):
+        cpu, wall = time.process_time(), time.perf_counter()
+        metrics = run_scenario(scenario, None, plots=False).metrics
+        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+        if not best or cpu < best["cpu_s"]:
+            best = {"cpu_s": cpu, "wall_s": wall, "simulated_s": simulated_s(scenario, metrics)}
+    return best
+
+
+def profile_top(case: str, entries: int = 5) -> list[str]:
+    """The top ``entries`` of a cProfile of one run, by own time, as pstats prints them."""
+    from mavbridge.lab.experiment import run_scenario
+
+    scenario = scenario_of(case)
+    profiler = cProfile.Profile()
+    profiler.enable()
+    run_scenario(scenario, None, plots=False)
+    profiler.disable()
+    text = io.StringIO()
+    pstats.Stats(profiler, stream=text).sort_stats("tottime").print_stats(entries)
+    lines = text.getvalue().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.lstrip().startswith("ncalls"))
+    return [line.rstrip() for line in lines[start:start + entries + 1]]
+
+
+def measure(repeat: int) -> dict[str, Any]:
+    """Every case timed, and the profile; what ``--json`` writes and the table prints."""
+    time_case(PROFILED, 1)  # warm-up: imports, compiled code loaded or built
+    runs = {case: time_case(case, repeat) for case in CASES}
+    return {"runs": runs, "profile": profile_top(PROFILED)}
+
+
+def measure_revision(rev: str, repeat: int) -> dict[str, Any]:
+    """``measure`` in a second process on the code of git revision ``rev`` (a temporary worktree)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tree, out = Path(tmp) / "tree", Path(tmp) / "figures.json"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(tree), rev], check=True)
+        try:
+            env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")}
+            subprocess.run([sys.executable, __file__, "--repeat", str(repeat), "--json", str(out)], check=True,
+                           env=env, cwd=tree)
+            return json.loads(out.read_text(encoding="utf-8"))
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)], check=False)
+
+
+def factor(run: dict[str, float]) -> float:
+    """Real-time factor per core: simulated seconds per CPU second."""
+    return run["simulated_s"] / run["cpu_s"]
+
+
+def print_table(after: dict[str, Any], before: dict[str, Any] | None, rev: str | None) -> None:
+    """Markdown: per case simulated s, CPU s, wall s and the factor (before and after with ``--compare``)."""
+    head = "| run | simulated s | CPU s | wall s | × real time per core |"
+    rule = "|---|---|---|---|---|"
+    if before is not None:
+        head += f" before ({rev}) × | speed-up |"
+        rule += "---|---|"
+    print(head + "\n" + rule)
+    for case, run in after["runs"].items():
+        line = f"| {case} | {run['simulated_s']:.1f} | {run['cpu_s']:.2f} | {run['wall_s']:.2f} | {factor(run):.0f} |"
+        if before is not None:
+            old = before["runs"][case]
+            line += f" {factor(old):.0f} | {old['cpu_s'] / run['cpu_s']:.2f}× |"
+        print(line)
+    median = statistics.median(factor(run) for run in after["runs"].values())
+    print(f"\nmedian: {median:.0f}× real time per core", end="")
+    if before is not None:
+        print(f" (before: {statistics.median(factor(run) for run in before['runs'].values()):.0f}×)", end="")
+    print()
+    for label, figures in (("before", before), ("after", after)):
+        if figures is not None:
+            print(f"\nprofile of '{PROFILED}' ({label}), top five by own time:")
+            print("\n".join(figures["profile"]))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="timed runs per case, fastest kept (default: 3)")
+    parser.add_argument("--compare", metavar="REV", help="also measure git revision REV (before) in a worktree")
+    parser.add_argument("--json", type=Path, help=argparse.SUPPRESS)  # (the second process's output)
+    args = parser.parse_args()
+    if args.repeat < 1:
+        parser.error("--repeat: must be >= 1")
+    before = measure_revision(args.compare, args.repeat) if args.compare else None
+    after = measure(args.repeat)
+    if args.json is not None:
+        args.json.write_text(json.dumps(after), encoding="utf-8")
+        return
+    print_table(after, before, args.compare)
+
+
+if __name__ == "__main__":
+    main()
