@@ -226,7 +226,8 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     wall_start = time.perf_counter()
     cfg = scenario.controller
     hull_heaves = scenario.estimation.realistic and scenario.estimation.surface_heave
-    cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves))
+    cfg = cfg.replace(heave_feedback=resolve_heave_feedback(cfg.heave_feedback, hull_heaves),
+                      as_worker="inline" if cfg.as_worker == "thread" else cfg.as_worker)  # (each step waits for it)
     told = not scenario.estimation.realistic or scenario.estimation.disturbance == "truth"  # (simulation truth)
     nmpc = RollAwareNmpc(cfg, scenario.model_params(), _model_waves(scenario), _told_current(scenario),
                          scenario.sea.wind() if told else None)

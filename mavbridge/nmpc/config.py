@@ -84,8 +84,10 @@ class NmpcConfig:
     # a run is the same on every computer and executor; the companion caps it at a quarter period (wall time).
     as_wait_s: float = bounded(60.0, 0.0, 60.0, "s", "asrti: longest wait at a step for the background solve "
                                "started at the previous one (beyond it: plain rti from the shifted plan)")
-    as_worker: str = choice("thread", ("thread", "process"), "asrti: run the background solve in a thread (CasADi "
-                            "releases the GIL while it computes) or in a worker process (no GIL sharing)")
+    as_worker: str = choice("thread", ("thread", "process", "inline"), "asrti: run the background solve in a thread "
+                            "(CasADi releases the GIL while it computes), in a worker process (no GIL sharing), or "
+                            "inline, when the next step takes it (no thread; in-process runs wait for it anyway, and "
+                            "set it themselves; paced flight turns it into a thread)")
     rti_codegen: str = choice("auto", ("auto", "off"), "rti: compile the linearisation to C (cached) or not")
     heave_feedback: str = choice("auto", ("auto", "measured", "none"), "the heave the model is given: measured, "
                                  "none (down = 0, no vertical velocity: the hull on its calm waterline, for a hull "

@@ -8,7 +8,7 @@ from concurrent.futures import TimeoutError as FuturesTimeout
 
 import pytest
 
-from mavbridge.nmpc.solvers.worker import Job, Worker
+from mavbridge.nmpc.solvers.worker import InlineWorker, Job, Worker
 
 WAIT_S = 60.0  # the longest a test waits for an event: returns as soon as it happens
 
@@ -61,3 +61,40 @@ def test_shutdown_ends_the_thread_after_its_job_and_drops_the_rest_when_told() -
 
 def test_a_finished_job_holds_its_value() -> None:
     assert Job.finished((1, 2)).result(timeout=0.0) == (1, 2)
+
+
+def test_an_inline_job_runs_on_the_takers_thread_when_taken_and_only_then() -> None:
+    worker, ran = InlineWorker(), []
+    job = worker.submit(lambda x: ran.append(threading.current_thread().name) or x * 2, 21)
+    assert ran == [] and job.done()  # kept, not run: ready whenever it is asked for
+    assert job.result(timeout=0.0) == 42 and ran == [threading.current_thread().name]
+    assert job.result() == 42 and len(ran) == 1  # asked again: the same answer, not a second run
+    failing = worker.submit(lambda: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        failing.result()
+    dropped = worker.submit(ran.append, "never")
+    dropped.cancel()
+    with pytest.raises(CancelledError):
+        dropped.result()
+    worker.shutdown()
+    assert "never" not in ran
+    with pytest.raises(RuntimeError, match="after shutdown"):
+        worker.submit(int, "7")
+
+
+def test_in_process_runs_prepare_inline_and_paced_flight_gets_its_thread() -> None:
+    from mavbridge.nmpc import NmpcConfig
+    from mavbridge.nmpc.functions import problem_functions
+    from mavbridge.nmpc.solvers.asrti import AdvancedStep
+    from vessel.dynamics import OceanCurrent
+    from vessel.params import OtterParameters
+    from vessel.sea.waves import CalmWater
+
+    cfg = NmpcConfig(horizon=6, solver="asrti", rti_codegen="off", as_worker="inline")
+    step = AdvancedStep(problem_functions(OtterParameters(), CalmWater(), OceanCurrent(), cfg), cfg)
+    try:
+        assert isinstance(step._worker(), InlineWorker)
+        step.pace(0.1)  # paced: the work ahead must overlap the wait for the next measurement
+        assert isinstance(step._worker(), Worker) and step.cfg.as_worker == "thread"
+    finally:
+        step.close()

@@ -32,7 +32,7 @@ from mavbridge.nmpc.inputs import input_space
 from mavbridge.nmpc.layout import PARAMS, parameter_layout
 from mavbridge.nmpc.solvers.gauss_newton import GaussNewtonSqp
 from mavbridge.nmpc.solvers.rti import RtiBackend
-from mavbridge.nmpc.solvers.worker import Job, Worker
+from mavbridge.nmpc.solvers.worker import InlineWorker, Job, Worker
 from vessel import OceanCurrent, OtterParameters, WaveField
 
 # Paced (``RollAwareNmpc.pace``): a step waits for the background job at most this share of a wall period
@@ -86,12 +86,12 @@ class AdvancedStep:
         self.cfg = cfg
         self.wait_s = cfg.as_wait_s  # wall seconds a step waits for the job (``pace``)
         self.functions = functions
-        self._solve = BackgroundSolve(functions, cfg) if cfg.as_worker == "thread" else None
-        self._executor: Worker | ProcessPoolExecutor | None = None
+        self._solve = BackgroundSolve(functions, cfg) if cfg.as_worker != "process" else None
+        self._executor: Worker | InlineWorker | ProcessPoolExecutor | None = None
         self._pending: Future | Job | None = None
         self.closed = False
 
-    def _worker(self) -> Worker | ProcessPoolExecutor:
+    def _worker(self) -> Worker | InlineWorker | ProcessPoolExecutor:
         if self.closed:
             raise RuntimeError("AdvancedStep: used after close()")
         if self._executor is None:
@@ -100,6 +100,8 @@ class AdvancedStep:
                 self._executor = ProcessPoolExecutor(max_workers=1, mp_context=get_context("spawn"),
                                                      initializer=_worker_init,
                                                      initargs=(f.params, f.fixed_waves, f.current, self.cfg, f.wind))
+            elif self.cfg.as_worker == "inline":
+                self._executor = InlineWorker()
             else:
                 self._executor = Worker("asrti")  # (lighter than a ThreadPoolExecutor on the step's path)
         return self._executor
@@ -116,8 +118,12 @@ class AdvancedStep:
         self._pending = self._worker().submit(target, *args)
 
     def pace(self, wall_period_s: float) -> None:
-        """Wait at most WAIT_SHARE of a wall period (never more than ``as_wait_s``) for the job."""
+        """Wait at most WAIT_SHARE of a wall period (never more than ``as_wait_s``) for the job. Paced, the work
+        ahead needs its own thread: an inline worker becomes one (its job not yet taken still runs when taken)."""
         self.wait_s = min(self.cfg.as_wait_s, WAIT_SHARE * max(wall_period_s, 0.0))
+        if self.cfg.as_worker == "inline":
+            self.cfg = self.cfg.replace(as_worker="thread")
+            self._executor = None
 
     def take(self, p: np.ndarray) -> tuple[np.ndarray | None, dict]:
         """The background plan if it was made for this step's p (waiting up to ``wait_s``), and figures."""

@@ -149,7 +149,8 @@ class NrtiBackend(AsrtiBackend):
     name = "nrti"
 
     def __init__(self, functions: ProblemFunctions, cfg: NmpcConfig) -> None:
-        cfg = cfg.replace(as_worker="thread")  # the prepared QP lives in this process's memory
+        if cfg.as_worker == "process":  # the prepared QP lives in this process's memory
+            cfg = cfg.replace(as_worker="thread")
         super().__init__(functions, cfg)
         lib, self.native = native_library()
         self.buffers: FeedbackBuffers | None = None
