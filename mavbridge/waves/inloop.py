@@ -37,6 +37,7 @@ from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
 from vessel.dynamics import OceanCurrent, plant_ode, rigid_body_ode
 from vessel.imu import specific_force
+from vessel.jit import BoundFunction
 from vessel.plant import plant_step, rk4_step
 from vessel.sea.wind import Wind
 from vessel.sensors import SensorModel, SensorParams
@@ -88,11 +89,15 @@ class SensedPlant:
         self.dt = dt_s
         self.half_s = period_s / SAMPLES_PER_PERIOD
         self.substeps = substeps_per_period(self.half_s, dt_s)
-        self._half = step.mapaccum(self.substeps)
+        # Bound once to preallocated arrays (no DM conversions per call): a half period's substeps in one call, at
+        # the times t0 + dt·k (the offsets dt·k computed once, as ``np.arange`` gave them per call before)
+        self._half = BoundFunction(step.mapaccum(self.substeps))
+        self._offsets = self.dt * np.arange(self.substeps)
         nx = ode.size1_in(0)
         x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
         xdot = ode(x, u, t)
-        self._imu = ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)])
+        self._imu = BoundFunction(
+            ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)]))
         self.x = np.concatenate([np.asarray(x0, float)[:12], np.zeros(nx - 12)])
         self.sensors, self.source = sensors, source
         self._input = np.zeros(2)  # τ (N, N·m), or the shaft-speed commands (rad/s) with propellers
@@ -109,8 +114,12 @@ class SensedPlant:
 
     def sense(self, t: float) -> None:
         """Sample the sensors at ``t`` (true state, last applied τ for the IMU) and feed the wave source."""
-        f = np.asarray(self._imu(self.x, self._input, t)).ravel()
-        reading = self.sensors.sample(t, self.x[0:6], self.x[6:12], f)
+        x_in, u_in, t_in = self._imu.inputs
+        x_in[:] = self.x
+        u_in[:] = self._input
+        t_in[0] = t
+        self._imu()
+        reading = self.sensors.sample(t, self.x[0:6], self.x[6:12], self._imu.outputs[0])
         self.source.observe(MotionSample(reading.t_s, reading.attitude, reading.rates, reading.position_ned,
                                          reading.velocity_ned, reading.accel_body))
 
@@ -135,16 +144,20 @@ class SensedPlant:
         """One control period from ``t`` with τ (or, with propellers, ``n_cmd``) held, sensing at each half period
         inside it (``sensed``; not while the hull settles unwatched)."""
         self._input = np.asarray(n_cmd if self.propellers else tau, float)
+        x_in, u_in, t_in = self._half.inputs
+        u_in.reshape(self.substeps, -1)[:] = self._input  # the input held at every substep (column-major 2 × k)
+        nx = x_in.size
         for i in range(SAMPLES_PER_PERIOD):
             t0 = t + i * self.half_s
             if i > 0 and sensed:
                 self.sense(t0)
-            times = ca.DM(t0 + self.dt * np.arange(self.substeps)).T
-            out = np.asarray(self._half(self.x, ca.repmat(ca.DM(self._input), 1, self.substeps), times))
-            x_next = out[:, -1]
-            if not np.all(np.isfinite(x_next)):
+            x_in[:] = self.x
+            np.add(t0, self._offsets, out=t_in)
+            self._half()
+            x_next = self._half.outputs[0][-nx:]  # the last substep's state (the last column)
+            if not np.isfinite(x_next).all():
                 raise FloatingPointError(f"plant state became non-finite at t = {t0:.2f} s")
-            self.x = x_next
+            self.x = x_next.copy()
 
 
 def sensor_model(kind: str, seed: int) -> SensorModel:
