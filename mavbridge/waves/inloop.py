@@ -14,6 +14,7 @@ wavelength and height (%), and the phase of the predicted wave at the horizon's 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from typing import Any
@@ -54,8 +55,13 @@ def hidden_sea(waves: WaveField, seed: int) -> WaveField:
     return dataclasses.replace(waves, phase_rad=phase)
 
 
+@functools.lru_cache(maxsize=32)
 def calibrated_settings(params: Any, surface_heave: bool, roll_sign: float) -> EstimatorSettings:
     """The hull's roll/pitch response to the slope, measured once on the vessel model in a fixed lab sea.
+
+    Measured once per process for each (params, surface_heave, roll_sign), on which alone it depends (the lab
+    sea and the manoeuvre are fixed; ``params`` is a frozen, hashable dataclass), and the settings are frozen:
+    a sweep's runs share the 80 s recording instead of repeating it each run.
 
     The lab sea is the paper's wave at another phase, the hull heading 45° at 70 rad/s shafts for 80 s:
     a property of the hull, not of the run's (hidden) sea. The model hull rolls in it with the sign the
