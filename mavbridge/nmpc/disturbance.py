@@ -75,6 +75,8 @@ class DisturbanceObserver:
         self.covariance = np.diag(np.square(self.settings.initial_std))
         self._drift = np.diag(np.square(self.settings.drift_std_per_sqrt_s)) * self.period_s
         self._noise = np.diag(np.square(self.settings.measurement_std))
+        self._noise_unknown_wave = self._noise * self.settings.unknown_wave_noise_factor
+        self._identity = np.eye(n)
         self._limits = np.asarray(self.settings.limits, float)
         self._previous: tuple[np.ndarray, np.ndarray, float, np.ndarray, bool] | None = None
         self.updates = 0
@@ -99,7 +101,7 @@ class DisturbanceObserver:
         x0, tau0, t0, wave0, known = previous
         wave0[wave0.size - self.estimate.size:] = self.estimate
         predicted, jac = self._prediction(x0, tau0, t0, wave0)
-        noise = self._noise if known else self._noise * self.settings.unknown_wave_noise_factor
+        noise = self._noise if known else self._noise_unknown_wave
         self._correct(x[list(MEASURED)] - predicted, jac, noise)
         return self._settled(t)
 
@@ -115,10 +117,11 @@ class DisturbanceObserver:
     def _correct(self, error: np.ndarray, jac: np.ndarray, noise: np.ndarray) -> None:
         """The Kalman filter's update of the random-walk disturbance from the velocity errors."""
         p = self.covariance + self._drift
-        s = jac @ p @ jac.T + noise
-        gain = np.linalg.solve(s, jac @ p).T
-        self.estimate = np.clip(self.estimate + gain @ error, -self._limits, self._limits)
-        self.covariance = (np.eye(self.estimate.size) - gain @ jac) @ p
+        jp = jac @ p  # (once: the same product served both uses)
+        s = jp @ jac.T + noise
+        gain = np.linalg.solve(s, jp).T
+        self.estimate = np.minimum(np.maximum(self.estimate + gain @ error, -self._limits), self._limits)
+        self.covariance = (self._identity - gain @ jac) @ p
         self.updates += 1
 
     def _settled(self, t: float) -> bool:
