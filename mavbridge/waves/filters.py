@@ -14,18 +14,30 @@ from __future__ import annotations
 import cmath
 import math
 
+import numpy as np
+
 CLOCK_BACK_S = 5.0  # a sample this much older than the last: the autopilot's clock went back (a reboot)
 
 
 def finite(values: object, n: int) -> tuple[float, ...] | None:
-    """The first ``n`` entries as floats if all finite, else None (also for None or short input)."""
+    """The first ``n`` entries as floats if all finite, else None (also for None or short input).
+
+    Called several times for every sample: a float vector gives its numbers in one ``tolist`` (indexing an array
+    makes a numpy scalar of each number), and a finite sum proves every entry finite in one pass (only a sum that
+    is not, an overflow or a bad entry, looks at each).
+    """
     if values is None:
         return None
-    try:
-        out = tuple(float(values[i]) for i in range(n))  # type: ignore[index]
-    except (TypeError, IndexError, ValueError):
-        return None
-    return out if all(math.isfinite(v) for v in out) else None
+    if isinstance(values, np.ndarray) and values.ndim == 1 and values.dtype.kind == "f":
+        if values.shape[0] < n:
+            return None
+        out = tuple(values[:n].tolist())
+    else:
+        try:
+            out = tuple(float(values[i]) for i in range(n))  # type: ignore[index]
+        except (TypeError, IndexError, ValueError):
+            return None
+    return out if math.isfinite(sum(out)) or all(math.isfinite(v) for v in out) else None
 
 
 def smooth_step(x: float) -> float:
