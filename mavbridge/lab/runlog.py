@@ -49,6 +49,7 @@ LOG_COLUMNS = (
     "state_age_s",  # companion: autopilot time now (estimated) minus the state's time_boot_ms
 )
 ROLL = STATE_COLUMNS[STATE_NAMES.index("phi")]
+_KNOWN_COLUMNS = frozenset(LOG_COLUMNS)  # (checked for every row)
 
 
 @dataclass
@@ -65,9 +66,10 @@ class RunRecorder:
 
     def state(self, t_s: float, x: Iterable[float], **columns: Any) -> dict[str, Any]:
         """Append a row for state ``x`` (12 rigid-body states) at ``t_s`` with more columns; returns it."""
-        values = [float(v) for v in x]
+        # a float array gives its numbers in one call (float(v) of each entry makes a numpy scalar first)
+        values = x.tolist() if isinstance(x, np.ndarray) and x.dtype == np.float64 else [float(v) for v in x]
         row = {"t_s": t_s, **dict(zip(STATE_COLUMNS, values[:NX_RIGID], strict=True)), **columns}
-        unknown = set(row) - set(LOG_COLUMNS)
+        unknown = row.keys() - _KNOWN_COLUMNS
         if unknown:
             raise KeyError(f"run log: no column {sorted(unknown)[0]!r}")
         self.rows.append(row)
