@@ -77,3 +77,42 @@ class BoundFunction:
     def __call__(self) -> None:
         """Evaluate on the current inputs into the outputs."""
         self._evaluate()
+
+
+def constants_as_input(function: ca.Function) -> tuple[ca.Function, np.ndarray]:
+    """``function`` (an SX function) with its numeric constants made one more input: (the function of (its inputs,
+    constants), the constants' values).
+
+    The same operations on the same operands in the same order, instruction by instruction; only where an operand
+    was a constant it is read from the new input, so given the values it evaluates exactly what ``function`` does.
+    A model with different numbers (another seed of a sea, another phase) but the same structure then gives the same
+    function, whose compiled code (cached by content) serves them all. Raises ValueError for an operation with
+    more than two operands (a call of another function inside), which this does not rebuild.
+    """
+    inputs = [ca.SX.sym(function.name_in(i), function.sparsity_in(i)) for i in range(function.n_in())]
+    nonzeros = [ca.vertsplit(ca.vec(x), 1) if x.nnz() else [] for x in (ca.densify(s) for s in inputs)]
+    outputs = [[ca.SX(0)] * function.nnz_out(i) for i in range(function.n_out())]
+    n_const = sum(function.instruction_id(k) == ca.OP_CONST for k in range(function.n_instructions()))
+    constants = ca.SX.sym("constants", n_const)
+    values: list[float] = []
+    work: dict[int, ca.SX] = {}
+    for k in range(function.n_instructions()):
+        op, args, res = function.instruction_id(k), function.instruction_input(k), function.instruction_output(k)
+        if op == ca.OP_CONST:
+            work[res[0]] = constants[len(values)]
+            values.append(function.instruction_constant(k))
+        elif op == ca.OP_INPUT:
+            work[res[0]] = nonzeros[args[0]][args[1]]
+        elif op == ca.OP_OUTPUT:
+            outputs[res[0]][res[1]] = work[args[0]]
+        elif len(args) == 1:
+            work[res[0]] = ca.SX.unary(op, work[args[0]])
+        elif len(args) == 2:
+            work[res[0]] = ca.SX.binary(op, work[args[0]], work[args[1]])
+        else:
+            raise ValueError(f"{function.name()}: operation {op} with {len(args)} operands is not rebuilt")
+    results = [ca.reshape(ca.vertcat(*out), function.size_out(i)) if out else ca.SX(function.sparsity_out(i))
+               for i, out in enumerate(outputs)]
+    rebuilt = ca.Function(function.name(), [*inputs, constants], results,
+                          [*function.name_in(), "constants"], function.name_out())
+    return rebuilt, np.asarray(values, float)

@@ -23,6 +23,7 @@ import casadi as ca
 import numpy as np
 
 from mavbridge.waves.calibration import hull_response, record_plant, settings_for
+from mavbridge.waves.half_period import half_period
 from mavbridge.waves.kinematic import estimate_errors, paper_sea
 from mavbridge.waves.phase.bank_source import BankFeed
 from mavbridge.waves.settings import EstimatorSettings
@@ -95,10 +96,9 @@ class SensedPlant:
         self.dt = dt_s
         self.half_s = period_s / SAMPLES_PER_PERIOD
         self.substeps = substeps_per_period(self.half_s, dt_s)
-        # Bound once to preallocated arrays (no DM conversions per call): a half period's substeps in one call, at
-        # the times t0 + dt·k (the offsets dt·k computed once, as ``np.arange`` gave them per call before)
-        self._half = BoundFunction(step.mapaccum(self.substeps))
-        self._offsets = self.dt * np.arange(self.substeps)
+        # a half period's substeps bound to preallocated arrays (no DM conversions per call); compiled in an
+        # irregular sea (see ``half_period``)
+        self._half = half_period(step, self.substeps, dt_s)
         nx = ode.size1_in(0)
         x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
         xdot = ode(x, u, t)
@@ -150,17 +150,12 @@ class SensedPlant:
         """One control period from ``t`` with τ (or, with propellers, ``n_cmd``) held, sensing at each half period
         inside it (``sensed``; not while the hull settles unwatched)."""
         self._input = np.asarray(n_cmd if self.propellers else tau, float)
-        x_in, u_in, t_in = self._half.inputs
-        u_in.reshape(self.substeps, -1)[:] = self._input  # the input held at every substep (column-major 2 × k)
-        nx = x_in.size
+        self._half.hold(self._input)
         for i in range(SAMPLES_PER_PERIOD):
             t0 = t + i * self.half_s
             if i > 0 and sensed:
                 self.sense(t0)
-            x_in[:] = self.x
-            np.add(t0, self._offsets, out=t_in)
-            self._half()
-            x_next = self._half.outputs[0][-nx:]  # the last substep's state (the last column)
+            x_next = self._half.run(self.x, t0)
             if not np.isfinite(x_next).all():
                 raise FloatingPointError(f"plant state became non-finite at t = {t0:.2f} s")
             self.x = x_next.copy()
