@@ -28,10 +28,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from mavbridge.nmpc.compiled_model import compiled_model
 from mavbridge.nmpc.layout import DISTURBANCE_NAMES, NX
 from mavbridge.nmpc.model_state import on_mean_surface
 from mavbridge.nmpc.problem import discrete_model
-from vessel.jit import BoundFunction
 
 MEASURED = (6, 7, 11)  # u, v (m/s, body), r (rad/s): what the errors are taken in
 SETTLED_CURRENT_STD = 0.08  # m/s: the current's standard deviation under which the estimate counts as settled
@@ -69,8 +69,10 @@ class DisturbanceObserver:
         y = step(x, tau, t, wave)[list(MEASURED)]
         n = len(DISTURBANCE_NAMES)
         jac = ca.jacobian(y, wave)[:, wave.numel() - n:]
-        # bound to preallocated arrays (no DM conversions per period); the Jacobian dense, column-major
-        self._predict = BoundFunction(ca.Function("disturbance_prediction", [x, tau, t, wave], [y, ca.densify(jac)]))
+        # bound to preallocated arrays (no DM conversions per period), compiled once per make of model (see
+        # ``compiled_model``: the same numbers); the Jacobian dense, column-major
+        self._predict, _ = compiled_model(
+            ca.Function("disturbance_prediction", [x, tau, t, wave], [y, ca.densify(jac)]))
         self.estimate = np.zeros(n)
         self.covariance = np.diag(np.square(self.settings.initial_std))
         self._drift = np.diag(np.square(self.settings.drift_std_per_sqrt_s)) * self.period_s
@@ -108,7 +110,7 @@ class DisturbanceObserver:
     def _prediction(self, x: np.ndarray, tau: np.ndarray, t: float, wave: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The model's measured velocities one period on from (x, τ, t, wave) and their Jacobian in the disturbance
         (3 × 4, C order as the ordinary call's result was: the filter's products then sum in the same order)."""
-        x_in, tau_in, t_in, wave_in = self._predict.inputs
+        x_in, tau_in, t_in, wave_in = self._predict.inputs[0:4]
         x_in[:], tau_in[:], t_in[0], wave_in[:] = x, tau, t, wave
         self._predict()
         predicted, jac = self._predict.outputs

@@ -1,28 +1,18 @@
-"""The sensed plant's half control period: its RK4 substeps, compiled once for every plant of the same make, or on
-CasADi's virtual machine.
+"""The sensed plant's half control period: its RK4 substeps, compiled once for every plant of the same make
+(``mavbridge.nmpc.compiled_model``), or all in one call of the mapped step on CasADi's virtual machine.
 
 A plant step in an irregular sea of 200 components costs the virtual machine ≈ 34 µs (≈ 5 ms per simulated second
-at the realistic loop's 0.01 s steps, more than the rest of the loop outside the NMPC); compiled (gcc -O1) ≈ 10 µs.
-Compiled as it is, with the sea's numbers as constants, it would be compiled anew for every seed and every hidden
-phase, a second or two each time; so the step's numeric constants are made an input (``vessel.jit.
-constants_as_input``: the same operations in the same order, each constant read from the input instead) and the
-library, cached on disk by its content (``mavbridge.nmpc.solvers.codegen``), serves every plant of that make. It is
-compiled without contracting a product and a sum into one rounding, as the virtual machine never does: the same
-roundings, so a run gives the figures it gave on the virtual machine. Without a C compiler (or when the build
-fails, or the step holds what ``constants_as_input`` does not rebuild) all substeps run in one call of the mapped
-step on the virtual machine.
+at the realistic loop's 0.01 s steps, more than the rest of the loop outside the NMPC); compiled (gcc -O1) ≈ 10 µs,
+bit for bit the same numbers, and one library serves every seed and hidden phase.
 """
 
 from __future__ import annotations
 
-import functools
-
 import casadi as ca
 import numpy as np
 
-from vessel.jit import BoundFunction, constants_as_input
-
-FLAGS = ("-O1", "-ffp-contract=off")  # no fused multiply-add: the virtual machine's roundings, one per operation
+from mavbridge.nmpc.compiled_model import compiled_model
+from vessel.jit import BoundFunction
 
 
 class MappedHalf:
@@ -47,11 +37,10 @@ class MappedHalf:
 
 
 class CompiledHalf:
-    """The substeps as successive calls of the compiled one-step function, its constants set once."""
+    """The substeps as successive calls of the compiled one-step function (``compiled_model``: its constants set)."""
 
-    def __init__(self, step: ca.Function, substeps: int, dt: float, constants: np.ndarray) -> None:
-        self._call = BoundFunction(step)
-        self._call.inputs[3][:] = constants
+    def __init__(self, call: BoundFunction, substeps: int, dt: float) -> None:
+        self._call = call
         self._offsets = dt * np.arange(substeps)  # (their sums with t0 are the mapped step's times)
         self._times = np.zeros(substeps)
 
@@ -72,25 +61,8 @@ class CompiledHalf:
         return out
 
 
-@functools.lru_cache(maxsize=16)
-def _compiled(serialized: str) -> ca.Function | None:
-    """The compiled function of a make (from the disk cache when built before), once per process; None without a C
-    compiler or when the build fails."""
-    from mavbridge.nmpc.solvers.codegen import compiled_library, load
-
-    function = ca.Function.deserialize(serialized)
-    library, _ = compiled_library(function, FLAGS)
-    return load(function, library) if library is not None else None
-
-
 def half_period(step: ca.Function, substeps: int, dt: float) -> MappedHalf | CompiledHalf:
     """The half period of the plant whose one step is ``step`` ((x, u, t) -> x, its numbers inside): compiled when it
     can be, else ``step`` mapped over the substeps."""
-    try:
-        generic, constants = constants_as_input(step)
-    except ValueError:
-        return MappedHalf(step, substeps, dt)
-    compiled = _compiled(generic.serialize())
-    if compiled is None:
-        return MappedHalf(step, substeps, dt)
-    return CompiledHalf(compiled, substeps, dt, constants)
+    call, compiled = compiled_model(step)
+    return CompiledHalf(call, substeps, dt) if compiled else MappedHalf(step, substeps, dt)

@@ -22,6 +22,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from mavbridge.nmpc.compiled_model import compiled_model
 from mavbridge.waves.calibration import hull_response, record_plant, settings_for
 from mavbridge.waves.half_period import half_period
 from mavbridge.waves.kinematic import estimate_errors, paper_sea
@@ -39,7 +40,6 @@ from vessel import Plant, RegularWaves, WaveField
 from vessel.closed_loop import substeps_per_period
 from vessel.dynamics import OceanCurrent, plant_ode, rigid_body_ode
 from vessel.imu import specific_force
-from vessel.jit import BoundFunction
 from vessel.plant import plant_step, rk4_step
 from vessel.sea.wind import Wind
 from vessel.sensors import SensorModel, SensorParams
@@ -102,7 +102,7 @@ class SensedPlant:
         nx = ode.size1_in(0)
         x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
         xdot = ode(x, u, t)
-        self._imu = BoundFunction(
+        self._imu, _ = compiled_model(
             ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)]))
         self.x = np.concatenate([np.asarray(x0, float)[:12], np.zeros(nx - 12)])
         self.sensors, self.source = sensors, source
@@ -120,7 +120,7 @@ class SensedPlant:
 
     def sense(self, t: float) -> None:
         """Sample the sensors at ``t`` (true state, last applied τ for the IMU) and feed the wave source."""
-        x_in, u_in, t_in = self._imu.inputs
+        x_in, u_in, t_in = self._imu.inputs[0:3]
         x_in[:] = self.x
         u_in[:] = self._input
         t_in[0] = t

@@ -1,0 +1,49 @@
+"""A model function compiled once for every model of the same make, bound to preallocated arrays.
+
+The loop's models (the sensed plant's step and IMU, the disturbance observer's prediction) hold their numbers as
+constants: the sea's components and hidden phase, the hull's. Compiled as they are they would be compiled anew for
+each seed, a second or two each time; with their constants made an input (``vessel.jit.constants_as_input``: the
+same operations in the same order, each constant read from the input instead) one library, cached on disk by its
+content (``mavbridge.nmpc.solvers.codegen``), serves every model of that make, and one process loads it once. It is
+built without contracting a product and a sum into one rounding (``-ffp-contract=off``), as CasADi's virtual
+machine never does, so it evaluates bit for bit what the virtual machine does. Without a C compiler, when the build
+fails or when the function holds what ``constants_as_input`` does not rebuild, the function runs on the virtual
+machine, bound just the same.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import casadi as ca
+
+from vessel.jit import BoundFunction, constants_as_input
+
+FLAGS = ("-O1", "-ffp-contract=off")  # no fused multiply-add: the virtual machine's roundings, one per operation
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled(serialized: str) -> ca.Function | None:
+    """The compiled function of a make (from the disk cache when built before), once per process; None without a C
+    compiler or when the build fails."""
+    from mavbridge.nmpc.solvers.codegen import compiled_library, load
+
+    function = ca.Function.deserialize(serialized)
+    library, _ = compiled_library(function, FLAGS)
+    return load(function, library) if library is not None else None
+
+
+def compiled_model(function: ca.Function) -> tuple[BoundFunction, bool]:
+    """(``function`` bound to arrays, compiled): compiled, its inputs are ``function``'s and then the constants,
+    already filled in (the caller fills the first ``function.n_in()`` as ever); else ``function`` itself on the
+    virtual machine."""
+    try:
+        generic, constants = constants_as_input(function)
+    except ValueError:
+        return BoundFunction(function), False
+    compiled = _compiled(generic.serialize())
+    if compiled is None:
+        return BoundFunction(function), False
+    bound = BoundFunction(compiled)
+    bound.inputs[-1][:] = constants
+    return bound, True
