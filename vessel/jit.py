@@ -5,6 +5,10 @@ has ≈ 12 000 instructions (≈ 55 µs, 180× real time at dt = 0.01 s), the pa
 same expression compiled by gcc -O1 runs ≈ 4× faster (≈ 14 µs, 700×) after a one-off compile of one to
 three seconds. The compiled function evaluates the identical expression graph; without a compiler (or if
 compiling fails) the virtual machine is used and a warning is logged.
+
+``BoundFunction`` calls a function through CasADi's buffer interface (preallocated arrays, no DM conversions per
+call); ``constants_as_input`` makes a function's numeric constants an input, so that one compiled library serves
+every model of the same make (``mavbridge.nmpc.compiled_model`` caches it on disk).
 """
 
 from __future__ import annotations
