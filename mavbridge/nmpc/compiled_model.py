@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 
 import casadi as ca
+import numpy as np
 
 from vessel.jit import BoundFunction, constants_as_input
 
@@ -33,17 +34,29 @@ def _compiled(serialized: str) -> ca.Function | None:
     return load(function, library) if library is not None else None
 
 
+@functools.lru_cache(maxsize=32)
+def _generic(serialized: str) -> tuple[ca.Function, np.ndarray] | None:
+    """The compiled function of this function's make and its constants; None when it runs on the virtual machine.
+    Once per process for each function (the same model again, a sweep's runs on one sea, rebuilds nothing)."""
+    try:
+        generic, constants = constants_as_input(ca.Function.deserialize(serialized))
+    except ValueError:
+        return None
+    compiled = _compiled(generic.serialize())
+    if compiled is None:
+        return None
+    constants.setflags(write=False)
+    return compiled, constants
+
+
 def compiled_model(function: ca.Function) -> tuple[BoundFunction, bool]:
     """(``function`` bound to arrays, compiled): compiled, its inputs are ``function``'s and then the constants,
     already filled in (the caller fills the first ``function.n_in()`` as ever); else ``function`` itself on the
     virtual machine."""
-    try:
-        generic, constants = constants_as_input(function)
-    except ValueError:
+    found = _generic(function.serialize())
+    if found is None:
         return BoundFunction(function), False
-    compiled = _compiled(generic.serialize())
-    if compiled is None:
-        return BoundFunction(function), False
+    compiled, constants = found
     bound = BoundFunction(compiled)
     bound.inputs[-1][:] = constants
     return bound, True

@@ -54,3 +54,16 @@ def test_compiled_half_period_equals_the_mapped_one_and_serves_every_seed() -> N
             x = want
         halves.append(compiled)
     assert halves[0]._call.function is halves[1]._call.function  # the second seed compiled nothing
+
+
+def test_the_same_model_again_is_not_rebuilt() -> None:
+    from mavbridge.nmpc import compiled_model as cm
+
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("h", [x], [ca.sin(0.25 * x) * 1.5])
+    first, _ = compiled_model(f)
+    hits = cm._generic.cache_info().hits
+    second, compiled = compiled_model(ca.Function("h", [x], [ca.sin(0.25 * x) * 1.5]))  # built anew, equal
+    assert compiled and cm._generic.cache_info().hits == hits + 1
+    assert second is not first and second.inputs[0] is not first.inputs[0]  # its own buffers
+    assert np.array_equal(second.inputs[-1], first.inputs[-1])
