@@ -21,7 +21,7 @@ from mavbridge.lab.experiment import run_scenario
 from mavbridge.lab.scenario import Scenario, load_scenarios
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
 from mavbridge.nmpc.layout import NU, NX
-from mavbridge.nmpc.solvers.codegen import compiler
+from mavbridge.nmpc.solvers.codegen import CACHE_ENV, HOT_FLAGS, compiled_library, compiler, load
 from mavbridge.nmpc.solvers.gauss_newton import NZ
 from mavbridge.nmpc.solvers.native_lib import BoxQp, native_library, ptr
 from vessel import RegularWaves, otter_parameters
@@ -248,3 +248,20 @@ def test_without_a_compiler_nrti_runs_as_asrti_and_says_so_once(monkeypatch: pyt
     assert all(r.status.startswith("RTI") for r in results)  # asrti's step
     notices = [r for r in caplog.records if "running as asrti" in r.getMessage()]
     assert len(notices) == 1, [r.getMessage() for r in caplog.records]
+
+
+@needs_compiler
+def test_a_library_built_with_other_flags_is_another_cached_library(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The cache key names the compiler flags: the hot functions' -O3 build never answers for an -O1 one (or back),
+    and both compute the same bits (no contraction, no fast math: the loop's figures rest on it)."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    x = ca.SX.sym("x", 3)
+    fn = ca.Function("flags_probe", [x], [ca.sin(x[0]) * x[1] + x[2] / (1.0 + x[0] ** 2) + ca.sqrt(x[1] ** 2 + 1e-4)])
+    plain, _ = compiled_library(fn)
+    hot, _ = compiled_library(fn, HOT_FLAGS)
+    assert plain is not None and hot is not None and plain != hot
+    assert sorted(path.name for path in tmp_path.glob("*.so")) == sorted([plain.name, hot.name])
+    points = np.random.default_rng(3).normal(size=(200, 3))
+    answers = [np.array([float(load(fn, lib)(point)) for point in points]) for lib in (plain, hot)]
+    assert answers[0].tobytes() == answers[1].tobytes()

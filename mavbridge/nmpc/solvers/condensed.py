@@ -27,7 +27,7 @@ import numpy as np
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space
 from mavbridge.nmpc.layout import NU, NX, ROLL_SPREAD_NAMES, WEIGHT_NAMES, parameter_layout, wave_input_size
-from mavbridge.nmpc.solvers.codegen import compiled_library, load
+from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, compiled_library, load
 from mavbridge.nmpc.solvers.gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
 from mavbridge.nmpc.solvers.native_lib import BoxQp, CompiledFunction, ptr
 
@@ -89,11 +89,11 @@ BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
 
 def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
                              matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
-    """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached) called through
-    its C API when a compiler exists and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX
-    VM (outputs converted)."""
+    """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached, ``HOT_FLAGS``: it runs
+    a few times every step) called through its C API when a compiler exists and ``cfg.rti_codegen`` is "auto",
+    else the Function in CasADi's SX VM (outputs converted)."""
     fn = block_linearisation(step, cfg, matrix)
-    library, how = compiled_library(fn) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
+    library, how = compiled_library(fn, HOT_FLAGS) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
     if library is not None:
         return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
     vm = load(fn, None)
