@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -84,20 +83,46 @@ def block_linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray |
                        ["w", "p"], ["AB", "H", "g", "gap"])
 
 
-BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
+class VmBlocks:
+    """The block linearisation in CasADi's SX virtual machine with ``CompiledFunction``'s face (``bind``, ``call``,
+    its own output buffers), for when nothing is compiled: the ``Condenser`` then works the same way on either."""
+
+    def __init__(self, fn: ca.Function) -> None:
+        self.fn = load(fn, None)
+        self.n_in = [fn.nnz_in(i) for i in range(fn.n_in())]
+        self.outputs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
+        self._inputs: tuple[np.ndarray, ...] = ()
+
+    def __call__(self, *inputs: np.ndarray) -> list[np.ndarray]:
+        """Evaluate at ``inputs``; answers this instance's output buffers."""
+        self.bind(*inputs)
+        return self.call()
+
+    def bind(self, *inputs: np.ndarray) -> None:
+        """Evaluate at these arrays (their contents at each ``call``)."""
+        self._inputs = inputs
+
+    def call(self) -> list[np.ndarray]:
+        """Evaluate at the inputs last bound; answers this instance's output buffers (flat, column-major)."""
+        for out, value in zip(self.outputs, self.fn(*self._inputs), strict=True):
+            out[:] = np.asarray(value).ravel(order="F")
+        return self.outputs
+
+
+BlockLinearisation = CompiledFunction | VmBlocks
 
 
 def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
                              matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
-    """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached, ``HOT_FLAGS``: it runs
-    a few times every step) called through its C API when a compiler exists and ``cfg.rti_codegen`` is "auto",
-    else the Function in CasADi's SX VM (outputs converted)."""
+    """(w_aug, p) -> [AB, H, g, gap] flat column-major, into the instance's own output buffers: the compiled library
+    (disk-cached, ``HOT_FLAGS``: it runs a few times every step) called through its C API when a compiler exists
+    and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX VM (outputs converted)."""
     fn = block_linearisation(step, cfg, matrix)
     library, how = compiled_library(fn, HOT_FLAGS) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
     if library is not None:
-        return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
-    vm = load(fn, None)
-    return (lambda w, p: [np.asarray(m).ravel(order="F") for m in vm(w, p)]), how
+        n_out, n_in = ([f(i) for i in range(n)] for f, n in ((fn.nnz_out, fn.n_out()), (fn.nnz_in, fn.n_in())))
+        return CompiledFunction(library, fn.name(), n_out, n_in), how
+    return VmBlocks(fn), how
 
 
 @dataclass
@@ -139,7 +164,11 @@ class CondensedQp:
 class Condenser:
     """Linearise, condense and pre-solve at a plan; holds work buffers, so one thread at a time: nrti's
     background preparation, and before the loop its first QP on the main thread (``prepare_now``, while no
-    preparation is in flight: ``warm_up`` waits for the worker)."""
+    preparation is in flight: ``warm_up`` waits for the worker).
+
+    The SQP's iterations (``iterate``) work in the condenser's own arrays, every pointer into them taken once: an
+    intermediate iteration's QP is thrown away as soon as its step is taken, and only the last one is copied out
+    (``keep``), to stay valid while the next preparation runs."""
 
     def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers,
                  space: InputSpace | None = None) -> None:
@@ -157,30 +186,63 @@ class Condenser:
         self.u_low = np.tile(space.low, P)
         self.u_high = np.tile(space.high, P)
         self.box = BoxQp(lib, n, QP_MAX_ITER, QP_TOL)
+        # the iteration's QP: the linearisation's inputs (bound once) and outputs, the condensed data, the bounds
+        # and the active set its box QP starts from, in the order of CondensedQp.arrays
+        self.w_aug, self.p = np.zeros(lin.n_in[0]), np.zeros(lin.n_in[1])
+        lin.bind(self.w_aug, self.p)
+        AB, Hs, gs, gap = lin.outputs
+        Hc, gc, Gc, lo, hi = np.zeros(n * n), np.zeros(n), np.zeros(n * NZ), np.zeros(n), np.zeros(n)
+        self.arrays = (Hc, gc, Gc, lo, hi, np.zeros(n, np.intc), AB, gap, self.w_aug)
+        self._condense_args = (P, NZ, NU, *(ptr(a) for a in (AB, Hs, gs, gap, self.Gam, self.Phi, self.c, Hc, gc, Gc,
+                                                                self.tmp)))
+        self._iteration: tuple[FeedbackBuffers | None, tuple] = (None, ())  # (buffers, nrti_feedback's arguments)
 
-    def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None,
-                 active: np.ndarray | None = None) -> CondensedQp:
-        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``; its feedback
-        call writes into ``buffers`` (default: the backend's). Without ``active`` its active set at dz0 = 0
-        is solved here (``guess_status``); with it (−1/0/+1 per input step) that is the feedback's starting
-        guess and the caller, whose feedback call at dz0 = 0 solves it, sets ``guess_status``."""
-        P, n = self.cfg.horizon, self.n
-        w_aug = np.ascontiguousarray(w_aug, float)
-        AB, Hs, gs, gap = (a.copy() for a in self.lin(w_aug, np.ascontiguousarray(p, float)))
-        Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * NZ)
-        self.lib.nrti_condense(P, NZ, NU, ptr(AB), ptr(Hs), ptr(gs), ptr(gap), ptr(self.Gam), ptr(self.Phi),
-                               ptr(self.c), ptr(Hc), ptr(gc), ptr(Gc), ptr(self.tmp))
-        U = w_aug[self.u_index]
-        lo = np.minimum(self.u_low - U, 0.0)
-        hi = np.maximum(self.u_high - U, 0.0)
-        if active is None:
-            state0 = np.zeros(n, np.intc)
-            _, status = self.box.solve(Hc, gc, lo, hi, state0)
-        else:
-            state0, status = np.array(active, np.intc), 0
-        arrays = (Hc, gc, Gc, lo, hi, state0, AB, gap, w_aug)
-        return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays,
-                           args=self._feedback_args(arrays, buffers or self.buffers), guess_status=status)
+    @property
+    def active(self) -> np.ndarray:
+        """The active set the iteration's box QP starts from (−1 lower, 0 free, 1 upper); ``iterate`` leaves in it
+        the set the QP ended with, the next iteration's start."""
+        return self.arrays[5]
+
+    def _condense_at(self, w_aug: np.ndarray, p: np.ndarray) -> None:
+        """Linearise at the plan ``w_aug`` for ``p`` and condense, into the iteration's arrays."""
+        np.copyto(self.w_aug, w_aug)
+        np.copyto(self.p, p)
+        self.lin.call()
+        self.lib.nrti_condense(*self._condense_args)
+        U = self.w_aug[self.u_index]
+        _, _, _, lo, hi = self.arrays[:5]
+        np.minimum(np.subtract(self.u_low, U, out=lo), 0.0, out=lo)
+        np.maximum(np.subtract(self.u_high, U, out=hi), 0.0, out=hi)
+
+    def iterate(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers) -> int:
+        """One SQP iteration: the QP at the plan ``w_aug`` (augmented layout) for ``p``, solved at ``buffers.dz0``
+        from ``active`` (which it then holds the QP's final active set); the step is in ``buffers``. Answers
+        nrti_feedback's status (> 0 solved, 0 its iteration cap, < 0 failed). Nothing is allocated."""
+        if self._iteration[0] is not buffers:
+            self._iteration = (buffers, self._feedback_args(self.arrays, buffers))
+        self._condense_at(w_aug, p)
+        status = self.lib.nrti_feedback(*self._iteration[1])
+        np.copyto(self.active, buffers.iwork[2 * self.n:3 * self.n])  # (nrti_feedback's own copy of the set)
+        return status
+
+    def keep(self, status: int, factor: np.ndarray | None) -> CondensedQp:
+        """The last ``iterate``'s QP copied out (the next preparation overwrites the iteration's arrays), its feedback
+        writing into the backend's buffers and starting from ``factor`` (see ``bind``)."""
+        arrays = tuple(a.copy() for a in self.arrays)
+        qp = CondensedQp(p=self.p.copy(), w_aug=arrays[-1], arrays=arrays, args=(), guess_status=status)
+        return self.bind(qp, factor=factor)
+
+    def condense(self, w_aug: np.ndarray, p: np.ndarray) -> CondensedQp:
+        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``, in arrays of its own,
+        with its active set at dz0 = 0 solved here (``guess_status``); its feedback writes into the backend's
+        buffers."""
+        self._condense_at(w_aug, p)
+        arrays = tuple(a.copy() for a in self.arrays)
+        Hc, gc, _, lo, hi, state0 = arrays[:6]
+        state0[:] = 0  # all free: solved from scratch
+        _, status = self.box.solve(Hc, gc, lo, hi, state0)
+        return CondensedQp(p=self.p.copy(), w_aug=arrays[-1], arrays=arrays,
+                           args=self._feedback_args(arrays, self.buffers), guess_status=status)
 
     def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None, factor: Any = KEEP) -> CondensedQp:
         """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's), starting
