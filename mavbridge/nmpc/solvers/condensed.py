@@ -34,6 +34,10 @@ NZU = NZ + NU
 KEEP = object()  # ``Condenser.bind``: the QP's own factor
 QP_MAX_ITER = 40  # block-principal-pivoting iterations per QP (one or two when the guess is right)
 QP_TOL = 1e-9  # bound and multiplier tolerance of the box QP (N, N·m and cost units)
+# The stage Functions with CasADi's common-subexpression elimination: the model and its Jacobian repeat the same
+# sines and cosines (sin φ, cos θ, …, 118 trigonometric calls per stage, 30 distinct) and products; each is now
+# computed once. The same operations on the same operands, so the same bits, with fewer of them
+CSE = {"cse": True}
 
 
 def _stage_function(step: ca.Function, cfg: NmpcConfig,
@@ -52,11 +56,11 @@ def _stage_function(step: ca.Function, cfg: NmpcConfig,
     reg = HESSIAN_REG * ca.SX.eye(NZU)
     stage = ca.Function("nrti_stage", [z, u, t, on, waypoint, weights, wave, spread],
                         [f_aug, ca.densify(ca.jacobian(f_aug, zu)), ca.densify(2 * (J.T @ J) + reg),
-                         ca.densify(2 * (J.T @ res))])
+                         ca.densify(2 * (J.T @ res))], CSE)
     r_end = _state_residuals(z[0:NX], waypoint, weights, cfg, spread)
     J_end = ca.jacobian(r_end, zu)  # zero u columns: the terminal block padded to the stage size
     terminal = ca.Function("nrti_terminal", [z, u, waypoint, weights, spread],
-                           [ca.densify(2 * (J_end.T @ J_end) + reg), ca.densify(2 * (J_end.T @ r_end))])
+                           [ca.densify(2 * (J_end.T @ J_end) + reg), ca.densify(2 * (J_end.T @ r_end))], CSE)
     return stage, terminal
 
 
