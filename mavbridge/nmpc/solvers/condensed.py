@@ -27,17 +27,13 @@ from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space
 from mavbridge.nmpc.layout import NU, NX, ROLL_SPREAD_NAMES, WEIGHT_NAMES, parameter_layout, wave_input_size
 from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, compiled_library, load
-from mavbridge.nmpc.solvers.gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
+from mavbridge.nmpc.solvers.gauss_newton import CSE, HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
 from mavbridge.nmpc.solvers.native_lib import BoxQp, CompiledFunction, ptr
 
 NZU = NZ + NU
 KEEP = object()  # ``Condenser.bind``: the QP's own factor
 QP_MAX_ITER = 40  # block-principal-pivoting iterations per QP (one or two when the guess is right)
 QP_TOL = 1e-9  # bound and multiplier tolerance of the box QP (N, N·m and cost units)
-# The stage Functions with CasADi's common-subexpression elimination: the model and its Jacobian repeat the same
-# sines and cosines (sin φ, cos θ, …, 118 trigonometric calls per stage, 30 distinct) and products; each is now
-# computed once. The same operations on the same operands, so the same bits, with fewer of them
-CSE = {"cse": True}
 
 
 def _stage_function(step: ca.Function, cfg: NmpcConfig,
