@@ -104,7 +104,7 @@ def test_condensing_equals_the_explicit_elimination_on_a_random_problem() -> Non
     arrays = [np.ascontiguousarray(a.ravel()) for a in (AB, Hs, gs, gap)]
     Gam, Phi, c = np.zeros((N + 1) * nz * n), np.zeros((N + 1) * nz * nz), np.zeros((N + 1) * nz)
     Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * nz)
-    tmp = np.zeros(3 * nz * nz + 2 * nz + 2 * nu * nz)
+    tmp = np.zeros(4 * nz * nz + 2 * nz + 2 * nu * nz)
     assert lib.nrti_condense(N, nz, nu, *(ptr(a) for a in (*arrays, Gam, Phi, c, Hc, gc, Gc, tmp))) == 0
     want_H, want_g, want_G = _eliminated(AB, Hs, gs, gap)
     np.testing.assert_allclose(Hc.reshape(n, n), want_H, rtol=1e-10, atol=1e-9)

@@ -181,7 +181,7 @@ class Condenser:
         self.Gam = np.zeros((P + 1) * NZ * n)
         self.Phi = np.zeros((P + 1) * NZ * NZ)
         self.c = np.zeros((P + 1) * NZ)
-        self.tmp = np.zeros(3 * NZ * NZ + 2 * NZ + 2 * NU * NZ)  # nrti_condense's recursion (W, λ, Y)
+        self.tmp = np.zeros(4 * NZ * NZ + 2 * NZ + 2 * NU * NZ)  # nrti_condense's recursion (W, λ, Y, Wᵀ)
         self.u_index = np.array([k * NZU + NZ + i for k in range(P) for i in range(NU)])
         self.u_low = np.tile(space.low, P)
         self.u_high = np.tile(space.high, P)

@@ -45,7 +45,6 @@ static int cholesky(double *a, int m) {
 static void sensitivities(int N, int nz, int nu, const double *AB, const double *gap,
                           double *Gam, double *Phi, double *c) {
     int nzu = nz + nu, n = N * nu;
-    memset(Gam, 0, sizeof(double) * (size_t)(N + 1) * nz * n);
     memset(Phi, 0, sizeof(double) * (size_t)(N + 1) * nz * nz);
     memset(c, 0, sizeof(double) * (size_t)(N + 1) * nz);
     for (int r = 0; r < nz; ++r) Phi[r * nz + r] = 1.0;
@@ -56,6 +55,7 @@ static void sensitivities(int N, int nz, int nu, const double *AB, const double 
         for (int r = 0; r < nz; ++r) {
             double *g1 = G1 + (size_t)r * n, *p1 = P1 + (size_t)r * nz;
             double cr = gap[(size_t)k * nz + r];
+            memset(g1, 0, sizeof(double) * (size_t)k * nu);  /* (Gam_k's columns from k nu on are never read) */
             for (int s = 0; s < nz; ++s) {
                 double a = AB_(k, r, s);
                 if (a == 0.0) continue;
@@ -77,14 +77,14 @@ static void sensitivities(int N, int nz, int nu, const double *AB, const double 
        Hc_jj = R_j + B_j' W_{j+1} B_j,  Hc_ji = Y_j Gam_{j,i} (i < j),  Gc_j = Y_j Phi_j,
        gc_j = r_j + S_j c_j + B_j' lam_{j+1}
    (the Hessian and gradient of the cost once the states are eliminated; Gam_{j,i} = dz_j/du_i).
-   Zero entries of A_k (the u_prev rows and columns) are skipped. tmp: 3 nz^2 + 2 nz + 2 nu nz doubles. */
+   Zero entries of A_k (the u_prev rows and columns) are skipped. tmp: 4 nz^2 + 2 nz + 2 nu nz doubles. */
 int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, const double *gs,
                   const double *gap, double *Gam, double *Phi, double *c,
                   double *Hc, double *gc, double *Gc, double *tmp) {
     int nzu = nz + nu, n = N * nu;
     sensitivities(N, nz, nu, AB, gap, Gam, Phi, c);
     double *W = tmp, *WA = W + nz * nz, *W1 = WA + nz * nz, *lam = W1 + nz * nz, *lam1 = lam + nz;
-    double *BW = lam1 + nz, *Y = BW + nu * nz;
+    double *BW = lam1 + nz, *Y = BW + nu * nz, *Wt = Y + nu * nz, *WAt = W1;  /* (W1 is free then) */
     const double *cN = c + (size_t)N * nz;
     for (int r = 0; r < nz; ++r) {
         double l = gs[(size_t)N * nzu + r];
@@ -136,13 +136,19 @@ int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, con
             }
         }
         if (j == 0) break;                                   /* W_0 and lam_0 are not needed */
-        memset(WA, 0, sizeof(double) * (size_t)nz * nz);     /* WA = W_{j+1} A_j */
+        for (int r = 0; r < nz; ++r)                         /* WA = W_{j+1} A_j, made as its transpose from W's: */
+            for (int t = 0; t < nz; ++t) Wt[t * nz + r] = W[r * nz + t];  /* each element the same sum in the */
+        memset(WAt, 0, sizeof(double) * (size_t)nz * nz);    /* same order, with a contiguous inner loop */
         for (int t = 0; t < nz; ++t)
             for (int q = 0; q < nz; ++q) {
                 double a = AB_(j, t, q);
                 if (a == 0.0) continue;
-                for (int r = 0; r < nz; ++r) WA[r * nz + q] += W[r * nz + t] * a;
+                const double *wt = Wt + (size_t)t * nz;
+                double *wa = WAt + (size_t)q * nz;
+                for (int r = 0; r < nz; ++r) wa[r] += wt[r] * a;
             }
+        for (int q = 0; q < nz; ++q)
+            for (int r = 0; r < nz; ++r) WA[r * nz + q] = WAt[q * nz + r];
         for (int r = 0; r < nz; ++r) {                       /* W1 = Q_j + A_j' WA, lam1 */
             double l = gs[(size_t)j * nzu + r];
             for (int q = 0; q < nz; ++q) {
