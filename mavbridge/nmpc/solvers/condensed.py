@@ -196,6 +196,10 @@ class Condenser:
         self._condense_args = (P, NZ, NU, *(ptr(a) for a in (AB, Hs, gs, gap, self.Gam, self.Phi, self.c, Hc, gc, Gc,
                                                                 self.tmp)))
         self._iteration: tuple[FeedbackBuffers | None, tuple] = (None, ())  # (buffers, nrti_feedback's arguments)
+        stages = np.arange(P)[:, None] * NZU  # ``augment``: where w's x_k, u_k and x_N go, and u_prev_k+1 = u_k
+        self._from_w = np.concatenate([(stages + np.r_[0:NX, NZ:NZU]).ravel(), P * NZU + np.arange(NX)])
+        self._u_prev_from = (stages + np.arange(NZ, NZU)).ravel()
+        self._u_prev_to = self._u_prev_from + NZU - NU
 
     @property
     def active(self) -> np.ndarray:
@@ -203,9 +207,11 @@ class Condenser:
         the set the QP ended with, the next iteration's start."""
         return self.arrays[5]
 
-    def _condense_at(self, w_aug: np.ndarray, p: np.ndarray) -> None:
-        """Linearise at the plan ``w_aug`` for ``p`` and condense, into the iteration's arrays."""
-        np.copyto(self.w_aug, w_aug)
+    def _condense_at(self, w_aug: np.ndarray | None, p: np.ndarray) -> None:
+        """Linearise at the plan ``w_aug`` (None: the one ``augment`` put in place) for ``p`` and condense, into the
+        iteration's arrays."""
+        if w_aug is not None:
+            np.copyto(self.w_aug, w_aug)
         np.copyto(self.p, p)
         self.lin.call()
         self.lib.nrti_condense(*self._condense_args)
@@ -214,10 +220,17 @@ class Condenser:
         np.minimum(np.subtract(self.u_low, U, out=lo), 0.0, out=lo)
         np.maximum(np.subtract(self.u_high, U, out=hi), 0.0, out=hi)
 
-    def iterate(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers) -> int:
-        """One SQP iteration: the QP at the plan ``w_aug`` (augmented layout) for ``p``, solved at ``buffers.dz0``
-        from ``active`` (which it then holds the QP's final active set); the step is in ``buffers``. Answers
-        nrti_feedback's status (> 0 solved, 0 its iteration cap, < 0 failed). Nothing is allocated."""
+    def augment(self, w: np.ndarray, u_prev: np.ndarray) -> None:
+        """Put the plan ``w`` (the controller's layout) in place for ``iterate`` in the augmented layout, ``u_prev``
+        the input before its first stage: ``GaussNewtonSqp.to_aug`` into the iteration's array, by one gather."""
+        self.w_aug[self._from_w] = w
+        self.w_aug[NX:NZ] = u_prev
+        self.w_aug[self._u_prev_to] = self.w_aug[self._u_prev_from]
+
+    def iterate(self, w_aug: np.ndarray | None, p: np.ndarray, buffers: FeedbackBuffers) -> int:
+        """One SQP iteration: the QP at the plan ``w_aug`` (augmented layout; None: ``augment``'s) for ``p``, solved
+        at ``buffers.dz0`` from ``active`` (which then holds the QP's final active set); the step is in ``buffers``.
+        Answers nrti_feedback's status (> 0 solved, 0 its iteration cap, < 0 failed). Nothing is allocated."""
         if self._iteration[0] is not buffers:
             self._iteration = (buffers, self._feedback_args(self.arrays, buffers))
         self._condense_at(w_aug, p)

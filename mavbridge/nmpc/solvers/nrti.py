@@ -92,16 +92,17 @@ class Preparation:
         intermediate QP is only its step: nothing is allocated until the last is kept). An intermediate QP at its
         iteration cap (status 0) still gives a step within the box, which the next iteration corrects; only the
         last QP must be solved (status > 0) to be prepared."""
-        condenser, b, sqp = self.condenser, self.buffers, self.solve.sqp
+        condenser, b = self.condenser, self.buffers
         cfg, u_prev, n = condenser.cfg, PARAMS.get(p, "u_prev"), condenser.n
         b.dz0[:] = 0.0
         condenser.active[:] = 0  # all free: the first QP is solved from scratch
         status, it = 0, 0
         for it in range(cfg.as_max_iterations):  # as_max_iterations >= 1 (NmpcConfig)
-            status = condenser.iterate(sqp.to_aug(w, u_prev), p, b)  # from the previous QP's active set
+            condenser.augment(w, u_prev)
+            status = condenser.iterate(None, p, b)  # from the previous QP's active set
             if status < 0 or not np.isfinite(b.w_out).all():
                 return None, it + 1
-            w = b.w_out  # (read by the next iteration's to_aug before its QP overwrites it)
+            w = b.w_out  # (read by the next iteration's ``augment`` before its QP overwrites it)
             if np.max(np.abs(b.du)) <= cfg.as_step_tol or time.perf_counter() > stop_at:
                 break
         if status <= 0:  # iteration cap in the QP: no prepared QP (asrti's step instead)
