@@ -265,3 +265,19 @@ def test_a_library_built_with_other_flags_is_another_cached_library(tmp_path: Pa
     points = np.random.default_rng(3).normal(size=(200, 3))
     answers = [np.array([float(load(fn, lib)(point)) for point in points]) for lib in (plain, hot)]
     assert answers[0].tobytes() == answers[1].tobytes()
+
+
+@needs_compiler
+def test_the_condensers_gather_is_the_augmented_layout() -> None:
+    """``Condenser.augment`` (the SQP iterations' one gather into the condenser's own array) puts a plan in place
+    exactly as ``GaussNewtonSqp.to_aug`` makes it, byte for byte, and ``iterate`` then linearises there."""
+    cfg = NmpcConfig(horizon=5, solver="nrti")
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        preparation = nmpc._backend.advanced.preparation
+        condenser, sqp = preparation.condenser, preparation.solve.sqp
+        rng = np.random.default_rng(7)
+        for _ in range(3):
+            w, u_prev = rng.normal(size=nmpc._w.size), rng.normal(size=NU)
+            condenser.augment(w, u_prev)
+            assert condenser.w_aug.tobytes() == sqp.to_aug(w, u_prev).tobytes()
+        np.testing.assert_array_equal(sqp.from_aug(condenser.w_aug), w)
