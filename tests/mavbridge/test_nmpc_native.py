@@ -277,7 +277,7 @@ def test_the_condensers_gather_is_the_augmented_layout() -> None:
         condenser, sqp = preparation.condenser, preparation.solve.sqp
         rng = np.random.default_rng(7)
         for _ in range(3):
-            w, u_prev = rng.normal(size=nmpc._w.size), rng.normal(size=NU)
+            w, u_prev = rng.normal(size=(cfg.horizon + 1) * NX + cfg.horizon * NU), rng.normal(size=NU)
             condenser.augment(w, u_prev)
             assert condenser.w_aug.tobytes() == sqp.to_aug(w, u_prev).tobytes()
         np.testing.assert_array_equal(sqp.from_aug(condenser.w_aug), w)
