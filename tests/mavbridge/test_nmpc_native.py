@@ -175,11 +175,12 @@ def test_the_feedback_from_the_preparations_factor_is_the_feedback_that_factors(
 
 
 @needs_compiler
-def test_a_paced_preparation_stops_at_its_budget_and_hands_over_its_last_qp() -> None:
+@pytest.mark.parametrize("codegen", ["off", "auto"])  # the SQP iterated from Python, and in one C call
+def test_a_paced_preparation_stops_at_its_budget_and_hands_over_its_last_qp(codegen: str) -> None:
     """Paced at a wall period (a companion in real time), a step waits a quarter of it for the background and
     the preparation iterates for three quarters, then hands over the QP of its last iteration; unpaced (lockstep,
     experiments) nothing is timed and the preparation converges."""
-    cfg = NmpcConfig(horizon=8, solver="nrti", rti_codegen="off")
+    cfg = NmpcConfig(horizon=8, solver="nrti", rti_codegen=codegen)
     x0, waypoint = np.zeros(12), np.array([40.0, 10.0])
     with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
         nmpc.prepare(x0, 0.0, waypoint)
@@ -281,3 +282,29 @@ def test_the_condensers_gather_is_the_augmented_layout() -> None:
             condenser.augment(w, u_prev)
             assert condenser.w_aug.tobytes() == sqp.to_aug(w, u_prev).tobytes()
         np.testing.assert_array_equal(sqp.from_aug(condenser.w_aug), w)
+
+
+@needs_compiler
+def test_the_sqp_in_one_c_call_is_the_python_loop_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``Condenser.converge`` (nrti_converge: the whole preparation SQP in C) and the loop over ``Condenser.iterate``
+    (kept for a linearisation in CasADi's virtual machine) make the same C calls: the same iterations and the same
+    prepared QP, byte for byte, from a start that needs several iterations."""
+    cfg = NmpcConfig(horizon=8, solver="nrti")
+    x0, waypoint = np.zeros(12), np.array([40.0, 10.0])
+    x0[5], x0[6] = 0.5, 1.0
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        nmpc.prepare(x0, 0.0, waypoint)
+        preparation = nmpc._backend.advanced.preparation
+        p = nmpc._parameters(x0, 0.0, waypoint)
+        u_far = np.array([cfg.tau_x_min_n, cfg.tau_n_max_nm])  # full astern, hard over: the plan must change
+        native = preparation(nmpc._w, p, u_far)
+        monkeypatch.setattr(preparation.condenser, "converge", lambda *args: None)  # as with no compiled code
+        looped = preparation(nmpc._w, p, u_far)
+    (qp, _, _, iterations), (qp_looped, _, _, iterations_looped) = native, looped
+    assert qp is not None and qp_looped is not None
+    assert iterations == iterations_looped > 1
+    for a, b in zip(qp.arrays, qp_looped.arrays, strict=True):
+        assert a.tobytes() == b.tobytes()
+    m = int(np.count_nonzero(qp.state0 == 0))  # the factor: its m x m lower triangle (the rest is never read)
+    lower = [np.tril(f[:m * m].reshape(m, m)) for f in (qp.factor, qp_looped.factor)]
+    assert lower[0].tobytes() == lower[1].tobytes()

@@ -8,9 +8,10 @@ once into the disk cache (``codegen``).
 
 ``Condenser.condense(w_aug, p)`` evaluates it at a plan and hands the blocks to ``nrti_condense`` (C),
 which eliminates the states: the result, a ``CondensedQp``, is a dense QP in the N·nu input steps whose
-gradient is affine in the initial-state offset dz0. Without a given active set, its active set at dz0 = 0
-(the plan itself) is solved here too, as the feedback's starting guess; with one (``active``, the SQP's
-previous iteration's), the caller solves it. All of this runs before the measurement arrives.
+gradient is affine in the initial-state offset dz0; its active set at dz0 = 0 (the plan itself) is solved here
+too, as the feedback's starting guess. The preparation's SQP iterates in the condenser's own arrays (``iterate``,
+or all its iterations in one C call, ``converge``: nrti_converge calls the compiled linearisation itself) and
+keeps only its last QP (``keep``). All of this runs before the measurement arrives.
 """
 
 from __future__ import annotations
@@ -196,6 +197,10 @@ class Condenser:
         self._condense_args = (P, NZ, NU, *(ptr(a) for a in (AB, Hs, gs, gap, self.Gam, self.Phi, self.c, Hc, gc, Gc,
                                                                 self.tmp)))
         self._iteration: tuple[FeedbackBuffers | None, tuple] = (None, ())  # (buffers, nrti_feedback's arguments)
+        self._native: tuple[FeedbackBuffers | None, tuple] = (None, ())  # (buffers, nrti_converge's arguments)
+        self._start = np.zeros((P + 1) * NX + P * NU)  # ``converge``'s starting plan and input before it
+        self._u_prev = np.zeros(NU)
+        self._iterations = ctypes.c_int(0)
         stages = np.arange(P)[:, None] * NZU  # ``augment``: where w's x_k, u_k and x_N go, and u_prev_k+1 = u_k
         self._from_w = np.concatenate([(stages + np.r_[0:NX, NZ:NZU]).ravel(), P * NZU + np.arange(NX)])
         self._u_prev_from = (stages + np.arange(NZ, NZU)).ravel()
@@ -219,6 +224,36 @@ class Condenser:
         _, _, _, lo, hi = self.arrays[:5]
         np.minimum(np.subtract(self.u_low, U, out=lo), 0.0, out=lo)
         np.maximum(np.subtract(self.u_high, U, out=hi), 0.0, out=hi)
+
+    def converge(self, w: np.ndarray, u_prev: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers,
+                 budget_s: float) -> tuple[int, int] | None:
+        """``iterate`` from the plan ``w`` (the controller's layout, ``u_prev`` before it) until every input step
+        is at most ``as_step_tol`` (at most ``as_max_iterations``, none begun after ``budget_s`` seconds), in one C
+        call (the same C calls, per iteration, as ``iterate``'s): (last status, iterations) — status < 0 when a QP
+        failed or a plan was not finite — with the last QP in place for ``keep``. None when the linearisation is
+        not compiled code (the caller then loops over ``iterate``)."""
+        if not isinstance(self.lin, CompiledFunction):
+            return None
+        if self._native[0] is not buffers:
+            self._native = (buffers, self._converge_args(buffers))
+        np.copyto(self._start, w)
+        np.copyto(self._u_prev, u_prev)
+        np.copyto(self.p, p)
+        head, tail = self._native[1]
+        status = self.lib.nrti_converge(*head, budget_s, *tail)
+        return status, int(self._iterations.value)
+
+    def _converge_args(self, b: FeedbackBuffers) -> tuple[tuple, tuple]:
+        """nrti_converge's arguments before and after its budget (all of them fixed for these buffers)."""
+        lin = self.lin
+        assert isinstance(lin, CompiledFunction)
+        Hc, gc, Gc, lo, hi, state0, _, _, w_aug = self.arrays
+        head = (self.cfg.horizon, NX, NZ, NU, self.cfg.as_max_iterations, self.cfg.as_step_tol)
+        tail = (ctypes.cast(lin.fn, ctypes.c_void_p).value, lin.arg, lin.res, *lin._work,
+                *(ptr(a) for a in (self._start, self._u_prev, self.u_low, self.u_high, w_aug, self.Gam, self.Phi,
+                                   self.c, self.tmp, Hc, gc, Gc, lo, hi, state0, b.dz0)), QP_MAX_ITER, QP_TOL,
+                *(ptr(a) for a in (b.w_out, b.du, b.work, b.iwork)), ctypes.byref(self._iterations))
+        return head, tail
 
     def augment(self, w: np.ndarray, u_prev: np.ndarray) -> None:
         """Put the plan ``w`` (the controller's layout) in place for ``iterate`` in the augmented layout, ``u_prev``
