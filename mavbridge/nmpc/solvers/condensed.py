@@ -167,9 +167,9 @@ class Condenser:
     background preparation, and before the loop its first QP on the main thread (``prepare_now``, while no
     preparation is in flight: ``warm_up`` waits for the worker).
 
-    The SQP's iterations (``iterate``) work in the condenser's own arrays, every pointer into them taken once: an
-    intermediate iteration's QP is thrown away as soon as its step is taken, and only the last one is copied out
-    (``keep``), to stay valid while the next preparation runs."""
+    The SQP's iterations (``iterate``, or all of them in one C call: ``converge``) work in the condenser's own
+    arrays, every pointer into them taken once: an intermediate iteration's QP is thrown away as soon as its step
+    is taken, and only the last one is copied out (``keep``), to stay valid while the next preparation runs."""
 
     def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers,
                  space: InputSpace | None = None) -> None:
