@@ -32,7 +32,7 @@ from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import model_matrix
 from mavbridge.nmpc.layout import Layout
 from mavbridge.nmpc.problem import build_nlp, discrete_model
-from mavbridge.nmpc.solvers.codegen import compiled_library, load
+from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, compiled_library, load
 from mavbridge.nmpc.solvers.gauss_newton import linearisation
 from mavbridge.nmpc.wave_model import is_parametric
 from vessel import OceanCurrent, OtterParameters, WaveField
@@ -55,17 +55,18 @@ class ProblemFunctions:
     input_matrix: np.ndarray | None = None  # B (τ = B·u) of propeller-thrust inputs; None when u is τ
 
     def linearisation_library(self, codegen: str) -> tuple[Path | None, str]:
-        """(compiled library of the linearisation or None, how): ``codegen`` "auto" compiles (cached)."""
+        """(compiled library of the linearisation or None, how): ``codegen`` "auto" compiles (cached; ``HOT_FLAGS``:
+        it runs every step)."""
         if codegen != "auto":
             return None, "sx-vm (codegen off)"
         try:
             key = build_key(self.params, self.fixed_waves, self.current, self.cfg, self.wind)
             hash(key)
         except TypeError:  # an unhashable built-in wave field: ask the disk cache every time
-            return compiled_library(self.linearisation)
+            return compiled_library(self.linearisation, HOT_FLAGS)
         cached = _libraries(self.fixed_waves).get(key)
         if cached is None:
-            cached = compiled_library(self.linearisation)
+            cached = compiled_library(self.linearisation, HOT_FLAGS)
             _libraries(self.fixed_waves).put(key, cached)
         return cached
 

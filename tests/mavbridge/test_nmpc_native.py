@@ -21,7 +21,7 @@ from mavbridge.lab.experiment import run_scenario
 from mavbridge.lab.scenario import Scenario, load_scenarios
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
 from mavbridge.nmpc.layout import NU, NX
-from mavbridge.nmpc.solvers.codegen import compiler
+from mavbridge.nmpc.solvers.codegen import CACHE_ENV, HOT_FLAGS, compiled_library, compiler, load
 from mavbridge.nmpc.solvers.gauss_newton import NZ
 from mavbridge.nmpc.solvers.native_lib import BoxQp, native_library, ptr
 from vessel import RegularWaves, otter_parameters
@@ -104,7 +104,7 @@ def test_condensing_equals_the_explicit_elimination_on_a_random_problem() -> Non
     arrays = [np.ascontiguousarray(a.ravel()) for a in (AB, Hs, gs, gap)]
     Gam, Phi, c = np.zeros((N + 1) * nz * n), np.zeros((N + 1) * nz * nz), np.zeros((N + 1) * nz)
     Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * nz)
-    tmp = np.zeros(3 * nz * nz + 2 * nz + 2 * nu * nz)
+    tmp = np.zeros(4 * nz * nz + 2 * nz + 2 * nu * nz)
     assert lib.nrti_condense(N, nz, nu, *(ptr(a) for a in (*arrays, Gam, Phi, c, Hc, gc, Gc, tmp))) == 0
     want_H, want_g, want_G = _eliminated(AB, Hs, gs, gap)
     np.testing.assert_allclose(Hc.reshape(n, n), want_H, rtol=1e-10, atol=1e-9)
@@ -175,11 +175,12 @@ def test_the_feedback_from_the_preparations_factor_is_the_feedback_that_factors(
 
 
 @needs_compiler
-def test_a_paced_preparation_stops_at_its_budget_and_hands_over_its_last_qp() -> None:
+@pytest.mark.parametrize("codegen", ["off", "auto"])  # the SQP iterated from Python, and in one C call
+def test_a_paced_preparation_stops_at_its_budget_and_hands_over_its_last_qp(codegen: str) -> None:
     """Paced at a wall period (a companion in real time), a step waits a quarter of it for the background and
     the preparation iterates for three quarters, then hands over the QP of its last iteration; unpaced (lockstep,
     experiments) nothing is timed and the preparation converges."""
-    cfg = NmpcConfig(horizon=8, solver="nrti", rti_codegen="off")
+    cfg = NmpcConfig(horizon=8, solver="nrti", rti_codegen=codegen)
     x0, waypoint = np.zeros(12), np.array([40.0, 10.0])
     with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
         nmpc.prepare(x0, 0.0, waypoint)
@@ -248,3 +249,62 @@ def test_without_a_compiler_nrti_runs_as_asrti_and_says_so_once(monkeypatch: pyt
     assert all(r.status.startswith("RTI") for r in results)  # asrti's step
     notices = [r for r in caplog.records if "running as asrti" in r.getMessage()]
     assert len(notices) == 1, [r.getMessage() for r in caplog.records]
+
+
+@needs_compiler
+def test_a_library_built_with_other_flags_is_another_cached_library(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The cache key names the compiler flags: the hot functions' -O3 build never answers for an -O1 one (or back),
+    and both compute the same bits (no contraction, no fast math: the loop's figures rest on it)."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    x = ca.SX.sym("x", 3)
+    fn = ca.Function("flags_probe", [x], [ca.sin(x[0]) * x[1] + x[2] / (1.0 + x[0] ** 2) + ca.sqrt(x[1] ** 2 + 1e-4)])
+    plain, _ = compiled_library(fn)
+    hot, _ = compiled_library(fn, HOT_FLAGS)
+    assert plain is not None and hot is not None and plain != hot
+    assert sorted(path.name for path in tmp_path.glob("*.so")) == sorted([plain.name, hot.name])
+    points = np.random.default_rng(3).normal(size=(200, 3))
+    answers = [np.array([float(load(fn, lib)(point)) for point in points]) for lib in (plain, hot)]
+    assert answers[0].tobytes() == answers[1].tobytes()
+
+
+@needs_compiler
+def test_the_condensers_gather_is_the_augmented_layout() -> None:
+    """``Condenser.augment`` (the SQP iterations' one gather into the condenser's own array) puts a plan in place
+    exactly as ``GaussNewtonSqp.to_aug`` makes it, byte for byte, and ``iterate`` then linearises there."""
+    cfg = NmpcConfig(horizon=5, solver="nrti")
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        preparation = nmpc._backend.advanced.preparation
+        condenser, sqp = preparation.condenser, preparation.solve.sqp
+        rng = np.random.default_rng(7)
+        for _ in range(3):
+            w, u_prev = rng.normal(size=(cfg.horizon + 1) * NX + cfg.horizon * NU), rng.normal(size=NU)
+            condenser.augment(w, u_prev)
+            assert condenser.w_aug.tobytes() == sqp.to_aug(w, u_prev).tobytes()
+        np.testing.assert_array_equal(sqp.from_aug(condenser.w_aug), w)
+
+
+@needs_compiler
+def test_the_sqp_in_one_c_call_is_the_python_loop_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``Condenser.converge`` (nrti_converge: the whole preparation SQP in C) and the loop over ``Condenser.iterate``
+    (kept for a linearisation in CasADi's virtual machine) make the same C calls: the same iterations and the same
+    prepared QP, byte for byte, from a start that needs several iterations."""
+    cfg = NmpcConfig(horizon=8, solver="nrti")
+    x0, waypoint = np.zeros(12), np.array([40.0, 10.0])
+    x0[5], x0[6] = 0.5, 1.0
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        nmpc.prepare(x0, 0.0, waypoint)
+        preparation = nmpc._backend.advanced.preparation
+        p = nmpc._parameters(x0, 0.0, waypoint)
+        u_far = np.array([cfg.tau_x_min_n, cfg.tau_n_max_nm])  # full astern, hard over: the plan must change
+        native = preparation(nmpc._w, p, u_far)
+        monkeypatch.setattr(preparation.condenser, "converge", lambda *args: None)  # as with no compiled code
+        looped = preparation(nmpc._w, p, u_far)
+    (qp, _, _, iterations), (qp_looped, _, _, iterations_looped) = native, looped
+    assert qp is not None and qp_looped is not None
+    assert iterations == iterations_looped > 1
+    for a, b in zip(qp.arrays, qp_looped.arrays, strict=True):
+        assert a.tobytes() == b.tobytes()
+    m = int(np.count_nonzero(qp.state0 == 0))  # the factor: its m x m lower triangle (the rest is never read)
+    lower = [np.tril(f[:m * m].reshape(m, m)) for f in (qp.factor, qp_looped.factor)]
+    assert lower[0].tobytes() == lower[1].tobytes()

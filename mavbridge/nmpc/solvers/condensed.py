@@ -8,16 +8,16 @@ once into the disk cache (``codegen``).
 
 ``Condenser.condense(w_aug, p)`` evaluates it at a plan and hands the blocks to ``nrti_condense`` (C),
 which eliminates the states: the result, a ``CondensedQp``, is a dense QP in the N·nu input steps whose
-gradient is affine in the initial-state offset dz0. Without a given active set, its active set at dz0 = 0
-(the plan itself) is solved here too, as the feedback's starting guess; with one (``active``, the SQP's
-previous iteration's), the caller solves it. All of this runs before the measurement arrives.
+gradient is affine in the initial-state offset dz0; its active set at dz0 = 0 (the plan itself) is solved here
+too, as the feedback's starting guess. The preparation's SQP iterates in the condenser's own arrays (``iterate``,
+or all its iterations in one C call, ``converge``: nrti_converge calls the compiled linearisation itself) and
+keeps only its last QP (``keep``). All of this runs before the measurement arrives.
 """
 
 from __future__ import annotations
 
 import ctypes
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,8 +27,8 @@ import numpy as np
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import InputSpace, input_space
 from mavbridge.nmpc.layout import NU, NX, ROLL_SPREAD_NAMES, WEIGHT_NAMES, parameter_layout, wave_input_size
-from mavbridge.nmpc.solvers.codegen import compiled_library, load
-from mavbridge.nmpc.solvers.gauss_newton import HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
+from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, compiled_library, load
+from mavbridge.nmpc.solvers.gauss_newton import CSE, HESSIAN_REG, NZ, _input_change_residuals, _state_residuals
 from mavbridge.nmpc.solvers.native_lib import BoxQp, CompiledFunction, ptr
 
 NZU = NZ + NU
@@ -53,11 +53,11 @@ def _stage_function(step: ca.Function, cfg: NmpcConfig,
     reg = HESSIAN_REG * ca.SX.eye(NZU)
     stage = ca.Function("nrti_stage", [z, u, t, on, waypoint, weights, wave, spread],
                         [f_aug, ca.densify(ca.jacobian(f_aug, zu)), ca.densify(2 * (J.T @ J) + reg),
-                         ca.densify(2 * (J.T @ res))])
+                         ca.densify(2 * (J.T @ res))], CSE)
     r_end = _state_residuals(z[0:NX], waypoint, weights, cfg, spread)
     J_end = ca.jacobian(r_end, zu)  # zero u columns: the terminal block padded to the stage size
     terminal = ca.Function("nrti_terminal", [z, u, waypoint, weights, spread],
-                           [ca.densify(2 * (J_end.T @ J_end) + reg), ca.densify(2 * (J_end.T @ r_end))])
+                           [ca.densify(2 * (J_end.T @ J_end) + reg), ca.densify(2 * (J_end.T @ r_end))], CSE)
     return stage, terminal
 
 
@@ -84,20 +84,46 @@ def block_linearisation(step: ca.Function, cfg: NmpcConfig, matrix: np.ndarray |
                        ["w", "p"], ["AB", "H", "g", "gap"])
 
 
-BlockLinearisation = Callable[[np.ndarray, np.ndarray], list[np.ndarray]]
+class VmBlocks:
+    """The block linearisation in CasADi's SX virtual machine with ``CompiledFunction``'s face (``bind``, ``call``,
+    its own output buffers), for when nothing is compiled: the ``Condenser`` then works the same way on either."""
+
+    def __init__(self, fn: ca.Function) -> None:
+        self.fn = load(fn, None)
+        self.n_in = [fn.nnz_in(i) for i in range(fn.n_in())]
+        self.outputs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
+        self._inputs: tuple[np.ndarray, ...] = ()
+
+    def __call__(self, *inputs: np.ndarray) -> list[np.ndarray]:
+        """Evaluate at ``inputs``; answers this instance's output buffers."""
+        self.bind(*inputs)
+        return self.call()
+
+    def bind(self, *inputs: np.ndarray) -> None:
+        """Evaluate at these arrays (their contents at each ``call``)."""
+        self._inputs = inputs
+
+    def call(self) -> list[np.ndarray]:
+        """Evaluate at the inputs last bound; answers this instance's output buffers (flat, column-major)."""
+        for out, value in zip(self.outputs, self.fn(*self._inputs), strict=True):
+            out[:] = np.asarray(value).ravel(order="F")
+        return self.outputs
+
+
+BlockLinearisation = CompiledFunction | VmBlocks
 
 
 def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
                              matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
-    """(w_aug, p) -> [AB, H, g, gap] flat column-major: the compiled library (disk-cached) called through
-    its C API when a compiler exists and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX
-    VM (outputs converted)."""
+    """(w_aug, p) -> [AB, H, g, gap] flat column-major, into the instance's own output buffers: the compiled library
+    (disk-cached, ``HOT_FLAGS``: it runs a few times every step) called through its C API when a compiler exists
+    and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX VM (outputs converted)."""
     fn = block_linearisation(step, cfg, matrix)
-    library, how = compiled_library(fn) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
+    library, how = compiled_library(fn, HOT_FLAGS) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
     if library is not None:
-        return CompiledFunction(library, fn.name(), [fn.nnz_out(i) for i in range(fn.n_out())]), how
-    vm = load(fn, None)
-    return (lambda w, p: [np.asarray(m).ravel(order="F") for m in vm(w, p)]), how
+        n_out, n_in = ([f(i) for i in range(n)] for f, n in ((fn.nnz_out, fn.n_out()), (fn.nnz_in, fn.n_in())))
+        return CompiledFunction(library, fn.name(), n_out, n_in), how
+    return VmBlocks(fn), how
 
 
 @dataclass
@@ -139,7 +165,11 @@ class CondensedQp:
 class Condenser:
     """Linearise, condense and pre-solve at a plan; holds work buffers, so one thread at a time: nrti's
     background preparation, and before the loop its first QP on the main thread (``prepare_now``, while no
-    preparation is in flight: ``warm_up`` waits for the worker)."""
+    preparation is in flight: ``warm_up`` waits for the worker).
+
+    The SQP's iterations (``iterate``, or all of them in one C call: ``converge``) work in the condenser's own
+    arrays, every pointer into them taken once: an intermediate iteration's QP is thrown away as soon as its step
+    is taken, and only the last one is copied out (``keep``), to stay valid while the next preparation runs."""
 
     def __init__(self, lib: ctypes.CDLL, lin: BlockLinearisation, cfg: NmpcConfig, buffers: FeedbackBuffers,
                  space: InputSpace | None = None) -> None:
@@ -152,35 +182,115 @@ class Condenser:
         self.Gam = np.zeros((P + 1) * NZ * n)
         self.Phi = np.zeros((P + 1) * NZ * NZ)
         self.c = np.zeros((P + 1) * NZ)
-        self.tmp = np.zeros(3 * NZ * NZ + 2 * NZ + 2 * NU * NZ)  # nrti_condense's recursion (W, λ, Y)
+        self.tmp = np.zeros(4 * NZ * NZ + 2 * NZ + 2 * NU * NZ)  # nrti_condense's recursion (W, λ, Y, Wᵀ)
         self.u_index = np.array([k * NZU + NZ + i for k in range(P) for i in range(NU)])
         self.u_low = np.tile(space.low, P)
         self.u_high = np.tile(space.high, P)
         self.box = BoxQp(lib, n, QP_MAX_ITER, QP_TOL)
+        # the iteration's QP: the linearisation's inputs (bound once) and outputs, the condensed data, the bounds
+        # and the active set its box QP starts from, in the order of CondensedQp.arrays
+        self.w_aug, self.p = np.zeros(lin.n_in[0]), np.zeros(lin.n_in[1])
+        lin.bind(self.w_aug, self.p)
+        AB, Hs, gs, gap = lin.outputs
+        Hc, gc, Gc, lo, hi = np.zeros(n * n), np.zeros(n), np.zeros(n * NZ), np.zeros(n), np.zeros(n)
+        self.arrays = (Hc, gc, Gc, lo, hi, np.zeros(n, np.intc), AB, gap, self.w_aug)
+        self._condense_args = (P, NZ, NU, *(ptr(a) for a in (AB, Hs, gs, gap, self.Gam, self.Phi, self.c, Hc, gc, Gc,
+                                                                self.tmp)))
+        self._iteration: tuple[FeedbackBuffers | None, tuple] = (None, ())  # (buffers, nrti_feedback's arguments)
+        self._native: tuple[FeedbackBuffers | None, tuple] = (None, ())  # (buffers, nrti_converge's arguments)
+        self._start = np.zeros((P + 1) * NX + P * NU)  # ``converge``'s starting plan and input before it
+        self._u_prev = np.zeros(NU)
+        self._iterations = ctypes.c_int(0)
+        stages = np.arange(P)[:, None] * NZU  # ``augment``: where w's x_k, u_k and x_N go, and u_prev_k+1 = u_k
+        self._from_w = np.concatenate([(stages + np.r_[0:NX, NZ:NZU]).ravel(), P * NZU + np.arange(NX)])
+        self._u_prev_from = (stages + np.arange(NZ, NZU)).ravel()
+        self._u_prev_to = self._u_prev_from + NZU - NU
 
-    def condense(self, w_aug: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers | None = None,
-                 active: np.ndarray | None = None) -> CondensedQp:
-        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``; its feedback
-        call writes into ``buffers`` (default: the backend's). Without ``active`` its active set at dz0 = 0
-        is solved here (``guess_status``); with it (−1/0/+1 per input step) that is the feedback's starting
-        guess and the caller, whose feedback call at dz0 = 0 solves it, sets ``guess_status``."""
-        P, n = self.cfg.horizon, self.n
-        w_aug = np.ascontiguousarray(w_aug, float)
-        AB, Hs, gs, gap = (a.copy() for a in self.lin(w_aug, np.ascontiguousarray(p, float)))
-        Hc, gc, Gc = np.zeros(n * n), np.zeros(n), np.zeros(n * NZ)
-        self.lib.nrti_condense(P, NZ, NU, ptr(AB), ptr(Hs), ptr(gs), ptr(gap), ptr(self.Gam), ptr(self.Phi),
-                               ptr(self.c), ptr(Hc), ptr(gc), ptr(Gc), ptr(self.tmp))
-        U = w_aug[self.u_index]
-        lo = np.minimum(self.u_low - U, 0.0)
-        hi = np.maximum(self.u_high - U, 0.0)
-        if active is None:
-            state0 = np.zeros(n, np.intc)
-            _, status = self.box.solve(Hc, gc, lo, hi, state0)
-        else:
-            state0, status = np.array(active, np.intc), 0
-        arrays = (Hc, gc, Gc, lo, hi, state0, AB, gap, w_aug)
-        return CondensedQp(p=np.array(p, float), w_aug=w_aug, arrays=arrays,
-                           args=self._feedback_args(arrays, buffers or self.buffers), guess_status=status)
+    @property
+    def active(self) -> np.ndarray:
+        """The active set the iteration's box QP starts from (−1 lower, 0 free, 1 upper); ``iterate`` leaves in it
+        the set the QP ended with, the next iteration's start."""
+        return self.arrays[5]
+
+    def _condense_at(self, w_aug: np.ndarray | None, p: np.ndarray) -> None:
+        """Linearise at the plan ``w_aug`` (None: the one ``augment`` put in place) for ``p`` and condense, into the
+        iteration's arrays."""
+        if w_aug is not None:
+            np.copyto(self.w_aug, w_aug)
+        np.copyto(self.p, p)
+        self.lin.call()
+        self.lib.nrti_condense(*self._condense_args)
+        U = self.w_aug[self.u_index]
+        _, _, _, lo, hi = self.arrays[:5]
+        np.minimum(np.subtract(self.u_low, U, out=lo), 0.0, out=lo)
+        np.maximum(np.subtract(self.u_high, U, out=hi), 0.0, out=hi)
+
+    def converge(self, w: np.ndarray, u_prev: np.ndarray, p: np.ndarray, buffers: FeedbackBuffers,
+                 budget_s: float) -> tuple[int, int] | None:
+        """``iterate`` from the plan ``w`` (the controller's layout, ``u_prev`` before it) until every input step
+        is at most ``as_step_tol`` (at most ``as_max_iterations``, none begun after ``budget_s`` seconds), in one C
+        call (the same C calls, per iteration, as ``iterate``'s): (last status, iterations) — status < 0 when a QP
+        failed or a plan was not finite — with the last QP in place for ``keep``. None when the linearisation is
+        not compiled code (the caller then loops over ``iterate``)."""
+        if not isinstance(self.lin, CompiledFunction):
+            return None
+        if self._native[0] is not buffers:
+            self._native = (buffers, self._converge_args(buffers))
+        np.copyto(self._start, w)
+        np.copyto(self._u_prev, u_prev)
+        np.copyto(self.p, p)
+        head, tail = self._native[1]
+        status = self.lib.nrti_converge(*head, budget_s, *tail)
+        return status, int(self._iterations.value)
+
+    def _converge_args(self, b: FeedbackBuffers) -> tuple[tuple, tuple]:
+        """nrti_converge's arguments before and after its budget (all of them fixed for these buffers)."""
+        lin = self.lin
+        assert isinstance(lin, CompiledFunction)
+        Hc, gc, Gc, lo, hi, state0, _, _, w_aug = self.arrays
+        head = (self.cfg.horizon, NX, NZ, NU, self.cfg.as_max_iterations, self.cfg.as_step_tol)
+        tail = (ctypes.cast(lin.fn, ctypes.c_void_p).value, lin.arg, lin.res, *lin._work,
+                *(ptr(a) for a in (self._start, self._u_prev, self.u_low, self.u_high, w_aug, self.Gam, self.Phi,
+                                   self.c, self.tmp, Hc, gc, Gc, lo, hi, state0, b.dz0)), QP_MAX_ITER, QP_TOL,
+                *(ptr(a) for a in (b.w_out, b.du, b.work, b.iwork)), ctypes.byref(self._iterations))
+        return head, tail
+
+    def augment(self, w: np.ndarray, u_prev: np.ndarray) -> None:
+        """Put the plan ``w`` (the controller's layout) in place for ``iterate`` in the augmented layout, ``u_prev``
+        the input before its first stage: ``GaussNewtonSqp.to_aug`` into the iteration's array, by one gather."""
+        self.w_aug[self._from_w] = w
+        self.w_aug[NX:NZ] = u_prev
+        self.w_aug[self._u_prev_to] = self.w_aug[self._u_prev_from]
+
+    def iterate(self, w_aug: np.ndarray | None, p: np.ndarray, buffers: FeedbackBuffers) -> int:
+        """One SQP iteration: the QP at the plan ``w_aug`` (augmented layout; None: ``augment``'s) for ``p``, solved
+        at ``buffers.dz0`` from ``active`` (which then holds the QP's final active set); the step is in ``buffers``.
+        Answers nrti_feedback's status (> 0 solved, 0 its iteration cap, < 0 failed). Nothing is allocated."""
+        if self._iteration[0] is not buffers:
+            self._iteration = (buffers, self._feedback_args(self.arrays, buffers))
+        self._condense_at(w_aug, p)
+        status = self.lib.nrti_feedback(*self._iteration[1])
+        np.copyto(self.active, buffers.iwork[2 * self.n:3 * self.n])  # (nrti_feedback's own copy of the set)
+        return status
+
+    def keep(self, status: int, factor: np.ndarray | None) -> CondensedQp:
+        """The last ``iterate``'s QP copied out (the next preparation overwrites the iteration's arrays), its feedback
+        writing into the backend's buffers and starting from ``factor`` (see ``bind``)."""
+        arrays = tuple(a.copy() for a in self.arrays)
+        qp = CondensedQp(p=self.p.copy(), w_aug=arrays[-1], arrays=arrays, args=(), guess_status=status)
+        return self.bind(qp, factor=factor)
+
+    def condense(self, w_aug: np.ndarray, p: np.ndarray) -> CondensedQp:
+        """The prepared QP at the plan ``w_aug`` (augmented layout) for the parameters ``p``, in arrays of its own,
+        with its active set at dz0 = 0 solved here (``guess_status``); its feedback writes into the backend's
+        buffers."""
+        self._condense_at(w_aug, p)
+        arrays = tuple(a.copy() for a in self.arrays)
+        Hc, gc, _, lo, hi, state0 = arrays[:6]
+        state0[:] = 0  # all free: solved from scratch
+        _, status = self.box.solve(Hc, gc, lo, hi, state0)
+        return CondensedQp(p=self.p.copy(), w_aug=arrays[-1], arrays=arrays,
+                           args=self._feedback_args(arrays, self.buffers), guess_status=status)
 
     def bind(self, qp: CondensedQp, buffers: FeedbackBuffers | None = None, factor: Any = KEEP) -> CondensedQp:
         """The same prepared QP with its feedback call writing into ``buffers`` (default: the backend's), starting

@@ -36,6 +36,7 @@ SIGNATURES = {
     "nrti_condense": (_I, _I, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P),
     "nrti_box_qp": (_I, _P, _P, _P, _P, _P, _P, _P, _P, _I, _D),
     "nrti_feedback": (_I, _I, _I, _I, _P, _P, _P, _P, _P, _P, _P, _P, _P, _P, _I, _D, _P, _P, _P, _P, _P),
+    "nrti_converge": (_I, _I, _I, _I, _I, _D, _D, *(_P,) * 21, _I, _D, *(_P,) * 5),
 }
 
 

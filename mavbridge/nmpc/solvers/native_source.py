@@ -16,8 +16,10 @@ Blocks arrive column-major as CasADi writes dense matrices: AB_k (nz × nzu) at 
 """
 
 C_SOURCE = r"""
+#define _POSIX_C_SOURCE 199309L
 #include <math.h>
 #include <string.h>
+#include <time.h>
 
 #define AB_(k, r, j) AB[(size_t)(k) * nz * nzu + (size_t)(j) * nz + (r)]
 #define H_(k, r, j) Hs[(size_t)(k) * nzu * nzu + (size_t)(j) * nzu + (r)]
@@ -45,7 +47,6 @@ static int cholesky(double *a, int m) {
 static void sensitivities(int N, int nz, int nu, const double *AB, const double *gap,
                           double *Gam, double *Phi, double *c) {
     int nzu = nz + nu, n = N * nu;
-    memset(Gam, 0, sizeof(double) * (size_t)(N + 1) * nz * n);
     memset(Phi, 0, sizeof(double) * (size_t)(N + 1) * nz * nz);
     memset(c, 0, sizeof(double) * (size_t)(N + 1) * nz);
     for (int r = 0; r < nz; ++r) Phi[r * nz + r] = 1.0;
@@ -56,6 +57,7 @@ static void sensitivities(int N, int nz, int nu, const double *AB, const double 
         for (int r = 0; r < nz; ++r) {
             double *g1 = G1 + (size_t)r * n, *p1 = P1 + (size_t)r * nz;
             double cr = gap[(size_t)k * nz + r];
+            memset(g1, 0, sizeof(double) * (size_t)k * nu);  /* (Gam_k's columns from k nu on are never read) */
             for (int s = 0; s < nz; ++s) {
                 double a = AB_(k, r, s);
                 if (a == 0.0) continue;
@@ -77,14 +79,14 @@ static void sensitivities(int N, int nz, int nu, const double *AB, const double 
        Hc_jj = R_j + B_j' W_{j+1} B_j,  Hc_ji = Y_j Gam_{j,i} (i < j),  Gc_j = Y_j Phi_j,
        gc_j = r_j + S_j c_j + B_j' lam_{j+1}
    (the Hessian and gradient of the cost once the states are eliminated; Gam_{j,i} = dz_j/du_i).
-   Zero entries of A_k (the u_prev rows and columns) are skipped. tmp: 3 nz^2 + 2 nz + 2 nu nz doubles. */
+   Zero entries of A_k (the u_prev rows and columns) are skipped. tmp: 4 nz^2 + 2 nz + 2 nu nz doubles. */
 int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, const double *gs,
                   const double *gap, double *Gam, double *Phi, double *c,
                   double *Hc, double *gc, double *Gc, double *tmp) {
     int nzu = nz + nu, n = N * nu;
     sensitivities(N, nz, nu, AB, gap, Gam, Phi, c);
     double *W = tmp, *WA = W + nz * nz, *W1 = WA + nz * nz, *lam = W1 + nz * nz, *lam1 = lam + nz;
-    double *BW = lam1 + nz, *Y = BW + nu * nz;
+    double *BW = lam1 + nz, *Y = BW + nu * nz, *Wt = Y + nu * nz, *WAt = W1;  /* (W1 is free then) */
     const double *cN = c + (size_t)N * nz;
     for (int r = 0; r < nz; ++r) {
         double l = gs[(size_t)N * nzu + r];
@@ -136,13 +138,19 @@ int nrti_condense(int N, int nz, int nu, const double *AB, const double *Hs, con
             }
         }
         if (j == 0) break;                                   /* W_0 and lam_0 are not needed */
-        memset(WA, 0, sizeof(double) * (size_t)nz * nz);     /* WA = W_{j+1} A_j */
+        for (int r = 0; r < nz; ++r)                         /* WA = W_{j+1} A_j, made as its transpose from W's: */
+            for (int t = 0; t < nz; ++t) Wt[t * nz + r] = W[r * nz + t];  /* each element the same sum in the */
+        memset(WAt, 0, sizeof(double) * (size_t)nz * nz);    /* same order, with a contiguous inner loop */
         for (int t = 0; t < nz; ++t)
             for (int q = 0; q < nz; ++q) {
                 double a = AB_(j, t, q);
                 if (a == 0.0) continue;
-                for (int r = 0; r < nz; ++r) WA[r * nz + q] += W[r * nz + t] * a;
+                const double *wt = Wt + (size_t)t * nz;
+                double *wa = WAt + (size_t)q * nz;
+                for (int r = 0; r < nz; ++r) wa[r] += wt[r] * a;
             }
+        for (int q = 0; q < nz; ++q)
+            for (int r = 0; r < nz; ++r) WA[r * nz + q] = WAt[q * nz + r];
         for (int r = 0; r < nz; ++r) {                       /* W1 = Q_j + A_j' WA, lam1 */
             double l = gs[(size_t)j * nzu + r];
             for (int q = 0; q < nz; ++q) {
@@ -290,6 +298,88 @@ int nrti_feedback(int N, int nx, int nz, int nu, const double *Hc, const double 
             dz1[r] = s;
         }
         memcpy(dz, dz1, sizeof(double) * (size_t)nz);
+    }
+    return status;
+}
+
+/* The plan w (the controller's layout: x_k (nx) u_k (nu) per stage, then x_N) in the augmented layout (z_k = [x_k,
+   u_{k-1}], u_prev before stage 0, u_N's slot the last input), as GaussNewtonSqp.to_aug: copies only. */
+static void augment(int N, int nx, int nu, const double *w, const double *u_prev, double *w_aug) {
+    int nzu = nx + 2 * nu, stage = nx + nu;
+    for (int k = 0; k <= N; ++k) {
+        double *z = w_aug + (size_t)k * nzu;
+        const double *before = k == 0 ? u_prev : w + (size_t)(k - 1) * stage + nx;
+        memcpy(z, w + (size_t)k * stage, sizeof(double) * (size_t)nx);
+        memcpy(z + nx, before, sizeof(double) * (size_t)nu);
+        if (k < N) memcpy(z + nx + nu, w + (size_t)k * stage + nx, sizeof(double) * (size_t)nu);
+    }
+}
+
+/* The box of the input steps at the plan: lo = min(u_low - U, 0), hi = max(u_high - U, 0) as numpy's minimum and
+   maximum give them (NaN kept, a zero of either sign answered as +0). */
+static void input_bounds(int N, int nz, int nu, const double *w_aug, const double *u_low, const double *u_high,
+                         double *lo, double *hi) {
+    for (int k = 0; k < N; ++k)
+        for (int i = 0; i < nu; ++i) {
+            int a = k * nu + i;
+            double U = w_aug[(size_t)k * (nz + nu) + nz + i], dl = u_low[a] - U, dh = u_high[a] - U;
+            lo[a] = (dl < 0.0 || dl != dl) ? dl : 0.0;
+            hi[a] = (dh > 0.0 || dh != dh) ? dh : 0.0;
+        }
+}
+
+/* max |x_i| as numpy's (NaN if any is NaN); -1 when any is not finite and check_finite is set. */
+static double max_abs(const double *x, int n, int check_finite) {
+    double m = 0.0;
+    for (int i = 0; i < n; ++i) {
+        double a = fabs(x[i]);
+        if (a != a) return check_finite ? -1.0 : a;
+        if (check_finite && isinf(a)) return -1.0;
+        if (a > m) m = a;
+    }
+    return m;
+}
+
+static double seconds_since(const struct timespec *start) {
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)(now.tv_sec - start->tv_sec) + 1e-9 * (double)(now.tv_nsec - start->tv_nsec);
+}
+
+typedef int (*casadi_function)(const double **arg, double **res, long long *iw, double *w, int mem);
+
+/* nrti's preparation SQP in one call (nrti.Preparation.converge; each iteration exactly Condenser.iterate's C
+   calls): from the plan w_in (the controller's layout) with u_prev before it, each iteration puts the plan in
+   w_aug (the block linearisation's first input; p its second, bound by the caller), evaluates lin (CasADi's
+   generated C: res = AB, Hs, gs, gap), condenses into Hc, gc, Gc, sets lo and hi, and solves the box QP at dz0
+   (zero) from state0, which then holds the QP's final active set; its new plan in w_out is the next iteration's.
+   Stops once every input step is at most step_tol, after max_iter iterations, or none begun after budget_s
+   seconds. *iterations: how many ran. Returns the last QP's status (nrti_feedback's), -2 when lin failed, -3 when
+   a plan is not finite. */
+int nrti_converge(int N, int nx, int nz, int nu, int max_iter, double step_tol, double budget_s,
+                  void *lin, const double **arg, double **res, long long *iw, double *lw,
+                  const double *w_in, const double *u_prev, const double *u_low, const double *u_high,
+                  double *w_aug, double *Gam, double *Phi, double *c, double *tmp,
+                  double *Hc, double *gc, double *Gc, double *lo, double *hi, int *state0,
+                  const double *dz0, int qp_max_iter, double qp_tol,
+                  double *w_out, double *du, double *work, int *iwork, int *iterations) {
+    int n = N * nu, status = 0, size = (N + 1) * nx + N * nu;
+    struct timespec start;
+    clock_gettime(CLOCK_MONOTONIC, &start);
+    const double *w = w_in;
+    for (int it = 0; it < max_iter; ++it) {
+        *iterations = it + 1;
+        augment(N, nx, nu, w, u_prev, w_aug);
+        if (((casadi_function)lin)(arg, res, iw, lw, 0) != 0) return -2;
+        nrti_condense(N, nz, nu, res[0], res[1], res[2], res[3], Gam, Phi, c, Hc, gc, Gc, tmp);
+        input_bounds(N, nz, nu, w_aug, u_low, u_high, lo, hi);
+        status = nrti_feedback(N, nx, nz, nu, Hc, gc, Gc, lo, hi, state0, res[0], res[3], w_aug, dz0, qp_max_iter,
+                               qp_tol, w_out, du, work, iwork, 0);
+        memcpy(state0, iwork + 2 * n, sizeof(int) * (size_t)n);
+        if (status < 0) return status;
+        if (max_abs(w_out, size, 1) < 0.0) return -3;
+        w = w_out;
+        if (max_abs(du, n, 0) <= step_tol || seconds_since(&start) > budget_s) break;
     }
     return status;
 }

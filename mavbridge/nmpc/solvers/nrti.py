@@ -88,29 +88,36 @@ class Preparation:
         The prepared QP is the last iteration's, linearised at the plan before that iteration's step (at
         most ``as_step_tol`` away from the converged plan), not a further condensation at the converged
         plan: the feedback is then the RTI from that point, and each step costs one condensation less.
-        Each iteration's QP starts from the previous one's active set. An intermediate QP at its iteration cap
-        (status 0) still gives a step within the box, which the next iteration corrects; only the last QP
-        must be solved (status > 0) to be prepared."""
-        cfg, b, sqp = self.condenser.cfg, self.buffers, self.solve.sqp
-        u_prev, n = PARAMS.get(p, "u_prev"), self.condenser.n
+        Each iteration's QP starts from the previous one's active set, in the condenser's own arrays (an
+        intermediate QP is only its step: nothing is allocated until the last is kept). An intermediate QP at its
+        iteration cap (status 0) still gives a step within the box, which the next iteration corrects; only the
+        last QP must be solved (status > 0) to be prepared."""
+        condenser, b = self.condenser, self.buffers
+        u_prev, n = PARAMS.get(p, "u_prev"), condenser.n
         b.dz0[:] = 0.0
-        active = np.zeros(n, np.intc)  # all free: the first QP is solved from scratch
-        qp, it = None, 0
-        for it in range(cfg.as_max_iterations):  # as_max_iterations >= 1 (NmpcConfig)
-            qp = self.condenser.condense(sqp.to_aug(w, u_prev), p, b, active)
-            qp.guess_status = self.condenser.lib.nrti_feedback(*qp.args)
-            if qp.guess_status < 0 or not np.all(np.isfinite(b.w_out)):
-                return None, it + 1
-            active = b.iwork[2 * n:3 * n]  # the active set the QP ended with (nrti_feedback's own copy)
-            qp.state0[:] = active  # the backend's feedback starts from it
-            w = b.w_out.copy()
-            if np.max(np.abs(b.du)) <= cfg.as_step_tol or time.perf_counter() > stop_at:
-                break
-        if qp is None or qp.guess_status <= 0:  # iteration cap in the QP: no prepared QP (asrti's step instead)
-            return None, it + 1
+        condenser.active[:] = 0  # all free: the first QP is solved from scratch
+        done = condenser.converge(w, u_prev, p, b, stop_at - time.perf_counter())  # (None: not compiled code)
+        status, it = done if done is not None else self._iterate(w, u_prev, p, stop_at)
+        if status <= 0:  # a QP failed, or the last is at its iteration cap: no prepared QP (asrti's step instead)
+            return None, it
         # the last QP's factor at its final active set (the feedback's starting one) is in the work buffer: kept,
         # the feedback's first iteration only substitutes (a fifth of its time, issue 32)
-        return self.condenser.bind(qp, factor=b.work[:n * n].copy()), it + 1
+        return condenser.keep(status, factor=b.work[:n * n].copy()), it
+
+    def _iterate(self, w: np.ndarray, u_prev: np.ndarray, p: np.ndarray, stop_at: float) -> tuple[int, int]:
+        """``converge``'s iterations one ``Condenser.iterate`` at a time (a linearisation in CasADi's virtual
+        machine): (last status, < 0 when a QP failed or a plan was not finite; iterations)."""
+        condenser, b, cfg = self.condenser, self.buffers, self.condenser.cfg
+        status, it = 0, 0
+        for it in range(cfg.as_max_iterations):  # as_max_iterations >= 1 (NmpcConfig)
+            condenser.augment(w, u_prev)
+            status = condenser.iterate(None, p, b)  # from the previous QP's active set
+            if status < 0 or not np.isfinite(b.w_out).all():
+                return (status if status < 0 else -3), it + 1
+            w = b.w_out  # (read by the next iteration's ``augment`` before its QP overwrites it)
+            if np.max(np.abs(b.du)) <= cfg.as_step_tol or time.perf_counter() > stop_at:
+                break
+        return status, it + 1
 
     def at_plan(self, w: np.ndarray, p: np.ndarray) -> BackgroundResult:
         """The condensed QP at a plan already solved for ``p`` itself (after the cold solve)."""
