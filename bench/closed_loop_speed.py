@@ -10,6 +10,10 @@ and its wall time. Each case is timed ``--repeat`` times after one warm-up run (
 done) and its fastest kept. Prints the real-time factor (simulated / CPU seconds) per run, their median, and the
 top five entries (own time) of a cProfile of the paper-sea Balanced run.
 
+``--as-max-iterations N`` sets nrti's preparation to at most N SQP iterations (default: the controller's own, 30,
+which converges; 1 is plain RTI): faster, and no longer the same numbers, so the table gives each run's average
+roll and the cut of Balanced against Direct in each sea to show what it changes.
+
 ``--compare REV`` runs the same measurement on the code of git revision REV (a temporary worktree put first
 on the path of a second process) and prints both, before and after, in one table.
 """
@@ -43,13 +47,16 @@ CASES = {  # name -> (scenario file, run, R or None for the run's own)
 PROFILED = "paper sea, balanced"
 
 
+ITERATIONS: dict[str, int] = {}  # ``--as-max-iterations``: {"as_max_iterations": N}, or none
+
+
 def scenario_of(case: str) -> Any:
     """The case's scenario on nrti (and its R), as the code on the path loads it."""
     from mavbridge.lab.scenario import load_scenarios
 
     file, run, r = CASES[case]
     scenario = {sc.name: sc for sc in load_scenarios(ROOT / "scenarios" / file)}[run]
-    controller = scenario.controller.replace(solver="nrti", **({"r": r} if r is not None else {}))
+    controller = scenario.controller.replace(solver="nrti", **({"r": r} if r is not None else {}), **ITERATIONS)
     return dataclasses.replace(scenario, controller=controller)
 
 
@@ -70,7 +77,8 @@ def time_case(case: str, repeat: int) -> dict[str, float]:
         metrics = run_scenario(scenario, None, plots=False).metrics
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
         if not best or cpu < best["cpu_s"]:
-            best = {"cpu_s": cpu, "wall_s": wall, "simulated_s": simulated_s(scenario, metrics)}
+            best = {"cpu_s": cpu, "wall_s": wall, "simulated_s": simulated_s(scenario, metrics),
+                    "avg_roll_deg": float(metrics["avg_roll_deg"])}
     return best
 
 
@@ -104,7 +112,8 @@ def measure_revision(rev: str, repeat: int) -> dict[str, Any]:
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(tree), rev], check=True)
         try:
             env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")}
-            subprocess.run([sys.executable, __file__, "--repeat", str(repeat), "--json", str(out)], check=True,
+            extra = [f"--as-max-iterations={ITERATIONS['as_max_iterations']}"] if ITERATIONS else []
+            subprocess.run([sys.executable, __file__, "--repeat", str(repeat), "--json", str(out), *extra], check=True,
                            env=env, cwd=tree)
             return json.loads(out.read_text(encoding="utf-8"))
         finally:
@@ -118,18 +127,20 @@ def factor(run: dict[str, float]) -> float:
 
 def print_table(after: dict[str, Any], before: dict[str, Any] | None, rev: str | None) -> None:
     """Markdown: per case simulated s, CPU s, wall s and the factor (before and after with ``--compare``)."""
-    head = "| run | simulated s | CPU s | wall s | × real time per core |"
-    rule = "|---|---|---|---|---|"
+    head = "| run | avg roll ° | simulated s | CPU s | wall s | × real time per core |"
+    rule = "|---|---|---|---|---|---|"
     if before is not None:
         head += f" before ({rev}) × | speed-up |"
         rule += "---|---|"
     print(head + "\n" + rule)
     for case, run in after["runs"].items():
-        line = f"| {case} | {run['simulated_s']:.1f} | {run['cpu_s']:.2f} | {run['wall_s']:.2f} | {factor(run):.0f} |"
+        line = (f"| {case} | {run['avg_roll_deg']:.3f} | {run['simulated_s']:.1f} | {run['cpu_s']:.2f} "
+                f"| {run['wall_s']:.2f} | {factor(run):.0f} |")
         if before is not None:
             old = before["runs"][case]
             line += f" {factor(old):.0f} | {old['cpu_s'] / run['cpu_s']:.2f}× |"
         print(line)
+    print_cuts(after["runs"])
     median = statistics.median(factor(run) for run in after["runs"].values())
     print(f"\nmedian: {median:.0f}× real time per core", end="")
     if before is not None:
@@ -141,14 +152,30 @@ def print_table(after: dict[str, Any], before: dict[str, Any] | None, rev: str |
             print("\n".join(figures["profile"]))
 
 
+def print_cuts(runs: dict[str, dict[str, float]]) -> None:
+    """Balanced's cut of the average roll against Direct, per sea."""
+    seas = sorted({case.split(",")[0] for case in runs})
+    def cut(sea: str) -> float:
+        return 100 * (1 - runs[f"{sea}, balanced"]["avg_roll_deg"] / runs[f"{sea}, direct"]["avg_roll_deg"])
+
+    cuts = [f"{sea} {cut(sea):.1f} %" for sea in seas]
+    print("\ncut of Balanced against Direct: " + ", ".join(cuts))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per case, fastest kept (default: 3)")
     parser.add_argument("--compare", metavar="REV", help="also measure git revision REV (before) in a worktree")
+    parser.add_argument("--as-max-iterations", type=int, help="nrti's SQP iterations per preparation, 1..200 "
+                        "(default: the controller's own; not the same numbers)")
     parser.add_argument("--json", type=Path, help=argparse.SUPPRESS)  # (the second process's output)
     args = parser.parse_args()
     if args.repeat < 1:
         parser.error("--repeat: must be >= 1")
+    if args.as_max_iterations is not None:
+        if not 1 <= args.as_max_iterations <= 200:
+            parser.error("--as-max-iterations: must be in 1..200")
+        ITERATIONS["as_max_iterations"] = args.as_max_iterations
     before = measure_revision(args.compare, args.repeat) if args.compare else None
     after = measure(args.repeat)
     if args.json is not None:
