@@ -17,8 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mavbridge.lab.sensed_plant import SensedPlant
 from mavbridge.waves import make_estimator
-from mavbridge.waves.inloop import SensedPlant, calibrated_settings, estimate_metrics, sensor_model
+from mavbridge.waves.inloop import calibrated_settings, estimate_metrics, sensor_model
 from vessel import RegularWaves, otter_parameters
 from vessel.dynamics import OceanCurrent
 

@@ -91,8 +91,13 @@ def constants_as_input(function: ca.Function) -> tuple[ca.Function, np.ndarray]:
     was a constant it is read from the new input, so given the values it evaluates exactly what ``function`` does.
     A model with different numbers (another seed of a sea, another phase) but the same structure then gives the same
     function, whose compiled code (cached by content) serves them all. Raises ValueError for an operation with
-    more than two operands (a call of another function inside), which this does not rebuild.
+    more than two operands (a call of another function inside), or a sparse input or output (the rebuild reads and
+    writes dense vectors), which this does not rebuild.
     """
+    sparse = [f"input {i}" for i in range(function.n_in()) if not function.sparsity_in(i).is_dense()]
+    sparse += [f"output {i}" for i in range(function.n_out()) if not function.sparsity_out(i).is_dense()]
+    if sparse:
+        raise ValueError(f"constants_as_input: {', '.join(sparse)} sparse; only dense functions are rebuilt")
     inputs = [ca.SX.sym(function.name_in(i), function.sparsity_in(i)) for i in range(function.n_in())]
     nonzeros = [ca.vertsplit(ca.vec(x), 1) if x.nnz() else [] for x in (ca.densify(s) for s in inputs)]
     outputs = [[ca.SX(0)] * function.nnz_out(i) for i in range(function.n_out())]

@@ -6,9 +6,8 @@ reported, not simulated), and no MAVLink is involved. Two plants:
 * ``tau`` (default): the paper's set-up, the rigid-body model driven by the NMPC's τ directly (RK4 at
   ``plant_dt_s``, τ held over the control period). The NMPC's model then matches the plant except for the
   integrator (the NMPC uses its own discretisation), as in the paper and the notes.
-* ``propellers``: ``vessel.Plant`` with shaft dynamics; τ goes through ``tau_to_shaft_speeds`` and the
-  shaft-speed commands are held for the control period. The propellers saturate below the NMPC's τ bounds
-  when surge and yaw are both large, and reverse thrust is weaker.
+* ``propellers``: ``vessel.Plant`` with shaft dynamics; τ goes through ``tau_to_shaft_speeds``, held for the
+  period. The propellers saturate below the NMPC's τ bounds when surge and yaw are both large; reverse is weaker.
 """
 
 from __future__ import annotations
@@ -32,11 +31,12 @@ import yaml
 
 from mavbridge.lab.runlog import RunRecorder, column, run_metrics, write_csv
 from mavbridge.lab.scenario import Scenario
+from mavbridge.lab.sensed_plant import SensedPlant
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.disturbance import DisturbanceObserver
 from mavbridge.nmpc.model_state import resolve_heave_feedback
 from mavbridge.waves import EstimatorSettings, make_estimator
-from mavbridge.waves.inloop import SensedPlant, WaveFeed, calibrated_settings, hidden_sea, sensor_model
+from mavbridge.waves.inloop import WaveFeed, calibrated_settings, hidden_sea, sensor_model
 from mavbridge.waves.phase.bank_source import BankFeed, PredictedSource
 from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth, TrueSpread
 from vessel import (

@@ -53,7 +53,9 @@ def compiled_model(function: ca.Function) -> tuple[BoundFunction, bool]:
     """(``function`` bound to arrays, compiled): compiled, its inputs are ``function``'s and then the constants,
     already filled in (the caller fills the first ``function.n_in()`` as ever); else ``function`` itself on the
     virtual machine."""
-    found = _generic(function.serialize())
+    from mavbridge.nmpc.solvers.codegen import compiler
+
+    found = _generic(function.serialize()) if compiler() is not None else None  # (no rebuild without a compiler)
     if found is None:
         return BoundFunction(function), False
     compiled, constants = found

@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+_PLAIN_FLOATS = (np.dtype(np.float64), np.dtype(np.float32))  # whose ``tolist`` gives Python floats
 CLOCK_BACK_S = 5.0  # a sample this much older than the last: the autopilot's clock went back (a reboot)
 
 
@@ -28,7 +29,7 @@ def finite(values: object, n: int) -> tuple[float, ...] | None:
     """
     if values is None:
         return None
-    if isinstance(values, np.ndarray) and values.ndim == 1 and values.dtype.kind == "f":
+    if type(values) is np.ndarray and values.ndim == 1 and values.dtype in _PLAIN_FLOATS:
         if values.shape[0] < n:
             return None
         out = tuple(values[:n].tolist())

@@ -1,11 +1,11 @@
-"""The realistic in-process plant for ``mavbridge experiment``: hidden sea, heave, sensors at 20 Hz.
+"""The wave side of the realistic in-process run for ``mavbridge experiment``: hidden sea, calibration, sensors.
 
 The paper's set-up (``vessel.closed_loop.TauPlant``) hands the NMPC the true wave and never samples a
-sensor. Here the rigid-body model driven by τ (RK4 at ``dt_s``, τ held over the control period) runs in
-the true sea — its phase drawn from a seed the estimator never sees, the hull optionally heaving with
-the sea — and every half control period (the ATTITUDE rate, 20 Hz at T = 0.1 s) the true state goes
-through ``vessel.sensors.SensorModel`` (seeded) and, as a ``MotionSample``, into a ``WaveSource``. The
-IMU's specific force comes from the plant's own ẋ (``vessel.imu.specific_force``).
+sensor. In the realistic run the plant (``mavbridge.lab.sensed_plant.SensedPlant``) runs in the true sea — its
+phase drawn here from a seed the estimator never sees (``hidden_sea``), the hull optionally heaving with the sea —
+and every half control period (the ATTITUDE rate, 20 Hz at T = 0.1 s) its true state goes through
+``vessel.sensors.SensorModel`` (``sensor_model``, seeded) into a ``WaveSource``; ``WaveFeed`` hands the NMPC its
+wave each step.
 
 ``estimate_metrics`` compares the estimate with the truth at the end of a run: direction (°), period,
 wavelength and height (%), and the phase of the predicted wave at the horizon's end (°).
@@ -16,36 +16,37 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
-import casadi as ca
 import numpy as np
 
-from mavbridge.nmpc.compiled_model import compiled_model
 from mavbridge.waves.calibration import hull_response, record_plant, settings_for
-from mavbridge.waves.half_period import half_period
 from mavbridge.waves.kinematic import estimate_errors, paper_sea
 from mavbridge.waves.phase.bank_source import BankFeed
 from mavbridge.waves.settings import EstimatorSettings
 from mavbridge.waves.source import (
     EstimateHold,
-    MotionSample,
     WaveEstimate,
     WaveSource,
     sea_spread,
     spread_line,
 )
 from vessel import Plant, RegularWaves, WaveField
-from vessel.closed_loop import substeps_per_period
-from vessel.dynamics import OceanCurrent, plant_ode, rigid_body_ode
-from vessel.imu import specific_force
-from vessel.plant import plant_step, rk4_step
-from vessel.sea.wind import Wind
 from vessel.sensors import SensorModel, SensorParams
 
 SAMPLES_PER_PERIOD = 2  # ATTITUDE at 20 Hz for the paper's T = 0.1 s
 SETTLE_S = 10.0  # a watched run's hull floats this long unwatched first (see ``SensedPlant.watch``)
+
+
+class Sensed(Protocol):
+    """What the wave feed needs of the plant (``mavbridge.lab.sensed_plant.SensedPlant``)."""
+
+    @property
+    def rigid_state(self) -> np.ndarray:
+        """The 12 rigid-body states."""
+
+    def sense(self, t: float) -> None:
+        """Sample the sensors at ``t`` into the wave source."""
 
 
 def hidden_sea(waves: WaveField, seed: int) -> WaveField:
@@ -76,89 +77,6 @@ def calibrated_settings(params: Any, surface_heave: bool, roll_sign: float) -> E
     plant = Plant(params, sea, dt=0.01, x0=x0, surface_heave=surface_heave)
     base = EstimatorSettings(roll_sign=roll_sign)
     return settings_for(*hull_response(*record_plant(plant, sea, (70.0, 70.0), 80.0, roll_sign=roll_sign)), base)
-
-
-class SensedPlant:
-    """The boat in the true sea, driven by τ (the rigid body: the paper's set-up) or, with ``propellers``, by the
-    shaft-speed commands through the propellers' dynamics and saturation (so a thrust the model does not know
-    shows); feeds a wave source with sensor readings at 20 Hz."""
-
-    def __init__(self, params: Any, waves: WaveField, current: OceanCurrent, x0: np.ndarray, period_s: float,
-                 dt_s: float, surface_heave: bool, sensors: SensorModel, source: WaveSource,
-                 wind: Wind | None = None, propellers: bool = False) -> None:
-        self.propellers = propellers
-        if propellers:
-            ode = plant_ode(params, waves, current, surface_heave, wind)
-            step = plant_step(params, waves, current, dt_s, "rk4", surface_heave, wind)
-        else:
-            ode = rigid_body_ode(params, waves, current, surface_heave, wind)
-            step = rk4_step(ode, dt_s)
-        self.dt = dt_s
-        self.half_s = period_s / SAMPLES_PER_PERIOD
-        self.substeps = substeps_per_period(self.half_s, dt_s)
-        # a half period's substeps bound to preallocated arrays (no DM conversions per call); compiled in an
-        # irregular sea (see ``half_period``)
-        self._half = half_period(step, self.substeps, dt_s)
-        nx = ode.size1_in(0)
-        x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
-        xdot = ode(x, u, t)
-        self._imu, _ = compiled_model(
-            ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)]))
-        self.x = np.concatenate([np.asarray(x0, float)[:12], np.zeros(nx - 12)])
-        self.sensors, self.source = sensors, source
-        self._input = np.zeros(2)  # τ (N, N·m), or the shaft-speed commands (rad/s) with propellers
-
-    @property
-    def rigid_state(self) -> np.ndarray:
-        """The 12 rigid-body states."""
-        return self.x[:12].copy()
-
-    @property
-    def shaft_speeds(self) -> tuple[float, float] | None:
-        """Actual shaft speeds (rad/s) with propellers; None for the τ-driven body."""
-        return (float(self.x[12]), float(self.x[13])) if self.propellers else None
-
-    def sense(self, t: float) -> None:
-        """Sample the sensors at ``t`` (true state, last applied τ for the IMU) and feed the wave source."""
-        x_in, u_in, t_in = self._imu.inputs[0:3]
-        x_in[:] = self.x
-        u_in[:] = self._input
-        t_in[0] = t
-        self._imu()
-        reading = self.sensors.sample(t, self.x[0:6], self.x[6:12], self._imu.outputs[0])
-        self.source.observe(MotionSample(reading.t_s, reading.attitude, reading.rates, reading.position_ned,
-                                         reading.velocity_ned, reading.accel_body))
-
-    def watch(self, seconds: float, period_s: float,
-              on_period: Callable[[float, np.ndarray], None] | None = None) -> None:
-        """The boat drifting with idle thrusters for ``seconds`` before t = 0, sensed as in the run (the wave
-        source learns; the run's clock then starts at 0 where this ends). It has floated unwatched for
-        ``SETTLE_S`` before that: the model starts at rest on a calm waterline, and no skipper's companion
-        connects while the hull is still being dropped into the sea (its first seconds heave and pitch as no
-        boat afloat does). ``on_period(t, x)``: what the companion sees each watched period (the rigid state),
-        thrusters idle."""
-        steps, settle = round(seconds / period_s), round(SETTLE_S / period_s) if seconds > 0 else 0
-        for i in range(settle + steps):
-            t = (i - steps - settle) * period_s
-            if i >= settle:
-                self.sense(t)
-                if on_period is not None:
-                    on_period(t, self.rigid_state)
-            self.advance(t, np.zeros(2), (0.0, 0.0), sensed=i >= settle)
-
-    def advance(self, t: float, tau: np.ndarray, n_cmd: tuple[float, float], sensed: bool = True) -> None:
-        """One control period from ``t`` with τ (or, with propellers, ``n_cmd``) held, sensing at each half period
-        inside it (``sensed``; not while the hull settles unwatched)."""
-        self._input = np.asarray(n_cmd if self.propellers else tau, float)
-        self._half.hold(self._input)
-        for i in range(SAMPLES_PER_PERIOD):
-            t0 = t + i * self.half_s
-            if i > 0 and sensed:
-                self.sense(t0)
-            x_next = self._half.run(self.x, t0)
-            if not np.isfinite(x_next).all():
-                raise FloatingPointError(f"plant state became non-finite at t = {t0:.2f} s")
-            self.x = x_next.copy()
 
 
 def sensor_model(kind: str, seed: int) -> SensorModel:
@@ -215,7 +133,7 @@ class WaveFeed:
         if self.say is not None:
             self.say(line)
 
-    def step(self, t: float, plant: SensedPlant, nmpc: Any) -> dict[str, float]:
+    def step(self, t: float, plant: Sensed, nmpc: Any) -> dict[str, float]:
         """Sense at ``t``, set the NMPC's wave, return the wave columns of the log row."""
         import time
 

@@ -37,7 +37,7 @@ def test_a_compiled_model_gives_the_virtual_machines_numbers() -> None:
 
 
 def test_compiled_half_period_equals_the_mapped_one_and_serves_every_seed() -> None:
-    from mavbridge.waves import half_period as hp
+    from mavbridge.lab import sensed_plant as hp
 
     params = otter_parameters()
     halves = []

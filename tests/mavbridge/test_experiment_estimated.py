@@ -50,7 +50,8 @@ def test_the_watch_senses_only_its_own_seconds_not_the_unwatched_settling() -> N
     the wave source gets its first sample at −watch_s and then one every half period up to 0, none before."""
     import numpy as np
 
-    from mavbridge.waves.inloop import SETTLE_S, SensedPlant, sensor_model
+    from mavbridge.lab.sensed_plant import SensedPlant
+    from mavbridge.waves.inloop import SETTLE_S, sensor_model
     from vessel.sea.state import Start
 
     class Times:

@@ -6,8 +6,10 @@ import threading
 from concurrent.futures import CancelledError
 from concurrent.futures import TimeoutError as FuturesTimeout
 
+import numpy as np
 import pytest
 
+from mavbridge.nmpc.layout import PARAMS
 from mavbridge.nmpc.solvers.worker import InlineWorker, Job, Worker
 
 WAIT_S = 60.0  # the longest a test waits for an event: returns as soon as it happens
@@ -92,9 +94,42 @@ def test_in_process_runs_prepare_inline_and_paced_flight_gets_its_thread() -> No
 
     cfg = NmpcConfig(horizon=6, solver="asrti", rti_codegen="off", as_worker="inline")
     step = AdvancedStep(problem_functions(OtterParameters(), CalmWater(), OceanCurrent(), cfg), cfg)
+    ran_on: list[str] = []
+
+    def job(*args: object) -> tuple:
+        ran_on.append(threading.current_thread().name)
+        return None, args[1], 0.0, 0
+
+    step._solve = job  # (the background solve itself is not what is tested here)
     try:
         assert isinstance(step._worker(), InlineWorker)
+        step.start(np.zeros(3), np.zeros(PARAMS.size), np.zeros(2))  # a job pending when the flight becomes paced
         step.pace(0.1)  # paced: the work ahead must overlap the wait for the next measurement
         assert isinstance(step._worker(), Worker) and step.cfg.as_worker == "thread"
+        step.take(np.zeros(PARAMS.size))
+        assert ran_on == ["asrti"], "the pending job ran on the caller's thread, not the worker's"
+        step.start(np.zeros(3), np.zeros(PARAMS.size), np.zeros(2))
+        step.cancel()  # a thread's job is let end and forgotten
+        assert len(ran_on) == 2
+    finally:
+        step.close()
+
+
+def test_a_reset_drops_an_inline_job_unrun() -> None:
+    from mavbridge.nmpc import NmpcConfig
+    from mavbridge.nmpc.functions import problem_functions
+    from mavbridge.nmpc.solvers.asrti import AdvancedStep
+    from vessel.dynamics import OceanCurrent
+    from vessel.params import OtterParameters
+    from vessel.sea.waves import CalmWater
+
+    cfg = NmpcConfig(horizon=6, solver="asrti", rti_codegen="off", as_worker="inline")
+    step = AdvancedStep(problem_functions(OtterParameters(), CalmWater(), OceanCurrent(), cfg), cfg)
+    ran: list[bool] = []
+    step._solve = lambda *args: ran.append(True)
+    try:
+        step.start(np.zeros(3), np.zeros(PARAMS.size), np.zeros(2))
+        step.cancel()
+        assert ran == [] and step.take(np.zeros(PARAMS.size)) == (None, {})
     finally:
         step.close()

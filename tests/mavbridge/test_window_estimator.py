@@ -15,8 +15,9 @@ import math
 import numpy as np
 import pytest
 
+from mavbridge.lab.sensed_plant import SensedPlant
 from mavbridge.waves import EstimatorSettings, WindowEstimator, make_estimator
-from mavbridge.waves.inloop import SensedPlant, calibrated_settings, estimate_metrics, sensor_model
+from mavbridge.waves.inloop import calibrated_settings, estimate_metrics, sensor_model
 from mavbridge.waves.kinematic import KinematicBoat, estimate_errors, motion_samples
 from mavbridge.waves.window_buffer import _last_in_blocks
 from mavbridge.waves.window_fit import (

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import pytest
 
 from vessel import OceanCurrent, otter_parameters
 from vessel.dynamics import rigid_body_ode
@@ -44,3 +45,12 @@ def test_a_plant_step_rebuilt_steps_bit_for_bit() -> None:
         assert np.array_equal(a.outputs[0], b.outputs[0])
         x = a.outputs[0].copy()
     assert np.any(x != 0.0)
+
+
+def test_a_sparse_input_or_output_is_refused_not_rebuilt_wrong() -> None:
+    x = ca.SX.sym("x", ca.Sparsity.diag(3))  # nonzeros only on the diagonal
+    y = ca.SX.sym("y", 3)
+    with pytest.raises(ValueError, match="input 0 sparse"):
+        constants_as_input(ca.Function("f", [x], [2.5 * ca.sum1(x)]))
+    with pytest.raises(ValueError, match="output 0 sparse"):
+        constants_as_input(ca.Function("g", [y], [ca.diag(2.5 * y)]))

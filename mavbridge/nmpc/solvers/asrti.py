@@ -32,7 +32,7 @@ from mavbridge.nmpc.inputs import input_space
 from mavbridge.nmpc.layout import PARAMS, parameter_layout
 from mavbridge.nmpc.solvers.gauss_newton import GaussNewtonSqp
 from mavbridge.nmpc.solvers.rti import RtiBackend
-from mavbridge.nmpc.solvers.worker import InlineWorker, Job, Worker
+from mavbridge.nmpc.solvers.worker import DeferredJob, InlineWorker, Job, Worker
 from vessel import OceanCurrent, OtterParameters, WaveField
 
 # Paced (``RollAwareNmpc.pace``): a step waits for the background job at most this share of a wall period
@@ -119,11 +119,13 @@ class AdvancedStep:
 
     def pace(self, wall_period_s: float) -> None:
         """Wait at most WAIT_SHARE of a wall period (never more than ``as_wait_s``) for the job. Paced, the work
-        ahead needs its own thread: an inline worker becomes one (its job not yet taken still runs when taken)."""
+        ahead needs its own thread: an inline worker becomes one, and a job not yet run goes to it."""
         self.wait_s = min(self.cfg.as_wait_s, WAIT_SHARE * max(wall_period_s, 0.0))
         if self.cfg.as_worker == "inline":
             self.cfg = self.cfg.replace(as_worker="thread")
             self._executor = None
+            if isinstance(self._pending, DeferredJob):
+                self._pending = self._pending.hand_over(self._worker())
 
     def take(self, p: np.ndarray) -> tuple[np.ndarray | None, dict]:
         """The background plan if it was made for this step's p (waiting up to ``wait_s``), and figures."""
@@ -145,9 +147,11 @@ class AdvancedStep:
         return w, info
 
     def cancel(self) -> None:
-        """Let a running job end (up to ``wait_s``) and forget it."""
+        """Let a running job end (up to ``wait_s``) and forget it; a deferred one is dropped unrun."""
         future, self._pending = self._pending, None
-        if future is not None:
+        if isinstance(future, DeferredJob):
+            future.cancel()
+        elif future is not None:
             with contextlib.suppress(FuturesTimeout):
                 future.result(timeout=self.wait_s)
 

@@ -127,6 +127,14 @@ class DeferredJob(Job):
         """True: a deferred job is ready whenever it is asked for."""
         return True
 
+    def hand_over(self, worker: Worker) -> Job:
+        """This job to run on ``worker``'s thread instead, if it has not run (else itself: its result is kept)."""
+        if self._call is None:
+            return self
+        call, args = self._call, self._args
+        self._call = self._args = None
+        return worker.submit(call, *args)
+
     def result(self, timeout: float | None = None) -> Any:
         """Run the job now if it has not run (``timeout`` does not apply: nothing runs elsewhere), then its value."""
         if self._call is not None:
