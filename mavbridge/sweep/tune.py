@@ -129,6 +129,9 @@ def _meets(trial: Trial, target: Target) -> bool:
     return target.max_time_s is None or trial.arrival_s <= target.max_time_s
 
 
+Flight = tuple[tuple[float, float, float], float | None]  # (Q, R, S), start heading (deg) or None: the base's
+
+
 class Procedure:
     """Runs batches of scenarios through the sweep runner (resumable in ``out``) and keeps the trials."""
 
@@ -144,21 +147,28 @@ class Procedure:
         """Run every (Q, R, S) of a batch on every sea seed; a trial per weight set, in order (kept among the
         procedure's trials unless ``keep`` is False: the robustness re-runs, measured against their own
         heading's Direct, are reported apart)."""
-        runs = [[_with(self.base, q, r, s, heading_deg, seed) for seed in self.sea_seeds] for q, r, s in weights]
-        spec = SweepSpec(f"tune:{step}", {}, [Case({}, sc) for group in runs for sc in group])
-        outcome = run_sweep(spec, self.executor, self.out, say=self.say)
-        if outcome.interrupted:
-            raise KeyboardInterrupt
-        trials = []
-        for w, group in zip(weights, runs, strict=True):
-            records = [outcome.results.get(case_id(sc)) for sc in group]
-            if any(record is None for record in records):
-                continue  # a run failed: reported by the runner, left out of the choice
-            trials.append(_trial(step, w, [record["metrics"] for record in records], self.direct_rolls))
+        found = self.flights(step, [(w, heading_deg) for w in weights])
+        trials = [trial for trial in found if trial is not None]
         if keep:
             self.trials.extend(trials)
         self.say(f"tune: {step}: {counted(len(trials), 'trial')} of {counted(len(self.sea_seeds), 'run')} each, "
                  + _best_line(trials))
+        return trials
+
+    def flights(self, step: str, items: Sequence[Flight]) -> list[Trial | None]:
+        """Each (weights, start heading or None) on every sea seed, all in one sweep (the executor's workers kept
+        busy to its end): a trial per item, in order, None where a run failed (reported by the runner)."""
+        runs = [[_with(self.base, q, r, s, heading, seed) for seed in self.sea_seeds] for (q, r, s), heading in items]
+        spec = SweepSpec(f"tune:{step}", {}, [Case({}, sc) for group in runs for sc in group])
+        outcome = run_sweep(spec, self.executor, self.out, say=self.say)
+        if outcome.interrupted:
+            raise KeyboardInterrupt
+        trials: list[Trial | None] = []
+        for (w, _), group in zip(items, runs, strict=True):
+            records = [outcome.results.get(case_id(sc)) for sc in group]
+            failed = any(record is None for record in records)
+            trials.append(None if failed else _trial(step, w, [record["metrics"] for record in records],
+                                                     self.direct_rolls))
         return trials
 
 
@@ -240,16 +250,19 @@ def tune(base: Scenario, target: Target, executor: Executor, out: Path,
 
 
 def _robustness(proc: Procedure, direct: Trial, best: Trial, headings_deg: Sequence[float]) -> list[tuple]:
-    """The chosen weights from each start heading, each against the direct tuning from the same heading."""
+    """The chosen weights from each start heading, each against the direct tuning from the same heading: every
+    heading's pair in one sweep."""
+    pairs = [item for heading in headings_deg
+             for item in (((direct.q, 0.0, direct.s), heading), ((best.q, best.r, best.s), heading))]
+    flown = proc.flights("robustness", pairs)
     rows = []
-    for heading in headings_deg:
-        pair = proc.batch(f"robustness {heading:g}°", [(direct.q, 0.0, direct.s), (best.q, best.r, best.s)],
-                          heading_deg=heading, keep=False)
-        if len(pair) != 2:
+    for i, heading in enumerate(headings_deg):
+        ref, chosen = flown[2 * i], flown[2 * i + 1]
+        if ref is None or chosen is None:
             continue  # a run failed (reported by the runner)
-        ref, chosen = pair
         rows.append((heading, Trial("robustness", best.q, best.r, best.s, chosen.avg_roll_deg, chosen.arrival_s,
                                     reduction_against(chosen.rolls, ref.rolls), chosen.rolls)))
+    proc.say(f"tune: robustness: {counted(len(rows), 'start heading')} of {len(headings_deg)} flown")
     return rows
 
 
