@@ -20,8 +20,8 @@ def _figures(result: Identification, base: OtterParameters, identified: OtterPar
     parts = []
     for axis in ("roll", "pitch"):
         if axis in result.decays:
-            parts += [f"<h3>{axis}: free decays</h3>", image(decay_figure(axis, result.decays[axis], base, identified),
-                                                             f"{axis} decays")]
+            figure = decay_figure(axis, result.decays[axis], base, identified, result.decay_signal.get(axis, axis))
+            parts += [f"<h3>{axis}: free decays</h3>", image(figure, f"{axis} decays")]
         elif axis in result.ambient:
             fit, items = result.ambient[axis]
             parts += [f"<h3>{axis}: spectrum of the motion</h3>",

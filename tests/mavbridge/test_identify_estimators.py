@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from mavbridge.identify.ambient import ambient_estimates
+from mavbridge.identify.analyse import Identification, frames, identify_axis
 from mavbridge.identify.decay import decay_estimates, find_decays, fit_decay
+from mavbridge.identify.logdata import LogData
 from mavbridge.identify.series import stretches
 from mavbridge.identify.surge import SurgePoint, fit_surge
 from mavbridge.identify.yaw import Nomoto, nomoto_estimates
@@ -124,3 +127,38 @@ def test_stretches_split_at_gaps_and_take_nothing_from_nothing() -> None:
     parts = stretches(t, np.sin(t), 0.1, 0.4)
     assert [round(p.duration_s) for p in parts] == [10, 8]
     assert stretches(np.empty(0), np.empty((0, 2)), 0.1, 0.4) == []
+
+
+def small_decays_log(rates: bool, seed: int = 4) -> LogData:
+    """A calm log at 10 Hz holding six roll decays from 0.6° (T 1.2 s, ζ 0.25): the attitude with 0.2° of white
+    noise, the body roll rate (when ``rates``) with 0.1°/s, as the simulator's ATTITUDE carries them."""
+    rng = np.random.default_rng(seed)
+    period, zeta = 1.2, 0.25
+    omega, t = 2 * math.pi / period, np.arange(0, 80, 0.1)
+    roll, p = np.zeros_like(t), np.zeros_like(t)
+    for k, t0 in enumerate(np.arange(5.0, 75.0, 12.0)):
+        tau = t - t0
+        on = tau >= 0
+        x = math.radians(0.6) * (-1) ** k * np.exp(-zeta * omega * tau[on])
+        wd = omega * math.sqrt(1 - zeta**2)
+        roll[on] += x * np.cos(wd * tau[on])
+        p[on] += x * (-zeta * omega * np.cos(wd * tau[on]) - wd * np.sin(wd * tau[on]))
+    rows = np.column_stack([t, roll + rng.normal(0, math.radians(0.2), t.size), rng.normal(0, 1e-3, t.size),
+                            np.zeros_like(t), p + rng.normal(0, math.radians(0.1), t.size) if rates
+                            else np.full(t.size, math.nan), np.zeros_like(t)])
+    return LogData(Path("synthetic.tlog"), "tlog", "", rows, np.empty((0, 2)))
+
+
+def test_small_decays_are_identified_from_the_roll_rate() -> None:
+    result = Identification()
+    identify_axis([frames(small_decays_log(rates=True))], "roll", result)
+    assert result.decay_signal["roll"] == "roll rate"
+    assert len(result.decays["roll"]) >= 4
+    assert result.estimates["roll_period_s"].value == pytest.approx(1.2, rel=0.03)
+    assert result.estimates["roll_damping_ratio"].value == pytest.approx(0.25, rel=0.15)
+
+
+def test_small_decays_in_a_noisy_angle_alone_are_not_taken_for_decays() -> None:
+    result = Identification()
+    identify_axis([frames(small_decays_log(rates=False))], "roll", result)
+    assert "roll" not in result.decays  # 0.6° under 0.2° noise: below the angle's threshold, no decay claimed
