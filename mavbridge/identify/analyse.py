@@ -22,12 +22,14 @@ from mavbridge.identify.series import Stretch, held, median_step, moving_average
 from mavbridge.identify.yaw import Nomoto
 
 QUIET_TURN_RAD_S = math.radians(3.0)  # a decay is free only while the boat turns slower than this ...
-QUIET_AVERAGE_S = 0.5  # ... on average over this long (the yaw's rate of change carries the attitude's noise)
+QUIET_AVERAGE_S = 0.5  # ... the gyro's, else on average over this long (the yaw's change carries the attitude's noise)
 MIN_DECAY_RAD = math.radians(1.5)
 MAX_GAP_S = 0.4  # a third of the shortest roll period seen: bridged by interpolation, a longer gap ends a stretch
-COLUMNS = ("roll", "pitch", "r", "speed", "n1", "n2", "tau_X", "tau_N", "left", "right", "p", "q")
+COLUMNS = ("roll", "pitch", "r", "speed", "n1", "n2", "tau_X", "tau_N", "left", "right", "p", "q", "r_gyro")
 RATE_OF = {"roll": "p", "pitch": "q"}  # the body rate beside each angle: its free decay is the angle's, less noisy
-RATE_SNR = 10.0  # a decay in a body rate must start at this many times the rate's own sample-to-sample noise
+RATE_SNR = 10.0  # a decay in a body rate must start at this many times the rate's own sample-to-sample noise ...
+RATE_FLOOR_SIGMAS = 2.0  # ... and goes on while its half-heights stay above this many (white gyro noise: a run that
+# starts at ten times it is not noise, and a fit below MIN_R2 is refused anyway)
 
 
 @dataclass
@@ -47,10 +49,10 @@ class Frames:
 
 
 def _rates(log: LogData) -> np.ndarray | None:
-    """Rows (t, p, q) of the log's body roll and pitch rates (rad/s), None when it holds none (or only zeros)."""
-    if log.attitude.shape[1] < 6:
+    """Rows (t, p, q, r) of the log's body rates (rad/s), None when it holds none (or only zeros)."""
+    if log.attitude.shape[1] < 7:
         return None
-    rows = log.attitude[:, [0, 4, 5]]
+    rows = log.attitude[:, [0, 4, 5, 6]]
     rows = rows[np.all(np.isfinite(rows), axis=1)]
     return rows if rows.shape[0] > 1 and np.any(rows[:, 1:] != 0) else None
 
@@ -66,7 +68,7 @@ def frames(log: LogData) -> Frames:
         cols = np.full((s.t.size, len(COLUMNS)), np.nan)
         cols[:, 0:2] = s.y[:, 0:2]
         if rates is not None:
-            for k, name in enumerate(("p", "q")):
+            for k, name in enumerate(("p", "q", "r_gyro")):
                 cols[:, COLUMNS.index(name)] = np.interp(s.t, rates[:, 0], rates[:, k + 1], left=np.nan, right=np.nan)
         cols[:, 2] = np.gradient(s.y[:, 2], s.dt) if s.t.size > 1 else 0.0
         if log.speed.size:
@@ -112,7 +114,7 @@ def _noise(y: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(resid - np.median(resid))) / 0.816) if y.size > 5 else 0.0
 
 
-def _signal_decays(t: np.ndarray, y: np.ndarray, quiet: np.ndarray, floor: float,
+def _signal_decays(t: np.ndarray, y: np.ndarray, quiet: np.ndarray, floor: float, floor_sigmas: float = 3.0,
                    ) -> list[tuple[DecayFit, np.ndarray, np.ndarray]]:
     """The fitted free decays of one signal of a stretch, each starting at ``floor`` or more and well above the
     signal's own motion (four times the robust spread of what a 10 s average leaves)."""
@@ -120,11 +122,20 @@ def _signal_decays(t: np.ndarray, y: np.ndarray, quiet: np.ndarray, floor: float
     hp = y - moving_average(y, round(10.0 / dt))
     ambient = 1.4826 * float(np.median(np.abs(hp - np.median(hp))))
     found = []
-    for a, b in find_decays(t, y, quiet, max(floor, 4 * ambient), _noise(y)):
+    for a, b in find_decays(t, y, quiet, max(floor, 4 * ambient), _noise(y), floor_sigmas):
         fit = fit_decay(t[a:b + 1], y[a:b + 1])
         if fit is not None:
             found.append((fit, t[a:b + 1], y[a:b + 1]))
     return found
+
+
+def _quiet_yaw_rate(f: Frames, s: Stretch) -> np.ndarray:
+    """The yaw rate a free decay is judged quiet on: the gyro's where the log has it, else the attitude's yaw
+    differentiated and averaged over QUIET_AVERAGE_S (a centred average smears the end of a turn by half of it)."""
+    gyro = f.column(s, "r_gyro")
+    if np.all(np.isfinite(gyro)):
+        return gyro
+    return moving_average(np.nan_to_num(f.column(s, "r")), max(1, round(QUIET_AVERAGE_S / s.dt)))
 
 
 def _axis_decays(sets: list[Frames], axis: str) -> tuple[list[tuple[DecayFit, np.ndarray, np.ndarray]], str]:
@@ -140,11 +151,10 @@ def _axis_decays(sets: list[Frames], axis: str) -> tuple[list[tuple[DecayFit, np
         for s in f.items:
             if s.t.size < 8:
                 continue
-            r = moving_average(np.nan_to_num(f.column(s, "r")), max(1, round(QUIET_AVERAGE_S / s.dt)))
-            quiet = np.abs(r) < QUIET_TURN_RAD_S
+            quiet = np.abs(_quiet_yaw_rate(f, s)) < QUIET_TURN_RAD_S
             if use_rate:
                 y = np.nan_to_num(f.column(s, rate))
-                found += _signal_decays(s.t, y, quiet, RATE_SNR * _noise(y))
+                found += _signal_decays(s.t, y, quiet, RATE_SNR * _noise(y), RATE_FLOOR_SIGMAS)
             else:
                 found += _signal_decays(s.t, f.column(s, axis), quiet, MIN_DECAY_RAD)
     return found, signal

@@ -1,7 +1,7 @@
 """What a log holds for identification, as arrays: attitude, speed over ground and the propulsion command.
 
 Every format is read by ``mavbridge.field``'s readers (``open_log``), as `mavbridge report` reads it: ATTITUDE
-(roll, pitch, yaw, yaw unwrapped; the body roll and pitch rates beside them), GLOBAL_POSITION_INT (speed over
+(roll, pitch, yaw, yaw unwrapped; the body rates beside them), GLOBAL_POSITION_INT (speed over
 ground from its velocity), SERVO_OUTPUT_RAW or DataFlash RCOU (the motors' PWM, turned into outputs in [−1, 1] by
 the log's SERVOn_FUNCTION/MIN/TRIM/MAX/REVERSED through ``mavbridge.field.boat``), PARAM_VALUE. The Otter API CSV
 says its commands in columns the reader does not turn into MAVLink — ``n1``, ``n2`` (shaft speeds, rpm), ``tau_X``
@@ -29,7 +29,7 @@ OTTER_COMMANDS = ("n1", "n2", "tau_X", "tau_N")
 
 @dataclass
 class LogData:
-    """One log's arrays (SI, rad): attitude rows (t, roll, pitch, yaw, p, q: the body roll and pitch rates, rad/s,
+    """One log's arrays (SI, rad): attitude rows (t, roll, pitch, yaw, p, q, r: the body rates, rad/s,
     NaN where the log has none), speed rows (t, m/s), and the commands it holds: 'shafts' rows (t, n1, n2 rad/s),
     'tau' rows (t, τ_X N, τ_N N·m), 'motors' rows (t, left, right)."""
 
@@ -69,7 +69,7 @@ class _Collector:
         if kind == "ATTITUDE":
             angles = (msg.roll, msg.pitch, msg.yaw)
             if all(math.isfinite(a) for a in angles) and abs(msg.roll) < math.pi / 2 and abs(msg.pitch) < math.pi / 2:
-                rates = (getattr(msg, "rollspeed", math.nan), getattr(msg, "pitchspeed", math.nan))
+                rates = (getattr(msg, name, math.nan) for name in ("rollspeed", "pitchspeed", "yawspeed"))
                 self.att.extend((t, *angles, *(float(v) if v is not None else math.nan for v in rates)))
         elif kind == "GLOBAL_POSITION_INT":
             if msg.lat or msg.lon:
@@ -120,7 +120,7 @@ def read_log(path: Path, fmt: str = "auto") -> LogData:
     for t, msg in reader.messages():
         got.take(t, msg)
     info = reader.info
-    attitude = _rows(got.att, 6)
+    attitude = _rows(got.att, 7)
     if not attitude.size:
         raise LogError(f"LOG: {path}: no attitude in this {info.format} log: nothing to identify")
     attitude[:, 3] = np.unwrap(attitude[:, 3])

@@ -131,7 +131,7 @@ def test_stretches_split_at_gaps_and_take_nothing_from_nothing() -> None:
 
 def small_decays_log(rates: bool, seed: int = 4) -> LogData:
     """A calm log at 10 Hz holding six roll decays from 0.6° (T 1.2 s, ζ 0.25): the attitude with 0.2° of white
-    noise, the body roll rate (when ``rates``) with 0.1°/s, as the simulator's ATTITUDE carries them."""
+    noise, the body rates (when ``rates``; the boat not turning) with 0.1°/s, as the simulator's ATTITUDE carries them."""
     rng = np.random.default_rng(seed)
     period, zeta = 1.2, 0.25
     omega, t = 2 * math.pi / period, np.arange(0, 80, 0.1)
@@ -145,7 +145,8 @@ def small_decays_log(rates: bool, seed: int = 4) -> LogData:
         p[on] += x * (-zeta * omega * np.cos(wd * tau[on]) - wd * np.sin(wd * tau[on]))
     rows = np.column_stack([t, roll + rng.normal(0, math.radians(0.2), t.size), rng.normal(0, 1e-3, t.size),
                             np.zeros_like(t), p + rng.normal(0, math.radians(0.1), t.size) if rates
-                            else np.full(t.size, math.nan), np.zeros_like(t)])
+                            else np.full(t.size, math.nan), np.zeros_like(t),
+                            rng.normal(0, math.radians(0.1), t.size) if rates else np.full(t.size, math.nan)])
     return LogData(Path("synthetic.tlog"), "tlog", "", rows, np.empty((0, 2)))
 
 
@@ -162,3 +163,13 @@ def test_small_decays_in_a_noisy_angle_alone_are_not_taken_for_decays() -> None:
     result = Identification()
     identify_axis([frames(small_decays_log(rates=False))], "roll", result)
     assert "roll" not in result.decays  # 0.6° under 0.2° noise: below the angle's threshold, no decay claimed
+
+
+def test_a_decay_cut_short_by_a_turn_is_kept_up_to_the_turn() -> None:
+    t, y = decays_signal(np.random.default_rng(1), noise=0.003)
+    quiet = np.ones(t.size, bool)
+    quiet[(t >= 5.0 + 2.2 * PERIOD_S) & (t < 25.0)] = False  # the boat turns again 2.2 periods into the first decay
+    found = find_decays(t, y, quiet, math.radians(1.5), 0.003)
+    assert len(found) == 2 and t[found[0][1]] < 5.0 + 2.2 * PERIOD_S  # the first one ends before the turn
+    fit = fit_decay(t[found[0][0]:found[0][1] + 1], y[found[0][0]:found[0][1] + 1])
+    assert fit is not None and fit.period_s == pytest.approx(PERIOD_S, rel=0.03)

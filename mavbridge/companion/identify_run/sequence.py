@@ -65,9 +65,9 @@ SEQUENCE: tuple[Leg, ...] = (
     Leg("zig-zag 20/20", "zigzag", 70.0, 0.6, ZIGZAG_STEERING),
     Leg("stop", "coast", 10.0),
     *(leg for steering in (1.0, -1.0, 1.0, -1.0) for leg in (
-        Leg(f"hard turn {'right' if steering > 0 else 'left'}", "spin", 4.0, 0.0, steering),
+        Leg(f"hard turn {'right' if steering > 0 else 'left'}", "spin", 3.0, 0.0, steering),
         Leg("brake", "brake", 1.0),
-        Leg("roll decay", "coast", 3.0))),
+        Leg("roll decay", "coast", 5.0))),
 )
 
 
