@@ -15,11 +15,13 @@ Per hull (a vessel file the simulator flies, never told to the companion):
    of the hull (a step of the zig-zag's steering from straight running gives T 0.34-0.39 s where the zig-zag's
    reversals give 0.53-0.63 s); the plant's figure to compare is the one of the manoeuvre the log holds. The
    step's K and T are printed beside it.
-3. The identified speed at half and full command is U·s with s the thrust fraction (0.25 and 1).
+3. The identified speed at half and full command: the identified model's (vessel.yaml's) steady speed at motor
+   outputs 0.5 and 1.0, measured on the plant as the hull's is.
 4. Balanced (scenarios/heading_limit.yaml's base: the paper's sea, the estimate, hidden phase, heave, default
-   sensors, a 30 s watch, nrti) in-process on the hull with ``controller.model`` published, the
-   identified vessel.yaml and the plant itself, and Direct (R = 0) with the plant as its model as the reference
-   of every cut: cut = 1 − roll(Balanced, model) / roll(Direct), the mean over sea seeds 1–3.
+   sensors, a 30 s watch, nrti; the propellers plant where the hull's propellers differ) in-process on the hull
+   with ``controller.model`` published, the identified vessel.yaml and the plant itself, and Direct (R = 0) with
+   the plant as its model as the reference of every cut: cut = 1 − roll(Balanced, model) / roll(Direct), the mean
+   over the sea seeds (default 1–3).
 
 Targets: roll period within 5 %, roll damping within 30 %, surge speed at half and full within 5 %, K within
 15 %, T within 25 %; the identified model's cut within 3 points of the plant model's and at least the published
@@ -211,6 +213,8 @@ def scenario_file(folder: Path, name: str, hull: dict[str, Any], model: Any, dir
     data = {"name": name, **base, "vessel": hull,
             "controller": {**base["controller"], "r": 0 if direct else 1550, "model": model},
             "estimation": {**base["estimation"], "seed": seed}}
+    if "propeller_scale" in hull:  # the asymmetry lives in the propellers: the tau plant would not see it
+        data["plant"] = "propellers"
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     return path
