@@ -129,7 +129,7 @@ def _initial(tau: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def fit_decay(t: np.ndarray, y: np.ndarray) -> DecayFit | None:
     """The decaying cosine fitted to one decay (times ``t`` s, angle ``y``); None when it does not fit (R² <
-    MIN_R2) or the fit fails."""
+    MIN_R2), the fit fails, or its damping is within two standard deviations of zero (it does not decay)."""
     t, y = np.asarray(t, float), np.asarray(y, float)
     if t.size < 8:
         return None
@@ -153,6 +153,8 @@ def fit_decay(t: np.ndarray, y: np.ndarray) -> DecayFit | None:
         return None
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     amp, zeta, omega, phase, offset = (float(v) for v in fit.x)
+    if zeta - 2 * float(sd[1]) <= 0:
+        return None  # a damping that cannot be told from zero: a sustained oscillation, not a free decay
     return DecayFit(float(t[0]), float(t[-1]), amp, zeta, omega, phase, offset, r2, float(sd[1]), float(sd[2]))
 
 

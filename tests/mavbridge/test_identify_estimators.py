@@ -131,7 +131,7 @@ def test_stretches_split_at_gaps_and_take_nothing_from_nothing() -> None:
 
 def small_decays_log(rates: bool, seed: int = 4) -> LogData:
     """A calm log at 10 Hz holding six roll decays from 0.6° (T 1.2 s, ζ 0.25): the attitude with 0.2° of white
-    noise, the body rates (when ``rates``; the boat not turning) with 0.1°/s, as the simulator's ATTITUDE carries them."""
+    noise, the body rates (when ``rates``; the boat not turning) with 0.1°/s, as the simulator's ATTITUDE has them."""
     rng = np.random.default_rng(seed)
     period, zeta = 1.2, 0.25
     omega, t = 2 * math.pi / period, np.arange(0, 80, 0.1)
@@ -173,3 +173,11 @@ def test_a_decay_cut_short_by_a_turn_is_kept_up_to_the_turn() -> None:
     assert len(found) == 2 and t[found[0][1]] < 5.0 + 2.2 * PERIOD_S  # the first one ends before the turn
     fit = fit_decay(t[found[0][0]:found[0][1] + 1], y[found[0][0]:found[0][1] + 1])
     assert fit is not None and fit.period_s == pytest.approx(PERIOD_S, rel=0.03)
+
+
+def test_a_sustained_oscillation_is_not_taken_for_a_decay() -> None:
+    t = np.arange(0, 2.5, 0.05)  # two cycles from a crest, as find_decays hands a run over
+    noise = np.random.default_rng(5).normal(0, 0.002, t.size)
+    assert fit_decay(t, 0.03 * np.cos(OMEGA * t) + noise) is None  # no damping at all
+    fit = fit_decay(t, 0.03 * np.exp(-0.03 * OMEGA * t) * np.cos(OMEGA * t) + noise)  # lightly damped: kept
+    assert fit is not None and fit.zeta == pytest.approx(0.03, abs=0.01)
