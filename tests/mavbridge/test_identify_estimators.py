@@ -10,9 +10,10 @@ import pytest
 
 from mavbridge.identify.ambient import ambient_estimates
 from mavbridge.identify.analyse import Identification, frames, identify_axis
+from mavbridge.identify.asymmetry import propeller_scale, straight_windows, thrust_ratio
 from mavbridge.identify.decay import decay_estimates, find_decays, fit_decay
 from mavbridge.identify.logdata import LogData
-from mavbridge.identify.series import stretches
+from mavbridge.identify.series import Stretch, stretches
 from mavbridge.identify.surge import SurgePoint, fit_surge
 from mavbridge.identify.yaw import Nomoto, nomoto_estimates
 
@@ -181,3 +182,20 @@ def test_a_sustained_oscillation_is_not_taken_for_a_decay() -> None:
     assert fit_decay(t, 0.03 * np.cos(OMEGA * t) + noise) is None  # no damping at all
     fit = fit_decay(t, 0.03 * np.exp(-0.03 * OMEGA * t) * np.cos(OMEGA * t) + noise)  # lightly damped: kept
     assert fit is not None and fit.zeta == pytest.approx(0.03, abs=0.01)
+
+
+def test_a_weaker_starboard_propeller_from_the_helm_that_holds_a_heading() -> None:
+    """Windows going straight at outputs 0.3 and 0.6, the starboard motor given what makes its 15 % weaker thrust
+    equal the port one's (as a heading hold does), then a turn: the ratio 0.85 and propeller_scale (1, 0.85); the
+    same with both motors alike: no scale."""
+    rng = np.random.default_rng(6)
+    t = np.arange(0, 60, 0.1)
+    port = np.where(t < 30, 0.3, 0.6) + rng.normal(0, 0.005, t.size)
+    yaw_rate = rng.normal(0, math.radians(0.5), t.size)
+    yaw_rate[t >= 50] = math.radians(15)  # turning: not a straight window
+    for weaker, scale in ((0.85, (1.0, 0.85)), (1.0, None)):
+        starboard = port / math.sqrt(weaker)
+        got = thrust_ratio(straight_windows([Stretch(t, np.column_stack([port, starboard, yaw_rate]))]))
+        assert not isinstance(got, str) and got.value == pytest.approx(weaker, abs=0.005)
+        assert propeller_scale(got) == (pytest.approx(scale) if scale else None)
+    assert isinstance(thrust_ratio([]), str)
