@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from mavbridge.identify.ambient import ArFit, ambient_estimates
-from mavbridge.identify.decay import DecayFit, decay_estimates, find_decays, fit_decay
+from mavbridge.identify.decay import MIN_EXTREMA, DecayFit, decay_estimates, find_decays, fit_decay
 from mavbridge.identify.estimate import Estimate
 from mavbridge.identify.logdata import LogData
 from mavbridge.identify.series import Stretch, held, median_step, moving_average, stretches
@@ -29,7 +29,8 @@ COLUMNS = ("roll", "pitch", "r", "speed", "n1", "n2", "tau_X", "tau_N", "left", 
 RATE_OF = {"roll": "p", "pitch": "q"}  # the body rate beside each angle: its free decay is the angle's, less noisy
 RATE_SNR = 10.0  # a decay in a body rate must start at this many times the rate's own sample-to-sample noise ...
 RATE_FLOOR_SIGMAS = 2.0  # ... and goes on while its half-heights stay above this many (white gyro noise: a run that
-# starts at ten times it is not noise, and a fit below MIN_R2 is refused anyway)
+# starts at ten times it is not noise, and a fit below MIN_R2 is refused anyway) ...
+RATE_MIN_EXTREMA = 3  # ... for one whole cycle at least (the angle's decays need one and a half: MIN_EXTREMA)
 
 
 @dataclass
@@ -115,14 +116,14 @@ def _noise(y: np.ndarray) -> float:
 
 
 def _signal_decays(t: np.ndarray, y: np.ndarray, quiet: np.ndarray, floor: float, floor_sigmas: float = 3.0,
-                   ) -> list[tuple[DecayFit, np.ndarray, np.ndarray]]:
+                   min_extrema: int = MIN_EXTREMA) -> list[tuple[DecayFit, np.ndarray, np.ndarray]]:
     """The fitted free decays of one signal of a stretch, each starting at ``floor`` or more and well above the
     signal's own motion (four times the robust spread of what a 10 s average leaves)."""
     dt = float(t[1] - t[0])
     hp = y - moving_average(y, round(10.0 / dt))
     ambient = 1.4826 * float(np.median(np.abs(hp - np.median(hp))))
     found = []
-    for a, b in find_decays(t, y, quiet, max(floor, 4 * ambient), _noise(y), floor_sigmas):
+    for a, b in find_decays(t, y, quiet, max(floor, 4 * ambient), _noise(y), floor_sigmas, min_extrema):
         fit = fit_decay(t[a:b + 1], y[a:b + 1])
         if fit is not None:
             found.append((fit, t[a:b + 1], y[a:b + 1]))
@@ -154,7 +155,7 @@ def _axis_decays(sets: list[Frames], axis: str) -> tuple[list[tuple[DecayFit, np
             quiet = np.abs(_quiet_yaw_rate(f, s)) < QUIET_TURN_RAD_S
             if use_rate:
                 y = np.nan_to_num(f.column(s, rate))
-                found += _signal_decays(s.t, y, quiet, RATE_SNR * _noise(y), RATE_FLOOR_SIGMAS)
+                found += _signal_decays(s.t, y, quiet, RATE_SNR * _noise(y), RATE_FLOOR_SIGMAS, RATE_MIN_EXTREMA)
             else:
                 found += _signal_decays(s.t, f.column(s, axis), quiet, MIN_DECAY_RAD)
     return found, signal

@@ -78,22 +78,22 @@ def _run_length(t: np.ndarray, y: np.ndarray, ext: np.ndarray, i: int, floor: fl
 
 
 def find_decays(t: np.ndarray, y: np.ndarray, quiet: np.ndarray | None, min_amplitude: float,
-                noise: float, floor_sigmas: float = 3.0) -> list[tuple[int, int]]:
+                noise: float, floor_sigmas: float = 3.0, min_extrema: int = MIN_EXTREMA) -> list[tuple[int, int]]:
     """(first, last) sample indices of the free decays in a uniform series ``y`` (rad): runs of at least
-    MIN_EXTREMA shrinking extrema from a first half-height of ``min_amplitude`` or more, quiet throughout, each run
-    going on while its half-heights stay above ``floor_sigmas`` times the ``noise``."""
+    ``min_extrema`` shrinking extrema from a first half-height of ``min_amplitude`` or more, quiet throughout, each
+    run going on while its half-heights stay above ``floor_sigmas`` times the ``noise``."""
     ext = extrema(y, prominence=max(3 * noise, 0.1 * min_amplitude))
     found: list[tuple[int, int]] = []
     i = 0
-    while i < ext.size - MIN_EXTREMA + 1:
+    while i < ext.size - min_extrema + 1:
         height = abs(y[ext[i + 1]] - y[ext[i]]) / 2
         if height < min_amplitude:
             i += 1
             continue
         n = _run_length(t, y, ext, i, floor=max(floor_sigmas * noise, 0.05 * height))
-        while n >= MIN_EXTREMA and not _quiet(quiet, *_span(ext, i, n, y.size)):
+        while n >= min_extrema and not _quiet(quiet, *_span(ext, i, n, y.size)):
             n -= 1  # a run that outlasts the quiet is cut where the quiet ends
-        if n >= MIN_EXTREMA:
+        if n >= min_extrema:
             found.append(_span(ext, i, n, y.size))
             i += n
         else:
