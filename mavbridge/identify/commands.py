@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from mavbridge.identify.analyse import Frames, Identification, frames, identify_axis, select
+from mavbridge.identify.asymmetry import straight_windows, thrust_ratio
 from mavbridge.identify.logdata import RPM, LogData
 from mavbridge.identify.series import Stretch, moving_average
 from mavbridge.identify.surge import fit_surge, steady_points
@@ -152,8 +153,20 @@ def identify(logs: list[LogData], base: OtterParameters) -> Identification:
     for axis in ("roll", "pitch"):
         identify_axis(sets, axis, result)
     identify_surge(sets, base, result)
+    identify_propellers(sets, result)
     identify_yaw(sets, result)
     return result
+
+
+def identify_propellers(sets: list[Frames], result: Identification) -> None:
+    """The starboard to port thrust ratio (``propeller_thrust_ratio``) where the logs hold the motors' outputs."""
+    if command_kind(sets) != "motors":
+        return
+    got = thrust_ratio(straight_windows(select(sets, ("left", "right", "r"))))
+    if isinstance(got, str):
+        result.missing.append(got)
+    else:
+        result.estimates["propeller_thrust_ratio"] = got
 
 
 def surge_full_rad_s(result: Identification) -> tuple[float | None, float | None]:

@@ -78,26 +78,37 @@ def _run_length(t: np.ndarray, y: np.ndarray, ext: np.ndarray, i: int, floor: fl
 
 
 def find_decays(t: np.ndarray, y: np.ndarray, quiet: np.ndarray | None, min_amplitude: float,
-                noise: float) -> list[tuple[int, int]]:
+                noise: float, floor_sigmas: float = 3.0, min_extrema: int = MIN_EXTREMA) -> list[tuple[int, int]]:
     """(first, last) sample indices of the free decays in a uniform series ``y`` (rad): runs of at least
-    MIN_EXTREMA shrinking extrema from a first half-height of ``min_amplitude`` or more, quiet throughout."""
+    ``min_extrema`` shrinking extrema from a first half-height of ``min_amplitude`` or more, quiet throughout, each
+    run going on while its half-heights stay above ``floor_sigmas`` times the ``noise``."""
     ext = extrema(y, prominence=max(3 * noise, 0.1 * min_amplitude))
     found: list[tuple[int, int]] = []
     i = 0
-    while i < ext.size - MIN_EXTREMA + 1:
+    while i < ext.size - min_extrema + 1:
         height = abs(y[ext[i + 1]] - y[ext[i]]) / 2
         if height < min_amplitude:
             i += 1
             continue
-        n = _run_length(t, y, ext, i, floor=max(3 * noise, 0.05 * height))
-        first, last = int(ext[i]), int(ext[i + n - 1])
-        end = min(y.size - 1, last + (last - int(ext[i + n - 2])))
-        if n >= MIN_EXTREMA and (quiet is None or bool(np.all(quiet[first:end + 1]))):
-            found.append((first, end))
+        n = _run_length(t, y, ext, i, floor=max(floor_sigmas * noise, 0.05 * height))
+        while n >= min_extrema and not _quiet(quiet, *_span(ext, i, n, y.size)):
+            n -= 1  # a run that outlasts the quiet is cut where the quiet ends
+        if n >= min_extrema:
+            found.append(_span(ext, i, n, y.size))
             i += n
         else:
             i += 1
     return found
+
+
+def _span(ext: np.ndarray, i: int, n: int, size: int) -> tuple[int, int]:
+    """(first, last) sample of the run of ``n`` extrema from ``ext[i]``, to half a period past its last extremum."""
+    first, last = int(ext[i]), int(ext[i + n - 1])
+    return first, min(size - 1, last + (last - int(ext[i + n - 2])))
+
+
+def _quiet(quiet: np.ndarray | None, first: int, end: int) -> bool:
+    return quiet is None or bool(np.all(quiet[first:end + 1]))
 
 
 def _initial(tau: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -118,7 +129,7 @@ def _initial(tau: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def fit_decay(t: np.ndarray, y: np.ndarray) -> DecayFit | None:
     """The decaying cosine fitted to one decay (times ``t`` s, angle ``y``); None when it does not fit (R² <
-    MIN_R2) or the fit fails."""
+    MIN_R2), the fit fails, or its damping is within two standard deviations of zero (it does not decay)."""
     t, y = np.asarray(t, float), np.asarray(y, float)
     if t.size < 8:
         return None
@@ -142,6 +153,8 @@ def fit_decay(t: np.ndarray, y: np.ndarray) -> DecayFit | None:
         return None
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     amp, zeta, omega, phase, offset = (float(v) for v in fit.x)
+    if zeta - 2 * float(sd[1]) <= 0:
+        return None  # a damping that cannot be told from zero: a sustained oscillation, not a free decay
     return DecayFit(float(t[0]), float(t[-1]), amp, zeta, omega, phase, offset, r2, float(sd[1]), float(sd[2]))
 
 

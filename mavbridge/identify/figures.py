@@ -39,8 +39,9 @@ def _figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (10, 3.4))
 
 
 def decay_figure(axis: str, decays: list[tuple[DecayFit, np.ndarray, np.ndarray]], base: OtterParameters,
-                 identified: OtterParameters) -> bytes:
-    """Up to three decays: the log, the fit, and the base and identified models' linear decays from the same start."""
+                 identified: OtterParameters, signal: str = "") -> bytes:
+    """Up to three decays: the log, the fit, and the base and identified models' linear decays from the same start;
+    ``signal`` what the decays are of (the axis's angle, or its rate: "roll rate")."""
     shown = decays[:3]
     fig, axes = _figure(1, len(shown), (4 * len(shown) + 2, 3.2))
     for ax, (fit, t, y) in zip(axes[0], shown, strict=True):
@@ -52,7 +53,7 @@ def decay_figure(axis: str, decays: list[tuple[DecayFit, np.ndarray, np.ndarray]
             ax.plot(tau, decay_curve(np.array([fit.amplitude, zeta, omega, fit.phase, fit.offset]), tau) * DEG,
                     style, label=f"{name} model T={2 * math.pi / omega:.2f} s")
         ax.set_xlabel(f"s from {t[0]:.1f} s")
-        ax.set_ylabel(f"{axis} [deg]")
+        ax.set_ylabel(f"{signal or axis} [deg{'/s' if signal.endswith('rate') else ''}]")
         ax.legend(fontsize="small")
     return _png(fig)
 

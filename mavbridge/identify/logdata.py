@@ -1,12 +1,12 @@
 """What a log holds for identification, as arrays: attitude, speed over ground and the propulsion command.
 
 Every format is read by ``mavbridge.field``'s readers (``open_log``), as `mavbridge report` reads it: ATTITUDE
-(roll, pitch, yaw; yaw unwrapped), GLOBAL_POSITION_INT (speed over ground from its velocity), SERVO_OUTPUT_RAW
-or DataFlash RCOU (the motors' PWM, turned into outputs in [−1, 1] by the log's SERVOn_FUNCTION/MIN/TRIM/MAX/
-REVERSED through ``mavbridge.field.boat``), PARAM_VALUE. The Otter API CSV says its commands in columns the
-reader does not turn into MAVLink — ``n1``, ``n2`` (shaft speeds, rpm), ``tau_X`` (N), ``tau_N`` (N·m) — so they
-are read beside it, row by row on the reader's own timeline and with its own number parsing. SI inside: shaft
-speeds in rad/s.
+(roll, pitch, yaw, yaw unwrapped; the body rates beside them), GLOBAL_POSITION_INT (speed over
+ground from its velocity), SERVO_OUTPUT_RAW or DataFlash RCOU (the motors' PWM, turned into outputs in [−1, 1] by
+the log's SERVOn_FUNCTION/MIN/TRIM/MAX/REVERSED through ``mavbridge.field.boat``), PARAM_VALUE. The Otter API CSV
+says its commands in columns the reader does not turn into MAVLink — ``n1``, ``n2`` (shaft speeds, rpm), ``tau_X``
+(N), ``tau_N`` (N·m) — so they are read beside it, row by row on the reader's own timeline and with its own number
+parsing. SI inside: shaft speeds in rad/s.
 """
 
 from __future__ import annotations
@@ -29,8 +29,9 @@ OTTER_COMMANDS = ("n1", "n2", "tau_X", "tau_N")
 
 @dataclass
 class LogData:
-    """One log's arrays (SI, rad): attitude rows (t, roll, pitch, yaw), speed rows (t, m/s), and the commands it
-    holds: 'shafts' rows (t, n1, n2 rad/s), 'tau' rows (t, τ_X N, τ_N N·m), 'motors' rows (t, left, right)."""
+    """One log's arrays (SI, rad): attitude rows (t, roll, pitch, yaw, p, q, r: the body rates, rad/s,
+    NaN where the log has none), speed rows (t, m/s), and the commands it holds: 'shafts' rows (t, n1, n2 rad/s),
+    'tau' rows (t, τ_X N, τ_N N·m), 'motors' rows (t, left, right)."""
 
     path: Path
     format: str
@@ -68,7 +69,8 @@ class _Collector:
         if kind == "ATTITUDE":
             angles = (msg.roll, msg.pitch, msg.yaw)
             if all(math.isfinite(a) for a in angles) and abs(msg.roll) < math.pi / 2 and abs(msg.pitch) < math.pi / 2:
-                self.att.extend((t, *angles))
+                rates = (getattr(msg, name, math.nan) for name in ("rollspeed", "pitchspeed", "yawspeed"))
+                self.att.extend((t, *angles, *(float(v) if v is not None else math.nan for v in rates)))
         elif kind == "GLOBAL_POSITION_INT":
             if msg.lat or msg.lon:
                 self.speed.extend((t, math.hypot(msg.vx, msg.vy) / 100.0))
@@ -118,7 +120,7 @@ def read_log(path: Path, fmt: str = "auto") -> LogData:
     for t, msg in reader.messages():
         got.take(t, msg)
     info = reader.info
-    attitude = _rows(got.att, 4)
+    attitude = _rows(got.att, 7)
     if not attitude.size:
         raise LogError(f"LOG: {path}: no attitude in this {info.format} log: nothing to identify")
     attitude[:, 3] = np.unwrap(attitude[:, 3])

@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from mavbridge.identify.analyse import Identification
+from mavbridge.identify.asymmetry import propeller_scale
 from mavbridge.identify.commands import surge_full_rad_s
 from mavbridge.identify.model import calibrate_max_speed, fit_axis, plant_decay, surge_fields
 from mavbridge.identify.surge import MIN_FRACTION
@@ -68,9 +69,9 @@ def speed_levels(result: Identification) -> list[tuple[float, float, int]]:
     return working or levels[-1:]
 
 
-def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, float]:
+def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, Any]:
     """The OtterParameters fields the identified figures change (only those)."""
-    fields: dict[str, float] = {}
+    fields: dict[str, Any] = {}
     for axis in ("roll", "pitch"):
         period, zeta = _value(result, f"{axis}_period_s"), _value(result, f"{axis}_damping_ratio")
         if period is not None or zeta is not None:
@@ -79,6 +80,9 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
     forward = _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2)
     fields.update(surge_fields(base, forward, _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2),
                                full_forward, full_reverse))
+    scale = propeller_scale(result.estimates.get("propeller_thrust_ratio"))
+    if scale is not None:  # before the speed and yaw fits: the model flies the log's commands with it
+        fields["propeller_scale"] = scale
     if forward is not None and "max_speed" in fields:
         fields = calibrate_max_speed(base, fields, speed_levels(result))
     T = _value(result, "yaw_nomoto_time_constant_s")
@@ -86,7 +90,7 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, fl
         field = yaw_time_constant(base.replace(**fields), result.yaw_replay)
         if field is not None and T_YAW_RANGE_S[0] <= field <= T_YAW_RANGE_S[1]:
             fields["yaw_time_constant"] = round(field, 3)
-    return {k: float(v) for k, v in fields.items()}
+    return {k: v if isinstance(v, tuple) else float(v) for k, v in fields.items()}
 
 
 def model_check(base: OtterParameters, identified: OtterParameters, result: Identification) -> dict[str, Any]:
@@ -105,9 +109,10 @@ def model_check(base: OtterParameters, identified: OtterParameters, result: Iden
     return check
 
 
-def vessel_mapping(named: str, file_fields: dict[str, Any], fields: dict[str, float]) -> dict[str, Any]:
-    """{base: named set, the base file's fields, the identified fields}: what vessel.yaml holds."""
-    return {"base": named, **file_fields, **fields}
+def vessel_mapping(named: str, file_fields: dict[str, Any], fields: dict[str, Any]) -> dict[str, Any]:
+    """{base: named set, the base file's fields, the identified fields}: what vessel.yaml holds (a pair such as
+    propeller_scale as a list, as YAML writes it)."""
+    return {"base": named, **file_fields, **{k: list(v) if isinstance(v, tuple) else v for k, v in fields.items()}}
 
 
 def write_yaml(path: Path, mapping: dict[str, Any], command: str) -> None:

@@ -16,12 +16,19 @@ from mavbridge.identify.figures import ambient_figure, decay_figure, surge_figur
 from vessel import OtterParameters
 
 
+def _number(value: float | tuple[float, ...] | list[float]) -> str:
+    """A field's value for the page: a number to four figures, a pair as two."""
+    if isinstance(value, (tuple, list)):
+        return ", ".join(f"{v:.4g}" for v in value)
+    return f"{value:.4g}"
+
+
 def _figures(result: Identification, base: OtterParameters, identified: OtterParameters) -> list[str]:
     parts = []
     for axis in ("roll", "pitch"):
         if axis in result.decays:
-            parts += [f"<h3>{axis}: free decays</h3>", image(decay_figure(axis, result.decays[axis], base, identified),
-                                                             f"{axis} decays")]
+            figure = decay_figure(axis, result.decays[axis], base, identified, result.decay_signal.get(axis, axis))
+            parts += [f"<h3>{axis}: free decays</h3>", image(figure, f"{axis} decays")]
         elif axis in result.ambient:
             fit, items = result.ambient[axis]
             parts += [f"<h3>{axis}: spectrum of the motion</h3>",
@@ -50,7 +57,7 @@ def write_page(path: Path, result: Identification, data: dict[str, Any], base: O
     if result.missing:
         body.append("<h2>Not identified</h2><ul>" + "".join(f"<li>{e(m)}</li>" for m in result.missing) + "</ul>")
     body += ["<h2>vessel.yaml fields</h2>", table(("field", "base", "identified"),
-                                                  [(k, f"{getattr(base, k):.4g}", f"{v:.4g}")
+                                                  [(k, _number(getattr(base, k)), _number(v))
                                                    for k, v in data["vessel_fields"].items()]),
              "<h2>Model check (free decay measured on the plant)</h2>",
              f"<pre>{e(json.dumps(data['model_check'], indent=1))}</pre>",

@@ -90,10 +90,12 @@ def test_a_log_that_identifies_nothing_is_one_line_and_exit_2(tmp_path: Path,
                                                               capsys: pytest.CaptureFixture) -> None:
     log = tmp_path / "short.csv"
     write_identify_log(log, HULL, 20, seed=4, kick_deg=0.0)
-    blank = {OTTER_41.index("n1") + 1, OTTER_41.index("n2") + 1}  # no command: nothing but 20 s of attitude
-    lines = log.read_text().splitlines()
-    log.write_text("\n".join([lines[0]] + [";".join("" if n in blank else c for n, c in enumerate(line.split(";")))
-                                           for line in lines[1:]]) + "\n")
+    blank = {OTTER_41.index("n1") + 1, OTTER_41.index("n2") + 1}  # no command: nothing but 20 s of attitude ...
+    zero = {OTTER_41.index(f"current_rotational_velocities_{k}") + 1 for k in (1, 2, 3)}  # ... its rates all zero
+    lines = log.read_text().splitlines()  # (the hull's start pitches it 4.6°/s: a decay in the pitch rate)
+    rows = [";".join("" if n in blank else "0.000" if n in zero else c for n, c in enumerate(line.split(";")))
+            for line in lines[1:]]
+    log.write_text("\n".join([lines[0], *rows]) + "\n")
     code = main(["identify", str(log), "--out", str(tmp_path / "out")])
     captured = capsys.readouterr()
     assert code == 2

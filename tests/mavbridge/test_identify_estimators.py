@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from mavbridge.identify.ambient import ambient_estimates
+from mavbridge.identify.analyse import Identification, frames, identify_axis
+from mavbridge.identify.asymmetry import propeller_scale, straight_windows, thrust_ratio
 from mavbridge.identify.decay import decay_estimates, find_decays, fit_decay
-from mavbridge.identify.series import stretches
+from mavbridge.identify.logdata import LogData
+from mavbridge.identify.series import Stretch, stretches
 from mavbridge.identify.surge import SurgePoint, fit_surge
 from mavbridge.identify.yaw import Nomoto, nomoto_estimates
 
@@ -124,3 +128,74 @@ def test_stretches_split_at_gaps_and_take_nothing_from_nothing() -> None:
     parts = stretches(t, np.sin(t), 0.1, 0.4)
     assert [round(p.duration_s) for p in parts] == [10, 8]
     assert stretches(np.empty(0), np.empty((0, 2)), 0.1, 0.4) == []
+
+
+def small_decays_log(rates: bool, seed: int = 4) -> LogData:
+    """A calm log at 10 Hz holding six roll decays from 0.6° (T 1.2 s, ζ 0.25): the attitude with 0.2° of white
+    noise, the body rates (when ``rates``; the boat not turning) with 0.1°/s, as the simulator's ATTITUDE has them."""
+    rng = np.random.default_rng(seed)
+    period, zeta = 1.2, 0.25
+    omega, t = 2 * math.pi / period, np.arange(0, 80, 0.1)
+    roll, p = np.zeros_like(t), np.zeros_like(t)
+    for k, t0 in enumerate(np.arange(5.0, 75.0, 12.0)):
+        tau = t - t0
+        on = tau >= 0
+        x = math.radians(0.6) * (-1) ** k * np.exp(-zeta * omega * tau[on])
+        wd = omega * math.sqrt(1 - zeta**2)
+        roll[on] += x * np.cos(wd * tau[on])
+        p[on] += x * (-zeta * omega * np.cos(wd * tau[on]) - wd * np.sin(wd * tau[on]))
+    rows = np.column_stack([t, roll + rng.normal(0, math.radians(0.2), t.size), rng.normal(0, 1e-3, t.size),
+                            np.zeros_like(t), p + rng.normal(0, math.radians(0.1), t.size) if rates
+                            else np.full(t.size, math.nan), np.zeros_like(t),
+                            rng.normal(0, math.radians(0.1), t.size) if rates else np.full(t.size, math.nan)])
+    return LogData(Path("synthetic.tlog"), "tlog", "", rows, np.empty((0, 2)))
+
+
+def test_small_decays_are_identified_from_the_roll_rate() -> None:
+    result = Identification()
+    identify_axis([frames(small_decays_log(rates=True))], "roll", result)
+    assert result.decay_signal["roll"] == "roll rate"
+    assert len(result.decays["roll"]) >= 4
+    assert result.estimates["roll_period_s"].value == pytest.approx(1.2, rel=0.03)
+    assert result.estimates["roll_damping_ratio"].value == pytest.approx(0.25, rel=0.15)
+
+
+def test_small_decays_in_a_noisy_angle_alone_are_not_taken_for_decays() -> None:
+    result = Identification()
+    identify_axis([frames(small_decays_log(rates=False))], "roll", result)
+    assert "roll" not in result.decays  # 0.6° under 0.2° noise: below the angle's threshold, no decay claimed
+
+
+def test_a_decay_cut_short_by_a_turn_is_kept_up_to_the_turn() -> None:
+    t, y = decays_signal(np.random.default_rng(1), noise=0.003)
+    quiet = np.ones(t.size, bool)
+    quiet[(t >= 5.0 + 2.2 * PERIOD_S) & (t < 25.0)] = False  # the boat turns again 2.2 periods into the first decay
+    found = find_decays(t, y, quiet, math.radians(1.5), 0.003)
+    assert len(found) == 2 and t[found[0][1]] < 5.0 + 2.2 * PERIOD_S  # the first one ends before the turn
+    fit = fit_decay(t[found[0][0]:found[0][1] + 1], y[found[0][0]:found[0][1] + 1])
+    assert fit is not None and fit.period_s == pytest.approx(PERIOD_S, rel=0.03)
+
+
+def test_a_sustained_oscillation_is_not_taken_for_a_decay() -> None:
+    t = np.arange(0, 2.5, 0.05)  # two cycles from a crest, as find_decays hands a run over
+    noise = np.random.default_rng(5).normal(0, 0.002, t.size)
+    assert fit_decay(t, 0.03 * np.cos(OMEGA * t) + noise) is None  # no damping at all
+    fit = fit_decay(t, 0.03 * np.exp(-0.03 * OMEGA * t) * np.cos(OMEGA * t) + noise)  # lightly damped: kept
+    assert fit is not None and fit.zeta == pytest.approx(0.03, abs=0.01)
+
+
+def test_a_weaker_starboard_propeller_from_the_helm_that_holds_a_heading() -> None:
+    """Windows going straight at outputs 0.3 and 0.6, the starboard motor given what makes its 15 % weaker thrust
+    equal the port one's (as a heading hold does), then a turn: the ratio 0.85 and propeller_scale (1, 0.85); the
+    same with both motors alike: no scale."""
+    rng = np.random.default_rng(6)
+    t = np.arange(0, 60, 0.1)
+    port = np.where(t < 30, 0.3, 0.6) + rng.normal(0, 0.005, t.size)
+    yaw_rate = rng.normal(0, math.radians(0.5), t.size)
+    yaw_rate[t >= 50] = math.radians(15)  # turning: not a straight window
+    for weaker, scale in ((0.85, (1.0, 0.85)), (1.0, None)):
+        starboard = port / math.sqrt(weaker)
+        got = thrust_ratio(straight_windows([Stretch(t, np.column_stack([port, starboard, yaw_rate]))]))
+        assert not isinstance(got, str) and got.value == pytest.approx(weaker, abs=0.005)
+        assert propeller_scale(got) == (pytest.approx(scale) if scale else None)
+    assert isinstance(thrust_ratio([]), str)

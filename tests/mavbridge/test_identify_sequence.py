@@ -73,3 +73,38 @@ def test_the_logged_tau_is_what_the_model_gives_for_the_sticks() -> None:
     tau_x, tau_n = model_tau(params, Sticks("full", 1.0, 0.0))
     assert math.isclose(tau_x, params.bollard_pull_forward_kgf * params.g, rel_tol=0.02) and abs(tau_n) < 1e-9
     assert model_tau(params, Sticks("right", 0.6, 0.3))[1] > 0  # more thrust on the left turns to starboard
+
+
+def test_the_brake_stops_the_turn_sharply_and_leaves_roll_free_to_decay() -> None:
+    """Each hard turn's brake, flown with the sticks acting one or two control periods late (the link and the
+    autopilot's loop), leaves the boat turning slower than the 3°/s a free decay is looked for at, and still rolling
+    (its roll rate above 1°/s once it turns that slowly, against the gyro's 0.1°/s of noise). A full brake ended
+    once the yaw rate had stopped overshot by 6–9°/s at one period late."""
+    params = OtterParameters()
+    m = params.matrices()
+    for delay_steps in (0, 1):
+        plant = Plant(params, dt=0.01, integrator="rk4")
+        sequence, x, t = IdentifySequence(), plant.state, 0.0
+        sent: list[Sticks] = []
+        turning_after: list[float] = []
+        rolling: list[float] = []  # per brake: the largest roll rate once the yaw rate is under 3°/s
+        quiet = False
+        while (sticks := sequence.command(t, Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11])))) is not None:
+            sent.append(sticks)
+            late = sent[max(0, len(sent) - 1 - delay_steps)]
+            outs = [min(max(late.throttle + k * late.steering, -1.0), 1.0) for k in (1.0, -1.0)]
+            x = plant.advance(tuple(o * float(m.n_max) if o >= 0 else o * abs(float(m.n_min)) for o in outs), 10)
+            t = round(t + PERIOD_S, 6)
+            if sticks.leg not in ("brake", "roll decay"):
+                quiet = False
+                continue
+            if not quiet and abs(x[11]) < math.radians(3.0):
+                quiet = True
+                rolling.append(0.0)
+            if quiet:
+                rolling[-1] = max(rolling[-1], abs(float(x[9])))
+            if sticks.leg == "roll decay":
+                turning_after.append(abs(float(x[11])))
+        assert len(rolling) == 4 and len(turning_after) > 100  # four decays of 3 s
+        assert max(turning_after) < math.radians(3.0), math.degrees(max(turning_after))
+        assert min(rolling) > math.radians(1.0), [math.degrees(v) for v in rolling]

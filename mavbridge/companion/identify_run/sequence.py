@@ -8,8 +8,12 @@ What `mavbridge identify` needs from a log, and the leg that gives it:
   unsteered (any steering there takes thrust off one motor: the command would not be steady);
 - Nomoto K and T and the propellers' asymmetry: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
   switched each time the heading passes 20° either side of the leg's first heading);
-- roll period and damping: hard turns in place (full steering at zero throttle), braked by full opposite steering
-  until the yaw rate has stopped, then released with the sticks at neutral while roll decays; one each way.
+- roll period and damping: hard turns in place (full steering at zero throttle), braked for a second — full
+  opposite steering until the yaw rate, carried on at its present rate of change for ``BRAKE_LEAD_S``, would have
+  stopped (the sticks act a period or more late: a brake ended once the yaw rate had stopped overshot by the delay
+  times the yaw's deceleration, 6–9°/s), then steering against what is left of it in proportion
+  (``BRAKE_PROPORTIONAL_RAD_S``) — then released with the sticks at neutral while roll decays; two each way. The
+  sharp stop is what rolls the hull; the yaw rate must be near zero for the decay that follows to be free.
 
 The legs keep the boat near where it started: every leg under way that chooses a heading points it back at the
 start once the boat is more than ``HOME_RADIUS_M`` away. Every leg has a longest duration, so the whole
@@ -30,14 +34,15 @@ HOME_ALIGNED_RAD = math.radians(10.0)  # the turn home ends this close to the be
 ZIGZAG_RAD = math.radians(20.0)
 ZIGZAG_STEERING = 0.3
 ZIGZAG_SWITCHES = 10
-BRAKE_STOPPED_RAD_S = math.radians(1.0)  # the brake ends once the yaw rate has fallen below this
+BRAKE_LEAD_S = 0.15  # the full brake ends when the yaw rate would stop this much later at its present deceleration
+BRAKE_PROPORTIONAL_RAD_S = math.radians(30.0)  # after it, steering against the yaw rate in proportion: full at this
 
 
 @dataclass(frozen=True)
 class Leg:
     """One leg: ``kind`` hold (throttle, heading held), home (turn towards the start), zigzag, spin (full steering
-    ``steering`` at zero throttle), brake (the last spin's opposite steering until the yaw rate stops) or coast
-    (neutral); ``seconds`` its duration (hold, spin, coast) or longest duration (home, zigzag, brake)."""
+    ``steering`` at zero throttle), brake (steering against the yaw rate at zero throttle) or coast (neutral);
+    ``seconds`` its duration (hold, spin, brake, coast) or longest duration (home, zigzag)."""
 
     name: str
     kind: str
@@ -59,12 +64,10 @@ SEQUENCE: tuple[Leg, ...] = (
     Leg("turn home", "home", 20.0, 0.3),
     Leg("zig-zag 20/20", "zigzag", 70.0, 0.6, ZIGZAG_STEERING),
     Leg("stop", "coast", 10.0),
-    Leg("hard turn right", "spin", 6.0, 0.0, 1.0),
-    Leg("brake", "brake", 2.0),
-    Leg("roll decay", "coast", 8.0),
-    Leg("hard turn left", "spin", 6.0, 0.0, -1.0),
-    Leg("brake", "brake", 2.0),
-    Leg("roll decay", "coast", 8.0),
+    *(leg for steering in (1.0, -1.0, 1.0, -1.0) for leg in (
+        Leg(f"hard turn {'right' if steering > 0 else 'left'}", "spin", 3.0, 0.0, steering),
+        Leg("brake", "brake", 1.0),
+        Leg("roll decay", "coast", 5.0))),
 )
 
 
@@ -113,7 +116,10 @@ class IdentifySequence:
         self.sign = 1.0  # the zig-zag's steering sign
         self.switches = 0
         self.aligned_since_s: float | None = None
-        self.last_spin = 0.0
+        self.last_spin = 0.0  # the last hard turn's steering, which the brake opposes
+        self.braking_fully = False
+        self.yaw_accel = 0.0  # rad/s², from the last two calls' yaw rates
+        self.last_rate: tuple[float, float] | None = None  # (t s, yaw rate rad/s) of the last call
 
     @property
     def leg(self) -> Leg | None:
@@ -138,6 +144,7 @@ class IdentifySequence:
         self.heading = self._home_bearing(pose) if leg.kind == "home" or (far and leg.kind == "zigzag") else pose.yaw
         if leg.kind == "spin":
             self.last_spin = leg.steering
+        self.braking_fully = leg.kind == "brake"
 
     def _done(self, leg: Leg, t_s: float, pose: Pose) -> bool:
         """The leg is over: its time is up, or what it waits for happened."""
@@ -146,8 +153,6 @@ class IdentifySequence:
             return True
         if leg.kind == "zigzag":
             return self.switches >= ZIGZAG_SWITCHES
-        if leg.kind == "brake":
-            return elapsed > 0 and pose.yaw_rate * self.last_spin <= BRAKE_STOPPED_RAD_S
         if leg.kind == "home":
             aligned = abs(wrap(self._home_bearing(pose) - pose.yaw)) < HOME_ALIGNED_RAD
             self.aligned_since_s = (self.aligned_since_s or t_s) if aligned else None
@@ -169,11 +174,24 @@ class IdentifySequence:
         if leg.kind == "spin":
             return leg.steering
         if leg.kind == "brake":
-            return -self.last_spin
+            return self._brake(pose)
         return 0.0
+
+    def _brake(self, pose: Pose) -> float:
+        """Full steering against the last hard turn until the yaw rate is about to stop, then in proportion to it."""
+        if self.braking_fully and (pose.yaw_rate + self.yaw_accel * BRAKE_LEAD_S) * self.last_spin > 0:
+            return -self.last_spin
+        self.braking_fully = False
+        return _clip(-pose.yaw_rate / BRAKE_PROPORTIONAL_RAD_S, 1.0)
+
+    def _track_yaw_accel(self, t_s: float, pose: Pose) -> None:
+        if self.last_rate is not None and t_s > self.last_rate[0]:
+            self.yaw_accel = (pose.yaw_rate - self.last_rate[1]) / (t_s - self.last_rate[0])
+        self.last_rate = (t_s, pose.yaw_rate)
 
     def command(self, t_s: float, pose: Pose) -> Sticks | None:
         """The sticks for autopilot time ``t_s`` (s) and the boat's ``pose``; None once the sequence is over."""
+        self._track_yaw_accel(t_s, pose)
         if self.start is None:
             self.start = (pose.north, pose.east)
             self._begin(0, t_s, pose)
