@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from mavbridge.nmpc.backend import SolveOutcome
+from mavbridge.nmpc.compiled_model import compiled_model
 from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.functions import ProblemFunctions, problem_functions
 from mavbridge.nmpc.inputs import input_space
@@ -54,10 +55,19 @@ class BackgroundSolve:
     def __init__(self, functions: ProblemFunctions, cfg: NmpcConfig) -> None:
         self.cfg = cfg
         self.step = functions.step
+        # the step bound to arrays and compiled once per make of model (no DM conversions; the same numbers)
+        self._predict, _ = compiled_model(functions.step)
         self.layout = functions.layout
         self.blocks = parameter_layout(cfg.wave_components)
         lin, _ = functions.load_linearisation(cfg.rti_codegen)
         self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0, input_space(cfg, functions.params))
+
+    def predict(self, x0: np.ndarray, u: np.ndarray, t: float, wave: np.ndarray) -> np.ndarray:
+        """The model's state one period after (x0, t) with the model's input ``u`` held, in ``wave`` (a new array)."""
+        x_in, u_in, t_in, wave_in = self._predict.inputs[0:4]
+        x_in[:], u_in[:], t_in[0], wave_in[:] = x0, u, t, wave
+        self._predict()
+        return self._predict.outputs[0].copy()
 
     def __call__(self, w_plan: np.ndarray, p: np.ndarray, u_applied: np.ndarray) -> BackgroundResult:
         """Predict the next state from p's under ``u_applied`` (the model's input u: τ, or the propeller thrusts)
@@ -65,7 +75,7 @@ class BackgroundSolve:
         start = time.perf_counter()
         cfg = self.cfg
         par = PARAMS.unpack(p)
-        x_next = np.asarray(self.step(par.x0, u_applied, par.t, self.blocks.wave_input(p))).ravel()
+        x_next = self.predict(par.x0, u_applied, par.t, self.blocks.wave_input(p))
         p_next = p.copy()
         p_next[PARAMS.slice("x0")] = x_next
         p_next[PARAMS.index("t")] = par.t + cfg.period_s

@@ -68,7 +68,7 @@ class Preparation:
         start = time.perf_counter()
         cfg, layout = self.condenser.cfg, self.solve.layout
         par = PARAMS.unpack(p)
-        x_next = np.asarray(self.solve.step(par.x0, u_applied, par.t, self.solve.blocks.wave_input(p))).ravel()
+        x_next = self.solve.predict(par.x0, u_applied, par.t, self.solve.blocks.wave_input(p))
         p_next = p.copy()
         p_next[PARAMS.slice("x0")] = x_next
         p_next[PARAMS.index("t")] = par.t + cfg.period_s
