@@ -40,6 +40,7 @@ def instrument(spent: collections.Counter) -> None:
     """Time the loop's components (this process only)."""
     import mavbridge.lab.experiment as experiment
     import mavbridge.lab.runlog as runlog
+    import mavbridge.lab.sensed_plant as sensed_plant
     import mavbridge.nmpc.controller as controller
     import mavbridge.nmpc.disturbance as disturbance
     import mavbridge.waves.inloop as inloop
@@ -52,8 +53,10 @@ def instrument(spent: collections.Counter) -> None:
             (window_estimator.WindowEstimator, "observe", "estimator.observe (incl. fit)"),
             (window_estimator.WindowEstimator, "_advance_fit", "estimator fit"),
             (disturbance.DisturbanceObserver, "update", "observer.update"),
-            (inloop.WaveFeed, "step", "feed.step (incl. sense)"), (inloop.SensedPlant, "sense", "plant.sense (all)"),
-            (inloop.SensedPlant, "advance", "plant.advance (incl. sense)"), (inloop.SensedPlant, "watch", "watch"),
+            (inloop.WaveFeed, "step", "feed.step (incl. sense)"),
+            (sensed_plant.SensedPlant, "sense", "plant.sense (all)"),
+            (sensed_plant.SensedPlant, "advance", "plant.advance (incl. sense)"),
+            (sensed_plant.SensedPlant, "watch", "watch"),
             (experiment, "_sea_columns", "_sea_columns"), (runlog.RunRecorder, "state", "recorder rows")):
         _timed(owner, name, label, spent)
 
