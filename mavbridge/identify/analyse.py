@@ -31,6 +31,7 @@ RATE_SNR = 10.0  # a decay in a body rate must start at this many times the rate
 RATE_FLOOR_SIGMAS = 2.0  # ... and goes on while its half-heights stay above this many (white gyro noise: a run that
 # starts at ten times it is not noise, and a fit below MIN_R2 is refused anyway) ...
 RATE_MIN_EXTREMA = 3  # ... for one whole cycle at least (the angle's decays need one and a half: MIN_EXTREMA)
+DIFFERENCED_TOL = 0.05  # rates within this share of their RMS of the angles' differences are those differences
 
 
 @dataclass
@@ -50,12 +51,32 @@ class Frames:
 
 
 def _rates(log: LogData) -> np.ndarray | None:
-    """Rows (t, p, q, r) of the log's body rates (rad/s), None when it holds none (or only zeros)."""
+    """Rows (t, p, q, r) of the log's body rates (rad/s), None when it holds none (or only zeros), or when they are
+    the angles' own rate of change (a DataFlash log without IMU samples: its reader fills the rates so), which is
+    no gyro: its noise is the differenced angle's, and decays are then looked for in the angle."""
     if log.attitude.shape[1] < 7:
         return None
-    rows = log.attitude[:, [0, 4, 5, 6]]
-    rows = rows[np.all(np.isfinite(rows), axis=1)]
-    return rows if rows.shape[0] > 1 and np.any(rows[:, 1:] != 0) else None
+    rows = log.attitude[np.all(np.isfinite(log.attitude[:, 0:7]), axis=1)]
+    rows = rows[np.argsort(rows[:, 0], kind="stable")]
+    if rows.shape[0] < 2 or not np.any(rows[:, 4:7] != 0) or _differenced(rows):
+        return None
+    return rows[:, [0, 4, 5, 6]]
+
+
+def _differenced(rows: np.ndarray) -> bool:
+    """The roll and pitch rates are the angles' backward differences (within DIFFERENCED_TOL of their RMS): a gyro's
+    rate leads its angle's difference by half a sample, far more than that on any motion."""
+    dt = np.diff(rows[:, 0])
+    ok = dt > 0
+    if np.count_nonzero(ok) < 2:
+        return False
+    for angle, rate in ((1, 4), (2, 5)):
+        diff = np.remainder(np.diff(rows[:, angle]) + math.pi, 2 * math.pi) - math.pi
+        measured = rows[1:, rate][ok]
+        scale = float(np.sqrt(np.mean(measured**2)))
+        if scale == 0 or np.sqrt(np.mean((measured - diff[ok] / dt[ok]) ** 2)) > DIFFERENCED_TOL * scale:
+            return False
+    return True
 
 
 def frames(log: LogData) -> Frames:

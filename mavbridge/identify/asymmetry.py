@@ -25,6 +25,7 @@ STEADY_TURN_RAD_S = math.radians(3.0)  # ... and its mean |yaw rate| under this:
 MIN_FRACTION = 0.04  # both motors ahead by at least this thrust fraction (output 0.2)
 MIN_WINDOWS = 3
 BOOTSTRAP = 300
+SCALE_RANGE = (0.1, 2.0)  # OtterParameters.propeller_scale's allowed range
 MIN_ASYMMETRY = 0.02  # a ratio closer to 1 than this is left out of the model, whatever its interval
 
 
@@ -65,9 +66,12 @@ def thrust_ratio(points: list[tuple[float, float, float]]) -> Estimate | str:
 
 def propeller_scale(ratio: Estimate | None) -> tuple[float, float] | None:
     """OtterParameters.propeller_scale (port, starboard) for a ratio whose interval excludes 1 by MIN_ASYMMETRY or
-    more: the weaker propeller scaled, the stronger kept as modelled; None for a symmetric pair."""
+    more: the weaker propeller scaled, the stronger kept as modelled; None for a symmetric pair, and for a ratio
+    beyond the field's range (the ratio itself stays in identify.json)."""
     if ratio is None or ratio.low <= 1.0 <= ratio.high or abs(ratio.value - 1.0) < MIN_ASYMMETRY:
         return None
+    if not SCALE_RANGE[0] <= min(ratio.value, 1.0 / ratio.value):
+        return None  # a propeller at a tenth of the other's thrust is a fault to look at, not a model to fly
     if ratio.value < 1.0:
         return 1.0, round(ratio.value, 4)
     return round(1.0 / ratio.value, 4), 1.0

@@ -80,7 +80,10 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, An
     forward = _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2)
     fields.update(surge_fields(base, forward, _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2),
                                full_forward, full_reverse))
-    scale = propeller_scale(result.estimates.get("propeller_thrust_ratio"))
+    ratio = result.estimates.get("propeller_thrust_ratio")
+    scale = propeller_scale(ratio)
+    if scale is None and ratio is not None and ratio.low <= 1.0 <= ratio.high and base.propeller_scale != (1.0, 1.0):
+        scale = (1.0, 1.0)  # the logs show the pair even: a base's asymmetry (an earlier vessel.yaml) is not kept
     if scale is not None:  # before the speed and yaw fits: the model flies the log's commands with it
         fields["propeller_scale"] = scale
     if forward is not None and "max_speed" in fields:
