@@ -8,6 +8,7 @@ import itertools
 import math
 
 import numpy as np
+import pytest
 
 from mavbridge.companion.identify_run.flight import ScriptedRc, ScriptedStep, model_tau
 from mavbridge.companion.identify_run.sequence import SEQUENCE, ZIGZAG_RAD, IdentifySequence, Pose, Sticks, limit_s
@@ -108,3 +109,14 @@ def test_the_brake_stops_the_turn_sharply_and_leaves_roll_free_to_decay() -> Non
         assert len(rolling) == 4 and len(turning_after) > 100  # four decays of 3 s
         assert max(turning_after) < math.radians(3.0), math.degrees(max(turning_after))
         assert min(rolling) > math.radians(1.0), [math.degrees(v) for v in rolling]
+
+
+def test_the_yaw_rates_change_is_taken_between_attitude_samples_not_commands() -> None:
+    seq = IdentifySequence()
+    seq.command(0.0, Pose(0.0, 0.0, 0.0, 0.5, sample_s=0.0))
+    seq.command(0.1, Pose(0.0, 0.0, 0.0, 0.4, sample_s=0.1))
+    assert seq.yaw_accel == pytest.approx(-1.0)
+    seq.command(0.2, Pose(0.0, 0.0, 0.0, 0.4, sample_s=0.1))  # the same ATTITUDE again (a slow stream)
+    assert seq.yaw_accel == pytest.approx(-1.0), "a sample seen twice read as the turn no longer slowing"
+    seq.command(0.3, Pose(0.0, 0.0, 0.0, 0.2, sample_s=0.3))
+    assert seq.yaw_accel == pytest.approx(-1.0)  # over the 0.2 s between the two samples, not the 0.1 s since

@@ -150,7 +150,9 @@ class IdentifyCompanion(Companion):
         if limit is not None:
             self._end(link, *limit)
             return
-        sticks = self.sequence.command(now_ms / 1000.0, Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11])))
+        sampled = self.state.attitude_ms / 1000.0 if self.state.attitude_ms is not None else None
+        sticks = self.sequence.command(now_ms / 1000.0,
+                                       Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11]), sampled))
         if sticks is None:
             self._end(link, "identification sequence complete", False)
             return

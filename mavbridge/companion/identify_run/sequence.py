@@ -71,9 +71,13 @@ SEQUENCE: tuple[Leg, ...] = (
 )
 
 
+LEG_LATE_S = 0.25  # a leg ends at the first command at or after its duration: up to a period late, a slow one too
+
+
 def limit_s(legs: tuple[Leg, ...] = SEQUENCE) -> float:
-    """The longest the sequence can take (s of autopilot time): the sum of its legs' longest durations."""
-    return sum(leg.seconds for leg in legs)
+    """The longest the sequence can take (s of autopilot time): its legs' longest durations, each ended up to
+    ``LEG_LATE_S`` late (the flight's time limit, so that it never cuts the last roll decay short)."""
+    return sum(leg.seconds + LEG_LATE_S for leg in legs)
 
 
 @dataclass(frozen=True)
@@ -93,6 +97,7 @@ class Pose:
     east: float
     yaw: float
     yaw_rate: float
+    sample_s: float | None = None  # when the attitude was sampled (s of autopilot time); None: at the command's time
 
 
 def wrap(angle: float) -> float:
@@ -185,9 +190,13 @@ class IdentifySequence:
         return _clip(-pose.yaw_rate / BRAKE_PROPORTIONAL_RAD_S, 1.0)
 
     def _track_yaw_accel(self, t_s: float, pose: Pose) -> None:
-        if self.last_rate is not None and t_s > self.last_rate[0]:
-            self.yaw_accel = (pose.yaw_rate - self.last_rate[1]) / (t_s - self.last_rate[0])
-        self.last_rate = (t_s, pose.yaw_rate)
+        """The yaw rate's rate of change between attitude samples: a sample seen again (ATTITUDE slower than the
+        control period) changes nothing, where taken at the command's time it would read as no deceleration."""
+        sampled = t_s if pose.sample_s is None else pose.sample_s
+        if self.last_rate is not None and sampled > self.last_rate[0]:
+            self.yaw_accel = (pose.yaw_rate - self.last_rate[1]) / (sampled - self.last_rate[0])
+        if self.last_rate is None or sampled > self.last_rate[0] or sampled < self.last_rate[0] - 1.0:
+            self.last_rate = (sampled, pose.yaw_rate)  # (a clock gone back a second or more starts afresh)
 
     def command(self, t_s: float, pose: Pose) -> Sticks | None:
         """The sticks for autopilot time ``t_s`` (s) and the boat's ``pose``; None once the sequence is over."""
