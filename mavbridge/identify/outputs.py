@@ -49,11 +49,24 @@ def _value(result: Identification, name: str, min_fit: float = -math.inf) -> flo
     return got.value if got is not None and math.isfinite(got.value) and got.fit >= min_fit else None
 
 
+def yaw_identified(result: Identification) -> bool:
+    """Nomoto's T was found and its interval lies above zero: the yaw is identified well enough to fit the model's
+    ``yaw_time_constant`` to the log (a T whose interval reaches zero says the logs do not hold the yaw's lag)."""
+    T = result.estimates.get("yaw_nomoto_time_constant_s")
+    return T is not None and math.isfinite(T.value) and T.low > 0
+
+
 def unfit_lines(result: Identification) -> list[str]:
-    """One line per surge figure whose fit is too poor to go into vessel.yaml."""
-    return [f"{name} {e.value:.3g} m/s: fit R² {e.fit:.2f} < {MIN_SURGE_R2:g} (the speed is not linear in the thrust "
-            "fraction): not put into vessel.yaml" for name, e in result.estimates.items()
-            if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
+    """One line per surge figure whose fit is too poor to go into vessel.yaml, and for a yaw not identified well
+    enough to fit ``yaw_time_constant``."""
+    lines = [f"{name} {e.value:.3g} m/s: fit R² {e.fit:.2f} < {MIN_SURGE_R2:g} (the speed is not linear in the thrust "
+             "fraction): not put into vessel.yaml" for name, e in result.estimates.items()
+             if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
+    T = result.estimates.get("yaw_nomoto_time_constant_s")
+    if T is not None and not yaw_identified(result):
+        lines.append(f"yaw_nomoto_time_constant_s {T.value:.3g} s: its interval [{T.low:.3g}, {T.high:.3g}] reaches "
+                     "zero: yaw_time_constant not put into vessel.yaml")
+    return lines
 
 
 def speed_levels(result: Identification) -> list[tuple[float, float, int]]:
@@ -89,7 +102,7 @@ def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, An
     if forward is not None and "max_speed" in fields:
         fields = calibrate_max_speed(base, fields, speed_levels(result))
     T = _value(result, "yaw_nomoto_time_constant_s")
-    if T is not None and result.yaw_replay is not None:
+    if T is not None and yaw_identified(result) and result.yaw_replay is not None:
         field = yaw_time_constant(base.replace(**fields), result.yaw_replay)
         if field is not None and T_YAW_RANGE_S[0] <= field <= T_YAW_RANGE_S[1]:
             fields["yaw_time_constant"] = round(field, 3)

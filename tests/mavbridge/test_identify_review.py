@@ -50,3 +50,13 @@ def test_a_base_asymmetry_the_logs_no_longer_show_is_written_even() -> None:
 def test_a_ratio_beyond_the_models_range_writes_no_scale() -> None:
     assert propeller_scale(_ratio(0.05, 0.04, 0.06)) is None  # a tenth of the thrust: a fault, not a model
     assert propeller_scale(_ratio(0.85, 0.84, 0.86)) == (1.0, 0.85)
+
+
+def test_a_nomoto_t_whose_interval_reaches_zero_fits_no_yaw_field() -> None:
+    from mavbridge.identify.outputs import unfit_lines, yaw_identified
+
+    loose = Identification(estimates={"yaw_nomoto_time_constant_s": Estimate(0.95, -1.2, 3.1, "s", "zig-zag")})
+    tight = Identification(estimates={"yaw_nomoto_time_constant_s": Estimate(0.87, 0.37, 1.37, "s", "zig-zag")})
+    assert not yaw_identified(loose) and yaw_identified(tight)
+    assert any("yaw_time_constant not put" in line for line in unfit_lines(loose))
+    assert not any("yaw_time_constant" in line for line in unfit_lines(tight))
