@@ -1,6 +1,7 @@
 """Closed-loop speed: the realistic in-process loop's real-time factor per core, and where its time goes.
 
     OMP_NUM_THREADS=1 python bench/closed_loop_speed.py [--repeat 3] [--compare REV]
+    OMP_NUM_THREADS=1 python bench/closed_loop_speed.py --parts "paper sea, balanced"   # where one run's CPU goes
 
 Six runs as ``mavbridge experiment`` flies them (no files): Direct and Balanced in the paper's sea, a JONSWAP
 sea and NATO sea state 4, each realistic (estimator on simulated sensors, hidden phase, heave, the disturbance
@@ -21,6 +22,7 @@ on the path of a second process) and prints both, before and after, in one table
 from __future__ import annotations
 
 import argparse
+import collections
 import cProfile
 import dataclasses
 import io
@@ -32,6 +34,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -96,6 +99,77 @@ def profile_top(case: str, entries: int = 5) -> list[str]:
     lines = text.getvalue().splitlines()
     start = next(i for i, line in enumerate(lines) if line.lstrip().startswith("ncalls"))
     return [line.rstrip() for line in lines[start:start + entries + 1]]
+
+
+NMPC = ("nmpc.solve", "nmpc.prepare", "nmpc.init")
+
+
+def _timed(owner: Any, name: str, label: str, spent: collections.Counter) -> None:
+    """Replace ``owner.name`` by a wrapper adding its CPU seconds to ``spent[label]``."""
+    original: Callable[..., Any] = getattr(owner, name)
+
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        start = time.process_time()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            spent[label] += time.process_time() - start
+
+    setattr(owner, name, wrapper)
+
+
+def instrument(spent: collections.Counter) -> None:
+    """Time the loop's components (this process only)."""
+    import mavbridge.lab.experiment as experiment
+    import mavbridge.lab.runlog as runlog
+    import mavbridge.lab.sensed_plant as sensed_plant
+    import mavbridge.nmpc.controller as controller
+    import mavbridge.nmpc.disturbance as disturbance
+    import mavbridge.waves.inloop as inloop
+    import mavbridge.waves.window_estimator as window_estimator
+    import vessel.sensors as sensors
+
+    for owner, name, label in (
+            (controller.RollAwareNmpc, "solve", "nmpc.solve"), (controller.RollAwareNmpc, "prepare", "nmpc.prepare"),
+            (controller.RollAwareNmpc, "__init__", "nmpc.init"), (sensors.SensorModel, "sample", "sensors.sample"),
+            (window_estimator.WindowEstimator, "observe", "estimator.observe (incl. fit)"),
+            (window_estimator.WindowEstimator, "_advance_fit", "estimator fit"),
+            (disturbance.DisturbanceObserver, "update", "observer.update"),
+            (inloop.WaveFeed, "step", "feed.step (incl. sense)"),
+            (sensed_plant.SensedPlant, "sense", "plant.sense (all)"),
+            (sensed_plant.SensedPlant, "advance", "plant.advance (incl. sense)"),
+            (sensed_plant.SensedPlant, "watch", "watch"),
+            (experiment, "_sea_columns", "_sea_columns"), (runlog.RunRecorder, "state", "recorder rows")):
+        _timed(owner, name, label, spent)
+
+
+def print_parts(case: str, repeat: int) -> None:
+    """``--parts``: one case's CPU seconds per part of the loop, the fastest of ``repeat`` runs after a warm-up. The
+    parts are the loop's own calls, each timed around the call; they nest (the plant's advance includes the sensing
+    at its half period, the watch both), so only the total and the NMPC's parts add up: "not NMPC" is the total
+    less the NMPC's solve, prepare and construction."""
+    from mavbridge.lab.experiment import run_scenario
+
+    spent: collections.Counter = collections.Counter()
+    instrument(spent)
+    scenario = scenario_of(case)
+    run_scenario(scenario, None, plots=False)  # warm-up
+    best: tuple[float, dict[str, float], float] | None = None
+    for _ in range(repeat):
+        spent.clear()
+        start = time.process_time()
+        metrics = run_scenario(scenario, None, plots=False).metrics
+        total = time.process_time() - start
+        if best is None or total < best[0]:
+            best = (total, dict(spent), simulated_s(scenario, metrics))
+    assert best is not None
+    total, parts, simulated = best
+    print(f"{case}: {total:.3f} CPU s for {simulated:.1f} simulated s ({simulated / total:.0f}× real time)")
+    for label, seconds in sorted(parts.items(), key=lambda item: -item[1]):
+        print(f"  {label:32s} {seconds:7.3f} s {1e3 * seconds / simulated:7.2f} ms per simulated s")
+    rest = total - sum(parts.get(label, 0.0) for label in NMPC)
+    print(f"  {'not NMPC':32s} {rest:7.3f} s {1e3 * rest / simulated:7.2f} ms per simulated s")
+
 
 
 def measure(repeat: int) -> dict[str, Any]:
@@ -168,6 +242,8 @@ def main() -> None:
     parser.add_argument("--compare", metavar="REV", help="also measure git revision REV (before) in a worktree")
     parser.add_argument("--as-max-iterations", type=int, help="nrti's SQP iterations per preparation, 1..200 "
                         "(default: the controller's own; not the same numbers)")
+    parser.add_argument("--parts", metavar="CASE", choices=sorted(CASES),
+                        help="instead: one case's CPU seconds per part of the loop (e.g. 'paper sea, balanced')")
     parser.add_argument("--json", type=Path, help=argparse.SUPPRESS)  # (the second process's output)
     args = parser.parse_args()
     if args.repeat < 1:
@@ -176,6 +252,9 @@ def main() -> None:
         if not 1 <= args.as_max_iterations <= 200:
             parser.error("--as-max-iterations: must be in 1..200")
         ITERATIONS["as_max_iterations"] = args.as_max_iterations
+    if args.parts is not None:
+        print_parts(args.parts, args.repeat)
+        return
     before = measure_revision(args.compare, args.repeat) if args.compare else None
     after = measure(args.repeat)
     if args.json is not None:
