@@ -183,6 +183,16 @@ class DelayCompensator:
         self.horizons_s.append(horizon)
         return age, state_s + horizon
 
+    def command_delay_s(self, state_s: float) -> float | None:
+        """From a state stamped ``state_s`` (autopilot s) to when a command sent now acts: the state's age
+        (recorded, as ``compensate`` records it) plus the uplink's one-way delay (half the smallest TIMESYNC round
+        trip), what a real boat's companion measures too; None in lockstep (the autopilot's time waits for the
+        command) and before any time-stamped message. The autopilot's loop and the motors' lag are not in it."""
+        age, _ = self.compensate(state_s)
+        if self.lockstep or not self.clock.ready():
+            return None
+        return age + self.clock.one_way_delay_s()
+
     def predict(self, x: np.ndarray, state_s: float, plan_s: float, waves: Any,
                 disturbance: np.ndarray | None = None) -> np.ndarray:
         """The state at ``plan_s`` from ``x`` at ``state_s`` (x itself when not compensating), with the NMPC's wave

@@ -187,6 +187,23 @@ def test_compensator_modes_lockstep_off_on_and_the_prediction_limit() -> None:
     assert summary["compensation"] == "on" and summary["state_age_s_median"] == pytest.approx(age, abs=1e-4)
 
 
+def test_the_command_delay_is_the_states_age_plus_the_uplinks_delay_and_none_in_lockstep() -> None:
+    """What the identification's brake is told: measured where a real boat's companion measures it."""
+    lockstep = DelayCompensator(True, True, 1.0, None)
+    arrivals(lockstep)
+    assert lockstep.command_delay_s(50.5) is None
+    assert DelayCompensator(False, False, 1.0, None).command_delay_s(50.5) is None  # no arrival yet
+    comp = DelayCompensator(False, False, 1.0, None)
+    arrivals(comp)
+    without = comp.command_delay_s(50.5)
+    comp.clock.observe_round_trip(0.0, 0.4)  # 0.2 s each way (the clock's now moves on by it too)
+    with_round_trip = comp.command_delay_s(50.5)
+    assert without is not None and with_round_trip is not None
+    assert without == pytest.approx(comp.ages_s[0], abs=1e-9) and without > 0.4
+    assert with_round_trip == pytest.approx(comp.ages_s[1] + 0.2, abs=1e-9)
+    assert with_round_trip - without == pytest.approx(0.4, abs=0.01)  # the age grows by the downlink's 0.2 s too
+
+
 def test_only_the_answer_to_our_own_timesync_counts() -> None:
     comp = DelayCompensator(True, False, 1.0, None)
     comp._pending.append(123)

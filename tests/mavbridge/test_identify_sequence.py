@@ -11,7 +11,18 @@ import numpy as np
 import pytest
 
 from mavbridge.companion.identify_run.flight import ScriptedRc, ScriptedStep, model_tau
-from mavbridge.companion.identify_run.sequence import SEQUENCE, ZIGZAG_RAD, IdentifySequence, Pose, Sticks, limit_s
+from mavbridge.companion.identify_run.sequence import (
+    BRAKE_DELAY_MAX_S,
+    BRAKE_LEAD_S,
+    SEQUENCE,
+    ZIGZAG_RAD,
+    IdentifySequence,
+    Pose,
+    Sticks,
+    brake_lead,
+    command_delay,
+    limit_s,
+)
 from mavbridge.companion.outputs import RcSetup, fraction_from_pwm
 from mavbridge.preflight.rules import Context
 from vessel import OtterParameters, Plant
@@ -76,39 +87,66 @@ def test_the_logged_tau_is_what_the_model_gives_for_the_sticks() -> None:
     assert model_tau(params, Sticks("right", 0.6, 0.3))[1] > 0  # more thrust on the left turns to starboard
 
 
-def test_the_brake_stops_the_turn_sharply_and_leaves_roll_free_to_decay() -> None:
-    """Each hard turn's brake, flown with the sticks acting one or two control periods late (the link and the
-    autopilot's loop), leaves the boat turning slower than the 3°/s a free decay is looked for at, and still rolling
-    (its roll rate above 1°/s once it turns that slowly, against the gyro's 0.1°/s of noise). A full brake ended
-    once the yaw rate had stopped overshot by 6–9°/s at one period late."""
+def fly_brakes(delay_steps: int, told_s: float | None) -> tuple[list[float], list[float]]:
+    """The sequence on the plant with the sticks acting ``delay_steps`` control periods late and the command delay
+    ``told_s`` given to the sequence (None: not measured): per brake, the largest yaw rate left over its roll
+    decay, and the largest roll rate once the boat turns slower than 3°/s (rad/s)."""
     params = OtterParameters()
     m = params.matrices()
-    for delay_steps in (0, 1):
-        plant = Plant(params, dt=0.01, integrator="rk4")
-        sequence, x, t = IdentifySequence(), plant.state, 0.0
-        sent: list[Sticks] = []
-        turning_after: list[float] = []
-        rolling: list[float] = []  # per brake: the largest roll rate once the yaw rate is under 3°/s
-        quiet = False
-        while (sticks := sequence.command(t, Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11])))) is not None:
-            sent.append(sticks)
-            late = sent[max(0, len(sent) - 1 - delay_steps)]
-            outs = [min(max(late.throttle + k * late.steering, -1.0), 1.0) for k in (1.0, -1.0)]
-            x = plant.advance(tuple(o * float(m.n_max) if o >= 0 else o * abs(float(m.n_min)) for o in outs), 10)
-            t = round(t + PERIOD_S, 6)
-            if sticks.leg not in ("brake", "roll decay"):
-                quiet = False
-                continue
-            if not quiet and abs(x[11]) < math.radians(3.0):
-                quiet = True
-                rolling.append(0.0)
-            if quiet:
-                rolling[-1] = max(rolling[-1], abs(float(x[9])))
-            if sticks.leg == "roll decay":
-                turning_after.append(abs(float(x[11])))
-        assert len(rolling) == 4 and len(turning_after) > 100  # four decays of 3 s
-        assert max(turning_after) < math.radians(3.0), math.degrees(max(turning_after))
-        assert min(rolling) > math.radians(1.0), [math.degrees(v) for v in rolling]
+    plant = Plant(params, dt=0.01, integrator="rk4")
+    sequence, x, t = IdentifySequence(), plant.state, 0.0
+    sent: list[Sticks] = []
+    turning_after: list[float] = []
+    rolling: list[float] = []
+    previous = ""
+    while (sticks := sequence.command(t, Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11])),
+                                      told_s)) is not None:
+        sent.append(sticks)
+        late = sent[max(0, len(sent) - 1 - delay_steps)]
+        outs = [min(max(late.throttle + k * late.steering, -1.0), 1.0) for k in (1.0, -1.0)]
+        x = plant.advance(tuple(o * float(m.n_max) if o >= 0 else o * abs(float(m.n_min)) for o in outs), 10)
+        t = round(t + PERIOD_S, 6)
+        if sticks.leg == "brake" and previous != "brake":
+            turning_after.append(0.0)
+            rolling.append(-1.0)  # (not yet turning slowly)
+        previous = sticks.leg
+        if sticks.leg not in ("brake", "roll decay"):
+            continue
+        if rolling[-1] < 0 and abs(x[11]) < math.radians(3.0):
+            rolling[-1] = 0.0
+        if rolling[-1] >= 0:
+            rolling[-1] = max(rolling[-1], abs(float(x[9])))
+        if sticks.leg == "roll decay":
+            turning_after[-1] = max(turning_after[-1], abs(float(x[11])))
+    return turning_after, rolling
+
+
+@pytest.mark.parametrize("delay_steps", [0, 1, 2, 3])
+def test_the_brake_stops_the_turn_sharply_and_leaves_roll_free_to_decay(delay_steps: int) -> None:
+    """Each hard turn's brake, flown with the sticks acting up to three control periods late (the link, the
+    autopilot's loop, a SiK radio, the motors' lag) and that delay told to the sequence as the companion measures
+    it, leaves the boat turning slower than the 3°/s a free decay is looked for at, and still rolling (its roll
+    rate above 1°/s once it turns that slowly, against the gyro's 0.1°/s of noise)."""
+    turning_after, rolling = fly_brakes(delay_steps, delay_steps * PERIOD_S)
+    assert len(turning_after) == 4 and len(rolling) == 4
+    assert max(turning_after) < math.radians(3.0), [math.degrees(v) for v in turning_after]
+    assert min(rolling) > math.radians(1.0), [math.degrees(v) for v in rolling]
+
+
+@pytest.mark.parametrize("delay_steps", [2, 3])
+def test_a_brake_not_told_the_delay_leaves_the_turn_going(delay_steps: int) -> None:
+    """The same delays not told (the fixed 0.15 s lead, all there is when nothing is measured): the full brake
+    runs on after the yaw rate is past stopping and the decay starts turning faster than 3°/s, as a second reader
+    found."""
+    turning_after, _ = fly_brakes(delay_steps, None)
+    assert len(turning_after) == 4
+    assert max(turning_after) > math.radians(3.0), [math.degrees(v) for v in turning_after]
+
+
+def test_a_measured_delay_counts_up_to_its_bound_and_nothing_measured_is_none() -> None:
+    assert command_delay(None) == 0.0 and command_delay(math.nan) == 0.0 and command_delay(-0.1) == 0.0
+    assert command_delay(0.25) == pytest.approx(0.25) and command_delay(5.0) == BRAKE_DELAY_MAX_S
+    assert brake_lead(0.0) == BRAKE_LEAD_S and brake_lead(0.3) > 0.3
 
 
 def test_the_yaw_rates_change_is_taken_between_attitude_samples_not_commands() -> None:

@@ -6,6 +6,8 @@ nothing), the supervisor (a pilot's mode change or disarming ends it), the stale
 and the run folder (companion.tlog, companion.csv, metrics.json). The step asks the sequence for throttle and
 steering and sends them on the RC override path through the autopilot's own RC calibration and
 PILOT_STEER_TYPE; it asks the autopilot for SERVO_OUTPUT_RAW (the motors' outputs `mavbridge identify` reads).
+The brake after each hard turn allows for the command delay the link's delay compensation measures (the state's
+age plus the uplink's one-way delay), the median over the last ``DELAY_STEPS_KEPT`` steps.
 Limits: farther than ``max_range_m`` from where the sequence started, or past the sequence's longest duration,
 it stands down (neutral, then the sticks released) and ends; the range is a failure (exit 1).
 """
@@ -13,6 +15,8 @@ it stands down (neutral, then the sticks released) and ends; the range is a fail
 from __future__ import annotations
 
 import math
+import statistics
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,6 +30,7 @@ from mavbridge.link.connection import Link, LinkError, mavlink
 from vessel import OtterParameters, shaft_speeds_to_tau
 
 SERVO_OUTPUT_HZ = 10.0
+DELAY_STEPS_KEPT = 20  # control steps whose measured command delay the brake takes the median of
 
 
 @dataclass(frozen=True)
@@ -109,6 +114,7 @@ class IdentifyCompanion(Companion):
         self.limit_s = limit_s()
         self._servos_asked = False
         self._leg: str | None = None
+        self._delays: deque[float] = deque(maxlen=DELAY_STEPS_KEPT)  # the command delay measured (s), recent steps
 
     def _ask_servo_outputs(self, link: Link) -> None:
         """SERVO_OUTPUT_RAW at SERVO_OUTPUT_HZ, once: the motors' outputs for `mavbridge identify`."""
@@ -151,18 +157,27 @@ class IdentifyCompanion(Companion):
             self._end(link, *limit)
             return
         sampled = self.state.attitude_ms / 1000.0 if self.state.attitude_ms is not None else None
+        delay = self._command_delay_s(now_ms / 1000.0 if sampled is None else sampled)
         sticks = self.sequence.command(now_ms / 1000.0,
-                                       Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11]), sampled))
+                                       Pose(float(x[0]), float(x[1]), float(x[5]), float(x[11]), sampled), delay)
         if sticks is None:
             self._end(link, "identification sequence complete", False)
             return
         if sticks.leg != self._leg:
             self._leg = sticks.leg
-            self.log(f"identification: {sticks.leg} at t = {now_ms / 1000:.1f} s")
+            said = "" if sticks.leg != "brake" or delay is None else f" (command delay {delay:.2f} s measured)"
+            self.log(f"identification: {sticks.leg} at t = {now_ms / 1000:.1f} s{said}")
         step = ScriptedStep(sticks, model_tau(self.params, sticks))
         columns = self.commands.send(link, step, now_ms, self.state)
         self.record.step(now_ms / 1000.0, x, step, phase=self.supervisor.phase.name, sent=int(self.output.sends),
                          **(columns or {}))
+
+    def _command_delay_s(self, state_s: float) -> float | None:
+        """The median command delay of the recent steps (s), None while none is measured (lockstep, no clock)."""
+        delay = self.delay.command_delay_s(state_s)
+        if delay is not None and math.isfinite(delay):
+            self._delays.append(delay)
+        return statistics.median(self._delays) if self._delays else None
 
     def _end(self, link: Link, reason: str, failure: bool) -> None:
         """Neutral, release, and end the run (a failure: exit 1)."""

@@ -9,11 +9,20 @@ What `mavbridge identify` needs from a log, and the leg that gives it:
 - Nomoto K and T and the propellers' asymmetry: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
   switched each time the heading passes 20° either side of the leg's first heading);
 - roll period and damping: hard turns in place (full steering at zero throttle), braked for a second — full
-  opposite steering until the yaw rate, carried on at its present rate of change for ``BRAKE_LEAD_S``, would have
-  stopped (the sticks act a period or more late: a brake ended once the yaw rate had stopped overshot by the delay
-  times the yaw's deceleration, 6–9°/s), then steering against what is left of it in proportion
-  (``BRAKE_PROPORTIONAL_RAD_S``) — then released with the sticks at neutral while roll decays; two each way. The
-  sharp stop is what rolls the hull; the yaw rate must be near zero for the decay that follows to be free.
+  opposite steering until the yaw rate, predicted ``brake_lead`` ahead, would have stopped, then steering in
+  proportion against the rate predicted for when the command acts (``BRAKE_PROPORTIONAL_RAD_S``) — then released
+  with the sticks at neutral while roll decays; two each way. The sharp stop is what rolls the hull; the yaw rate
+  must be near zero for the decay that follows to be free.
+
+  The sticks act late: the link's delay (the state's age plus the uplink's one-way delay, which the companion
+  measures with TIMESYNC, passed in as ``command``'s ``delay_s``), the autopilot's loop and the motors' lag
+  (neither measured). The brake looks the measured delay plus ``BRAKE_MARGIN_S`` ahead, at least ``BRAKE_LEAD_S``
+  (which alone covers about a control period of delay, all there is when nothing is measured); the delay counts
+  up to ``BRAKE_DELAY_MAX_S``. Within the delay the boat still answers the commands already sent, so the
+  prediction runs the hard turn's own first-order yaw model (its steady rate and its largest spin-up
+  acceleration, ``Nomoto``) from the sampled yaw rate under the commands in flight; without a model, at the yaw
+  rate's present rate of change. On the plant with the sticks two or three periods late, a brake looking the
+  fixed 0.15 s ahead left 3–8°/s of turn to the decay; looking the delay ahead, under 2°/s.
 
 The legs keep the boat near where it started: every leg under way that chooses a heading points it back at the
 start once the boat is more than ``HOME_RADIUS_M`` away. Every leg has a longest duration, so the whole
@@ -24,6 +33,8 @@ right = throttle − steering), positive turning to starboard.
 from __future__ import annotations
 
 import math
+from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 HEADING_GAIN = 1.0  # steering fraction per radian of heading error, on the legs that hold a heading
@@ -34,7 +45,10 @@ HOME_ALIGNED_RAD = math.radians(10.0)  # the turn home ends this close to the be
 ZIGZAG_RAD = math.radians(20.0)
 ZIGZAG_STEERING = 0.3
 ZIGZAG_SWITCHES = 10
-BRAKE_LEAD_S = 0.15  # the full brake ends when the yaw rate would stop this much later at its present deceleration
+BRAKE_LEAD_S = 0.15  # the full brake ends when the yaw rate would stop this much ahead, at least ...
+BRAKE_MARGIN_S = 0.1  # ... and the measured command delay plus this (the autopilot's loop, the motors' lag)
+BRAKE_DELAY_MAX_S = 0.6  # a measured command delay counts up to this much
+PREDICT_STEP_S = 0.02  # the brake's prediction of the yaw rate integrates its Nomoto model in steps of at most this
 BRAKE_PROPORTIONAL_RAD_S = math.radians(30.0)  # after it, steering against the yaw rate in proportion: full at this
 
 
@@ -109,6 +123,38 @@ def _clip(value: float, limit: float) -> float:
     return min(max(value, -limit), limit)
 
 
+def command_delay(delay_s: float | None) -> float:
+    """The command delay the brake allows for (s): a measured one (the state's age plus the uplink's one-way
+    delay, what the companion's delay compensation measures) bounded to [0, ``BRAKE_DELAY_MAX_S``]; 0 when none
+    is measured (``BRAKE_LEAD_S`` alone then covers a delay of about a control period)."""
+    if delay_s is None or not math.isfinite(delay_s):
+        return 0.0
+    return min(max(delay_s, 0.0), BRAKE_DELAY_MAX_S)
+
+
+def brake_lead(delay_s: float) -> float:
+    """How far ahead (s) the full brake looks for the yaw rate to stop: the command delay plus
+    ``BRAKE_MARGIN_S``, never less than ``BRAKE_LEAD_S``."""
+    return max(BRAKE_LEAD_S, delay_s + BRAKE_MARGIN_S)
+
+
+@dataclass(frozen=True)
+class Nomoto:
+    """The hard turn's yaw as a first-order model, ṙ = (K·steering − r) / T: ``gain`` K (rad/s per unit
+    steering) its steady rate, ``time_constant`` T (s) from its largest spin-up acceleration (K/T)."""
+
+    gain: float
+    time_constant: float
+
+    def rate_after(self, rate: float, seconds: float, steering_at: Callable[[float], float]) -> float:
+        """The yaw rate ``seconds`` on from ``rate`` (rad/s) under ``steering_at(s since now)``."""
+        steps = max(1, math.ceil(seconds / PREDICT_STEP_S))
+        dt = seconds / steps
+        for k in range(steps):
+            rate += dt * (self.gain * steering_at(k * dt) - rate) / self.time_constant
+        return rate
+
+
 class IdentifySequence:
     """Flies ``legs`` from the first call on; ``command`` gives each period's sticks, None once it is over."""
 
@@ -123,6 +169,9 @@ class IdentifySequence:
         self.aligned_since_s: float | None = None
         self.last_spin = 0.0  # the last hard turn's steering, which the brake opposes
         self.braking_fully = False
+        self.spin: tuple[float, float] = (0.0, 0.0)  # the hard turn's last yaw rate and largest acceleration its way
+        self.delay_s = 0.0  # the command delay allowed for (``command_delay``)
+        self.issued: deque[tuple[float, float]] = deque()  # (t s, steering) of the recent commands, oldest first
         self.yaw_accel = 0.0  # rad/s², from the last two calls' yaw rates
         self.last_rate: tuple[float, float] | None = None  # (t s, yaw rate rad/s) of the last call
 
@@ -148,7 +197,7 @@ class IdentifySequence:
         far = self._away_m(pose) > HOME_RADIUS_M
         self.heading = self._home_bearing(pose) if leg.kind == "home" or (far and leg.kind == "zigzag") else pose.yaw
         if leg.kind == "spin":
-            self.last_spin = leg.steering
+            self.last_spin, self.spin = leg.steering, (0.0, 0.0)
         self.braking_fully = leg.kind == "brake"
 
     def _done(self, leg: Leg, t_s: float, pose: Pose) -> bool:
@@ -164,7 +213,7 @@ class IdentifySequence:
             return self.aligned_since_s is not None and t_s - self.aligned_since_s >= 2.0
         return False
 
-    def _steering(self, leg: Leg, pose: Pose) -> float:
+    def _steering(self, leg: Leg, t_s: float, pose: Pose) -> float:
         if leg.kind == "hold":  # at full command any steering takes thrust off one motor: those steps run unsteered
             if leg.throttle == 0 or abs(leg.throttle) >= 1.0:
                 return 0.0
@@ -177,17 +226,47 @@ class IdentifySequence:
                 self.sign, self.switches = -self.sign, self.switches + 1
             return self.sign * leg.steering
         if leg.kind == "spin":
+            way = math.copysign(1.0, leg.steering)
+            self.spin = (pose.yaw_rate, max(self.spin[1], self.yaw_accel * way))
             return leg.steering
         if leg.kind == "brake":
-            return self._brake(pose)
+            return self._brake(t_s, pose)
         return 0.0
 
-    def _brake(self, pose: Pose) -> float:
-        """Full steering against the last hard turn until the yaw rate is about to stop, then in proportion to it."""
-        if self.braking_fully and (pose.yaw_rate + self.yaw_accel * BRAKE_LEAD_S) * self.last_spin > 0:
+    def _brake(self, t_s: float, pose: Pose) -> float:
+        """Full steering against the last hard turn until the yaw rate, predicted to ``BRAKE_LEAD_S`` after this
+        command acts (``delay_s`` on), would have stopped, then against the rate predicted for when it acts, in
+        proportion. The commands in flight meanwhile are the sequence's own (``issued``)."""
+        if self.braking_fully and self._rate_at(t_s, pose, brake_lead(self.delay_s), -self.last_spin) \
+                * self.last_spin > 0:
             return -self.last_spin
         self.braking_fully = False
-        return _clip(-pose.yaw_rate / BRAKE_PROPORTIONAL_RAD_S, 1.0)
+        return _clip(-self._rate_at(t_s, pose, self.delay_s, 0.0) / BRAKE_PROPORTIONAL_RAD_S, 1.0)
+
+    def _spin_model(self) -> Nomoto | None:
+        """The last hard turn's Nomoto model, None when it did not turn its way or speed up doing so."""
+        rate, accel = self.spin
+        gain = rate / self.last_spin if self.last_spin else 0.0
+        if gain <= 0.0 or accel <= 0.0:
+            return None
+        return Nomoto(gain, gain / accel)
+
+    def _rate_at(self, t_s: float, pose: Pose, ahead_s: float, steering: float) -> float:
+        """The yaw rate ``ahead_s`` after ``t_s`` (rad/s), this command being ``steering``: the hard turn's model
+        from the sampled rate under the commands in effect then (each acting ``delay_s`` after it was issued); at
+        the present rate of change without a model."""
+        sampled = t_s if pose.sample_s is None else min(pose.sample_s, t_s)
+        horizon = t_s + ahead_s - sampled
+        model = self._spin_model()
+        if model is None:
+            return pose.yaw_rate + self.yaw_accel * horizon
+        issued = [*self.issued, (t_s, steering)]
+
+        def steering_at(since_s: float) -> float:
+            acting = sampled + since_s - self.delay_s
+            return next((u for at, u in reversed(issued) if at <= acting + 1e-9), 0.0)
+
+        return model.rate_after(pose.yaw_rate, horizon, steering_at)
 
     def _track_yaw_accel(self, t_s: float, pose: Pose) -> None:
         """The yaw rate's rate of change between attitude samples: a sample seen again (ATTITUDE slower than the
@@ -198,8 +277,10 @@ class IdentifySequence:
         if self.last_rate is None or sampled > self.last_rate[0] or sampled < self.last_rate[0] - 1.0:
             self.last_rate = (sampled, pose.yaw_rate)  # (a clock gone back a second or more starts afresh)
 
-    def command(self, t_s: float, pose: Pose) -> Sticks | None:
-        """The sticks for autopilot time ``t_s`` (s) and the boat's ``pose``; None once the sequence is over."""
+    def command(self, t_s: float, pose: Pose, delay_s: float | None = None) -> Sticks | None:
+        """The sticks for autopilot time ``t_s`` (s) and the boat's ``pose``, ``delay_s`` the command delay measured
+        (s: from the pose's sample to the command acting; None: not measured); None once the sequence is over."""
+        self.delay_s = command_delay(delay_s)
         self._track_yaw_accel(t_s, pose)
         if self.start is None:
             self.start = (pose.north, pose.east)
@@ -210,4 +291,8 @@ class IdentifySequence:
             leg = self.leg
         if leg is None:
             return None
-        return Sticks(leg.name, leg.throttle, self._steering(leg, pose))
+        sticks = Sticks(leg.name, leg.throttle, self._steering(leg, t_s, pose))
+        self.issued.append((t_s, sticks.steering))
+        while self.issued and self.issued[0][0] < t_s - BRAKE_DELAY_MAX_S - 1.0:
+            self.issued.popleft()
+        return sticks
