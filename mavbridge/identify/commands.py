@@ -159,10 +159,12 @@ def identify(logs: list[LogData], base: OtterParameters) -> Identification:
 
 
 def identify_propellers(sets: list[Frames], result: Identification) -> None:
-    """The starboard to port thrust ratio (``propeller_thrust_ratio``) where the logs hold the motors' outputs."""
+    """The starboard to port thrust ratio (``propeller_thrust_ratio``) where the logs hold the motors' outputs; each
+    log's yaw rate its gyro's where it has one (the differentiated yaw carries the attitude's noise)."""
     if command_kind(sets) != "motors":
         return
-    got = thrust_ratio(straight_windows(select(sets, ("left", "right", "r"))))
+    items = [s for f in sets for s in select([f], ("left", "right", "r_gyro" if f.has("r_gyro") else "r"))]
+    got = thrust_ratio(straight_windows(items))
     if isinstance(got, str):
         result.missing.append(got)
     else:
