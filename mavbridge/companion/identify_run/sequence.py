@@ -6,7 +6,9 @@ What `mavbridge identify` needs from a log, and the leg that gives it:
   at −0.5 and −1.0 (full reverse), each long enough for three steady 5 s windows after the speed settles, the
   heading held by a small proportional steering (``HEADING_GAIN``) on the partial steps; the full steps run
   unsteered (any steering there takes thrust off one motor: the command would not be steady);
-- Nomoto K and T and the propellers' asymmetry: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
+- the propellers' asymmetry: the heading holds at throttle 0.3 and 0.6 (two holds at two throttles, which tell a
+  weaker propeller from a steady wind or current moment);
+- Nomoto K and T: a 20°/20° zig-zag at throttle 0.6 (steering ±``ZIGZAG_STEERING``,
   switched each time the heading passes 20° either side of the leg's first heading);
 - roll period and damping: hard turns in place (full steering at zero throttle), braked for a second — full
   opposite steering until the yaw rate, predicted ``brake_lead`` ahead, would have stopped, then steering in
