@@ -64,8 +64,9 @@ def unfit_lines(result: Identification) -> list[str]:
              if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
     T = result.estimates.get("yaw_nomoto_time_constant_s")
     if T is not None and not yaw_identified(result):
-        lines.append(f"yaw_nomoto_time_constant_s {T.value:.3g} s: its interval [{T.low:.3g}, {T.high:.3g}] reaches "
-                     "zero: yaw_time_constant not put into vessel.yaml")
+        why = (f"its interval [{T.low:.3g}, {T.high:.3g}] reaches zero" if math.isfinite(T.low)
+               else "it has no interval (fewer than two independent blocks of the logs fit)")
+        lines.append(f"yaw_nomoto_time_constant_s {T.value:.3g} s: {why}: yaw_time_constant not put into vessel.yaml")
     return lines
 
 

@@ -20,7 +20,15 @@ from mavbridge.field.logs import LogError, check_out
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import identify
 from mavbridge.identify.logdata import LogData, read_log
-from mavbridge.identify.outputs import model_check, resolve_base, unfit_lines, vessel_fields, vessel_mapping, write_yaml
+from mavbridge.identify.outputs import (
+    model_check,
+    resolve_base,
+    unfit_lines,
+    vessel_fields,
+    vessel_mapping,
+    write_yaml,
+    yaw_identified,
+)
 from vessel import OtterParameters
 
 OUTPUTS = ("identify.json", "vessel.yaml", "identify.html")
@@ -99,7 +107,8 @@ def identify_command(paths: list[str], out: str | None, base_name: str, command:
     for name, field in (("roll_period_s", "gyration_roll"), ("roll_damping_ratio", "zeta_roll"),
                         ("pitch_period_s", "gyration_pitch"), ("pitch_damping_ratio", "zeta_pitch"),
                         ("yaw_nomoto_time_constant_s", "yaw_time_constant")):
-        if name in result.estimates and field not in fields:
+        if name in result.estimates and field not in fields and (field != "yaw_time_constant"
+                                                                 or yaw_identified(result)):
             line = f"{name} {result.estimates[name].value:.3g}: {UNFIT.get(field, f'beyond what {field} can give')}; " \
                    "left as the base's"
             result.missing.append(line)

@@ -23,6 +23,7 @@ from mavbridge.identify.series import Stretch, blocks
 MIN_S = 30.0
 MIN_R2 = 0.3
 BLOCK_S = 60.0
+SHORT_BLOCK_S = 20.0  # blocks of this (or 10 T) when BLOCK_S gives fewer than two fits: one zig-zag leg
 T_RANGE_S = (0.05, 30.0)
 IV_ITERATIONS = 6
 IV_SETTLED = 0.005
@@ -104,6 +105,20 @@ def simulated_r2(model: Nomoto, items: list[Stretch]) -> float:
     return r_squared(measured, sim)
 
 
+def interval_parts(items: list[Stretch], model: Nomoto) -> tuple[list[Nomoto], float]:
+    """The fits over independent blocks of the log (for the interval) and the blocks' length: blocks of BLOCK_S (or
+    10 T) where they give two fits or more, else of SHORT_BLOCK_S (or 10 T): an identification run turns only in
+    its zig-zag, about 70 s, so that 60 s blocks hold one fit and no interval (one block that holds only a throttle
+    hold has no steering to fit)."""
+    parts: list[Nomoto] = []
+    length = BLOCK_S
+    for length in (max(BLOCK_S, 10 * model.T), max(SHORT_BLOCK_S, 10 * model.T)):
+        parts = [m for b in blocks(items, length) if (m := fit_nomoto(b)) is not None]
+        if len(parts) >= 2:
+            break
+    return parts, length
+
+
 def nomoto_estimates(items: list[Stretch], command: str, unit: str) -> tuple[dict[str, Estimate], Nomoto] | str:
     """{gain, time constant, zero-steering yaw rate} and the model, or one line saying why yaw is not
     identifiable. ``command`` names the steering command, ``unit`` its unit (the gain is deg/s per it)."""
@@ -116,8 +131,9 @@ def nomoto_estimates(items: list[Stretch], command: str, unit: str) -> tuple[dic
     if model is None or not fit >= MIN_R2:
         return (f"the yaw rate does not follow {command} as a first-order Nomoto model (R² {fit:.2f}, "
                 f"{MIN_R2:g} needed): yaw not identifiable")
-    parts = [m for b in blocks(items, max(BLOCK_S, 10 * model.T)) if (m := fit_nomoto(b)) is not None]
-    source = f"{command} to yaw rate, {seconds:.0f} s under way ({len(parts)} blocks for the interval)"
+    parts, block_s = interval_parts(items, model)
+    source = (f"{command} to yaw rate, {seconds:.0f} s under way ({len(parts)} blocks of {block_s:.0f} s for the "
+              "interval)")
     deg = math.degrees(1.0)
     K_low, K_high = spread_interval(model.K, [m.K for m in parts])
     T_low, T_high = spread_interval(model.T, [m.T for m in parts])

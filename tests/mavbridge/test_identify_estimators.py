@@ -199,3 +199,20 @@ def test_a_weaker_starboard_propeller_from_the_helm_that_holds_a_heading() -> No
         assert not isinstance(got, str) and got.value == pytest.approx(weaker, abs=0.005)
         assert propeller_scale(got) == (pytest.approx(scale) if scale else None)
     assert isinstance(thrust_ratio([]), str)
+
+
+def test_nomoto_interval_from_a_single_zigzag() -> None:
+    """An identification run turns only in its zig-zag (about 70 s) after a held throttle step: 60 s blocks give
+    one fit and no interval, so shorter blocks give it (above zero: yaw_time_constant is then fitted)."""
+    rng = np.random.default_rng(3)
+    dt = 0.1
+    t = np.arange(0, 130, dt)
+    steering = np.where(t < 60, 0.0, np.where(((t - 60) // 7) % 2 == 0, 1.0, -1.0))
+    truth = Nomoto(K=math.radians(40.0), T=0.6, r0=0.0, dt=dt)
+    r = truth.simulate(steering, 0.0) + rng.normal(0, math.radians(0.1), t.size)
+    got, _ = nomoto_estimates(stretches(t, np.column_stack([steering, r]), dt, 0.35), "thrust difference", "1")
+    T = got["yaw_nomoto_time_constant_s"]
+    assert math.isfinite(T.low) and math.isfinite(T.high)
+    assert 0 < T.low <= T.value <= T.high
+    assert T.value == pytest.approx(0.6, rel=0.05)
+    assert "of 20 s for the interval" in T.source
