@@ -52,9 +52,10 @@ def _value(result: Identification, name: str, min_fit: float = -math.inf) -> flo
 
 def yaw_identified(result: Identification) -> bool:
     """Nomoto's T was found and its interval lies above zero: the yaw is identified well enough to fit the model's
-    ``yaw_time_constant`` to the log (a T whose interval reaches zero says the logs do not hold the yaw's lag)."""
+    ``yaw_time_constant`` to the log (a T whose interval reaches zero says the logs do not hold the yaw's lag). A
+    log too short for an interval (one block: nan) says nothing against its T, which is fitted as before."""
     T = result.estimates.get("yaw_nomoto_time_constant_s")
-    return T is not None and math.isfinite(T.value) and T.low > 0
+    return T is not None and math.isfinite(T.value) and (T.low > 0 or math.isnan(T.low))
 
 
 def unfit_lines(result: Identification) -> list[str]:

@@ -60,3 +60,11 @@ def test_a_nomoto_t_whose_interval_reaches_zero_fits_no_yaw_field() -> None:
     assert not yaw_identified(loose) and yaw_identified(tight)
     assert any("yaw_time_constant not put" in line for line in unfit_lines(loose))
     assert not any("yaw_time_constant" in line for line in unfit_lines(tight))
+
+
+def test_a_nomoto_t_too_short_for_an_interval_is_still_fitted() -> None:
+    from mavbridge.identify.outputs import unfit_lines, yaw_identified
+
+    one_block = Identification(estimates={"yaw_nomoto_time_constant_s": Estimate(0.66, math.nan, math.nan, "s", "z")})
+    assert yaw_identified(one_block)
+    assert not any("yaw_time_constant" in line for line in unfit_lines(one_block))
