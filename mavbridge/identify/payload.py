@@ -7,9 +7,10 @@ commands may be so because it carries more payload or because its surge is less 
 changes every speed alike). Both are fitted to the log's steady forward windows at every command above a crawl
 (flown on the model, ``plant_steady``), and the payload is kept only when
 
-- it explains the speeds better than ``max_speed`` does (a smaller RMS of the log-speed errors),
+- it explains the speeds clearly better than ``max_speed`` does (an RMS of the log-speed errors BETTER of
+  max_speed's or less: on a hull that is the base both fit alike, and noise must not pick one),
 - the model then trims as the log does (mean pitch of the windows within TRIM_TOL_RAD at every command),
-- the fitted mass lies below RUNAWAY_MARGIN of the mass at which the model runs away at full command (the
+- the fitted mass lies above zero and below RUNAWAY_MARGIN of the mass at which the model runs away at full command (the
   published model with 60 kg: tests/vessel/test_payload_load_runaway.py), and
 - its interval (the windows bootstrapped, the fit linearised about the fitted mass) leaves out the base's mass.
 """
@@ -22,13 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from mavbridge.identify.analyse import Identification
-from mavbridge.identify.estimate import Estimate, r_squared
+from mavbridge.identify.estimate import Z95, Estimate, r_squared
 from mavbridge.identify.model import calibrate_max_speed, plant_steady
 from mavbridge.identify.surge import MIN_FRACTION
 from vessel import OtterParameters
 from vessel.wording import counted
 
 TRIM_TOL_RAD = math.radians(0.2)  # the load term trims the published hull 0.08°/kg: 0.2° is about 2.5 kg
+BETTER = 0.5
 RUNAWAY_S = 60.0  # a model that stays finite this long at full command is taken not to run away
 RUNAWAY_MARGIN = 0.95  # the fit stays below this share of the runaway mass (the model near it is barely stable)
 MAX_MASS_KG = 400.0
@@ -129,23 +131,27 @@ def fit_mass(p: OtterParameters, levels: list[Level], limit: float) -> float:
     return 0.5 * (a + b)
 
 
-def mass_interval(p: OtterParameters, levels: list[Level], mass: float) -> tuple[float, float]:
-    """About 95 % of the fitted mass: the windows resampled within each level (seeded), each draw's level means
-    turned into a mass through the fit linearised at ``mass`` (the slope of each level's log speed on mass)."""
+def mass_interval(p: OtterParameters, levels: list[Level], mass: float, residuals: np.ndarray) -> tuple[float, float]:
+    """About 95 % of the fitted mass, the fit linearised at ``mass`` (the slope of each level's log speed on mass):
+    the windows resampled within each level (seeded), each draw's level means turned into a mass, and never
+    narrower than ±1.96 standard errors of the fit's own ``residuals`` (log speed, one per level) allow — what the
+    model cannot follow of the log's curve is not shrunk by many windows."""
     step = max(0.5, 0.02 * mass)
     up, down = model_errors(p.replace(payload_mass=mass + step), levels), \
         model_errors(p.replace(payload_mass=max(mass - step, 0.0)), levels)
     if up is None or down is None:
         return math.nan, math.nan
     slope = (up[0] - down[0]) / (mass + step - max(mass - step, 0.0))
-    if not float(slope @ slope) > 0:
+    norm = float(slope @ slope)
+    if not norm > 0:
         return math.nan, math.nan
     rng = np.random.default_rng(0)
     draws = []
     for _ in range(BOOTSTRAP):
         shift = np.array([math.log(np.mean(rng.choice(v.speeds, len(v.speeds))) / v.speed) for v in levels])
-        draws.append(mass + float(slope @ shift / (slope @ slope)))
-    return float(np.percentile(draws, 2.5)), float(np.percentile(draws, 97.5))
+        draws.append(mass + float(slope @ shift / norm))
+    half = Z95 * math.sqrt(float(residuals @ residuals) / max(len(levels) - 1, 1) / norm)
+    return min(float(np.percentile(draws, 2.5)), mass - half), max(float(np.percentile(draws, 97.5)), mass + half)
 
 
 def _rms(x: np.ndarray) -> float:
@@ -161,7 +167,7 @@ def fit_payload(p: OtterParameters, result: Identification) -> PayloadChoice | N
     limit = RUNAWAY_MARGIN * runaway_mass(p)
     mass = fit_mass(p, levels, limit)
     errors = model_errors(p.replace(payload_mass=mass), levels)
-    low, high = mass_interval(p, levels, mass)
+    low, high = (math.nan, math.nan) if errors is None else mass_interval(p, levels, mass, errors[0])
     speed_rms = math.inf if errors is None else _rms(errors[0])
     calibrated = calibrate_max_speed(p, {"max_speed": p.max_speed}, [(v.fraction, v.speed, 1) for v in levels])
     other = model_errors(p.replace(**calibrated), levels)
@@ -181,14 +187,17 @@ def _why_not(p: OtterParameters, mass: float, interval: tuple[float, float], lim
              other_rms: float, trim: float) -> str:
     """Why the fitted payload does not go into vessel.yaml ('' when it does)."""
     head = f"payload_mass_kg {mass:.3g}: "
-    if not speed_rms < other_rms:
-        return head + f"explains the steady speeds no better than max_speed ({100 * speed_rms:.1f} % against " \
-                      f"{100 * other_rms:.1f} % RMS): max_speed is fitted instead"
+    if not speed_rms < BETTER * other_rms:
+        return head + f"explains the steady speeds not {1 / BETTER:g} times better than max_speed " \
+                      f"({100 * speed_rms:.1f} % against {100 * other_rms:.1f} % RMS): max_speed is fitted instead"
     if not trim <= TRIM_TOL_RAD:
         return head + f"the model would trim {math.degrees(trim):.2f}° off the log's pitch (more than " \
                       f"{math.degrees(TRIM_TOL_RAD):g}°): max_speed is fitted instead"
     if mass >= limit - 2 * MASS_STEP_KG:
         return head + f"at the bound where the model runs away at full command ({limit:.3g} kg): max_speed is " \
+                      "fitted instead"
+    if mass <= 2 * MASS_STEP_KG:
+        return head + "at no payload, the bound: the speeds want less than the payload can give; max_speed is " \
                       "fitted instead"
     if interval[0] <= p.payload_mass <= interval[1]:
         return head + f"its interval [{interval[0]:.3g}, {interval[1]:.3g}] holds the base's {p.payload_mass:g} kg"
