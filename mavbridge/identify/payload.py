@@ -187,12 +187,6 @@ def _why_not(p: OtterParameters, mass: float, interval: tuple[float, float], lim
              other_rms: float, trim: float) -> str:
     """Why the fitted payload does not go into vessel.yaml ('' when it does)."""
     head = f"payload_mass_kg {mass:.3g}: "
-    if not speed_rms < BETTER * other_rms:
-        return head + f"explains the steady speeds not {1 / BETTER:g} times better than max_speed " \
-                      f"({100 * speed_rms:.1f} % against {100 * other_rms:.1f} % RMS): max_speed is fitted instead"
-    if not trim <= TRIM_TOL_RAD:
-        return head + f"the model would trim {math.degrees(trim):.2f}° off the log's pitch (more than " \
-                      f"{math.degrees(TRIM_TOL_RAD):g}°): max_speed is fitted instead"
     if mass >= limit - 2 * MASS_STEP_KG:
         return head + f"at the bound where the model runs away at full command ({limit:.3g} kg): max_speed is " \
                       "fitted instead"
@@ -200,5 +194,12 @@ def _why_not(p: OtterParameters, mass: float, interval: tuple[float, float], lim
         return head + "at no payload, the bound: the speeds want less than the payload can give; max_speed is " \
                       "fitted instead"
     if interval[0] <= p.payload_mass <= interval[1]:
-        return head + f"its interval [{interval[0]:.3g}, {interval[1]:.3g}] holds the base's {p.payload_mass:g} kg"
+        return head + f"its interval [{interval[0]:.3g}, {interval[1]:.3g}] holds the base's {p.payload_mass:g} kg: " \
+                      "max_speed is fitted instead"
+    if not speed_rms < BETTER * other_rms:
+        return head + f"explains the steady speeds not {1 / BETTER:g} times better than max_speed " \
+                      f"({100 * speed_rms:.1f} % against {100 * other_rms:.1f} % RMS): max_speed is fitted instead"
+    if not trim <= TRIM_TOL_RAD:
+        return head + f"the model would trim {math.degrees(trim):.2f}° off the log's pitch (more than " \
+                      f"{math.degrees(TRIM_TOL_RAD):g}°): max_speed is fitted instead"
     return ""

@@ -11,9 +11,10 @@ import pytest
 
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.commands import identify
+from mavbridge.identify.estimate import Estimate
 from mavbridge.identify.logdata import read_log
 from mavbridge.identify.model import plant_speed, plant_steady
-from mavbridge.identify.outputs import unfit_lines, vessel_fields
+from mavbridge.identify.outputs import MIN_SURGE_R2, unfit_lines, vessel_fields
 from mavbridge.identify.payload import fit_payload, runaway_mass
 from mavbridge.identify.surge import SurgePoint
 from tests.mavbridge.identify_logs import write_identify_log
@@ -99,3 +100,17 @@ def test_the_payload_is_refused_where_the_model_would_trim_otherwise_than_the_lo
     assert level is not None and level.chosen and level.estimate.value == pytest.approx(45.0, abs=0.5)
     off = fit_payload(PUBLISHED, _steady_windows(hull, math.radians(1.0)))  # the log floats a degree nearer level
     assert off is not None and not off.chosen and "trim" in off.why_not
+
+
+def test_a_speed_not_linear_in_the_thrust_writes_no_payload() -> None:
+    """The real Otter's case: the speed fit's R² below MIN_SURGE_R2 puts no surge field into vessel.yaml, and no
+    payload is fitted in its place, however the windows look."""
+    result = _steady_windows(HULLS["45 kg"], 0.0)
+    result.estimates["surge_speed_full_forward_m_s"] = Estimate(3.7, 3.6, 3.8, "m/s", "windows",
+                                                                MIN_SURGE_R2 - 0.3)
+    fields = vessel_fields(PUBLISHED, result)
+    assert "payload_mass" not in fields and "max_speed" not in fields
+    assert "payload_mass_kg" not in result.estimates
+    good = _steady_windows(HULLS["45 kg"], 0.0)
+    good.estimates["surge_speed_full_forward_m_s"] = Estimate(3.7, 3.6, 3.8, "m/s", "windows", 0.99)
+    assert vessel_fields(PUBLISHED, good)["payload_mass"] == pytest.approx(45.0, abs=0.5)  # the same, well fitted
