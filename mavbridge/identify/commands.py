@@ -74,9 +74,9 @@ def identify_surge(sets: list[Frames], base: OtterParameters, result: Identifica
         return
     full = full_scale(kind, sets, base)
     items = []
-    for s in select(sets, (*KINDS[kind], "speed", "r")):
+    for s in select(sets, (*KINDS[kind], "speed", "r", "pitch")):
         shown, fraction = _fraction(kind, s.y[:, 0], s.y[:, 1], full)
-        items.append(Stretch(s.t, np.column_stack([shown, fraction, s.y[:, 2], s.y[:, 3]])))
+        items.append(Stretch(s.t, np.column_stack([shown, fraction, s.y[:, 2], s.y[:, 3], s.y[:, 4]])))
     points = steady_points(items)
     unit = {"shafts": "rpm", "tau": "N", "motors": "output"}[kind]
     result.surge = {"kind": kind, "label": LABELS[kind], "unit": unit, "points": points,

@@ -128,17 +128,29 @@ def surge_fields(base: OtterParameters, forward: float | None, reverse: float | 
     return fields
 
 
-def plant_speed(p: OtterParameters, output: float = 1.0, seconds: float = SPEED_SETTLE_S) -> float | None:
-    """The model's steady surge speed (m/s) on ``vessel.Plant`` in calm water with both motors at ``output`` of
-    full (mean of the last 5 s); None when the plant diverges (a heavy hull can pitch over at full speed)."""
-    m = p.matrices()
+def plant_steady(p: OtterParameters, output: float = 1.0,
+                 seconds: float = SPEED_SETTLE_S) -> tuple[float, float] | None:
+    """(surge speed m/s, pitch rad) the model settles at on ``vessel.Plant`` in calm water with both motors at
+    ``output`` of full (means of the last 5 s); None when the plant diverges (a heavy hull can pitch over at full
+    speed), or when the model has no upright hull (a payload so heavy that roll has no restoring moment)."""
+    try:
+        m = p.matrices()
+    except ValueError:
+        return None
     n = output * float(m.n_max) if output >= 0 else output * abs(float(m.n_min))
     plant = Plant(p, dt=0.01)
     try:
-        speeds = [float(plant.advance((n, n), 5)[6]) for _ in range(round(seconds / 0.05))]
+        rows = [plant.advance((n, n), 5)[[6, 4]].astype(float) for _ in range(round(seconds / 0.05))]
     except FloatingPointError:
         return None
-    return float(np.mean(speeds[-100:]))
+    last = np.asarray(rows[-100:])
+    return float(np.mean(last[:, 0])), float(np.mean(last[:, 1]))
+
+
+def plant_speed(p: OtterParameters, output: float = 1.0, seconds: float = SPEED_SETTLE_S) -> float | None:
+    """The model's steady surge speed (m/s) at motor ``output`` (``plant_steady``); None when the plant diverges."""
+    got = plant_steady(p, output, seconds)
+    return None if got is None else got[0]
 
 
 def calibrate_max_speed(base: OtterParameters, fields: dict[str, float],

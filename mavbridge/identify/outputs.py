@@ -20,6 +20,7 @@ from mavbridge.identify.analyse import Identification
 from mavbridge.identify.asymmetry import propeller_scale
 from mavbridge.identify.commands import surge_full_rad_s
 from mavbridge.identify.model import calibrate_max_speed, fit_axis, plant_decay, surge_fields
+from mavbridge.identify.payload import fit_payload
 from mavbridge.identify.surge import MIN_FRACTION
 from mavbridge.identify.yawfield import yaw_time_constant
 from vessel import ConfigError, OtterParameters, load_parameters, otter_parameters
@@ -51,7 +52,8 @@ def _value(result: Identification, name: str, min_fit: float = -math.inf) -> flo
 
 def yaw_identified(result: Identification) -> bool:
     """Nomoto's T was found and its interval lies above zero: the yaw is identified well enough to fit the model's
-    ``yaw_time_constant`` to the log (a T whose interval reaches zero says the logs do not hold the yaw's lag)."""
+    ``yaw_time_constant`` to the log (a T whose interval reaches zero says the logs do not hold the yaw's lag; one
+    without an interval, nan from fewer than two blocks of the logs, shows nothing either way: refused too)."""
     T = result.estimates.get("yaw_nomoto_time_constant_s")
     return T is not None and math.isfinite(T.value) and T.low > 0
 
@@ -62,6 +64,8 @@ def unfit_lines(result: Identification) -> list[str]:
     lines = [f"{name} {e.value:.3g} m/s: fit R² {e.fit:.2f} < {MIN_SURGE_R2:g} (the speed is not linear in the thrust "
              "fraction): not put into vessel.yaml" for name, e in result.estimates.items()
              if name.startswith("surge_") and not e.fit >= MIN_SURGE_R2]
+    if result.surge.get("payload_not_used"):
+        lines.append(result.surge["payload_not_used"])
     T = result.estimates.get("yaw_nomoto_time_constant_s")
     if T is not None and not yaw_identified(result):
         why = (f"its interval [{T.low:.3g}, {T.high:.3g}] reaches zero" if math.isfinite(T.low)
@@ -83,25 +87,50 @@ def speed_levels(result: Identification) -> list[tuple[float, float, int]]:
     return working or levels[-1:]
 
 
-def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, Any]:
-    """The OtterParameters fields the identified figures change (only those)."""
-    fields: dict[str, Any] = {}
-    for axis in ("roll", "pitch"):
-        period, zeta = _value(result, f"{axis}_period_s"), _value(result, f"{axis}_damping_ratio")
-        if period is not None or zeta is not None:
-            fields.update(fit_axis(base, axis, period, zeta))
-    full_forward, full_reverse = surge_full_rad_s(result)
-    forward = _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2)
-    fields.update(surge_fields(base, forward, _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2),
-                               full_forward, full_reverse))
+def _propeller_scale(base: OtterParameters, result: Identification) -> tuple[float, float] | None:
+    """The propellers' thrust scale the logs show, or the even pair where they show it even and the base is not."""
     ratio = result.estimates.get("propeller_thrust_ratio")
     scale = propeller_scale(ratio)
     if scale is None and ratio is not None and ratio.low <= 1.0 <= ratio.high and base.propeller_scale != (1.0, 1.0):
         scale = (1.0, 1.0)  # the logs show the pair even: a base's asymmetry (an earlier vessel.yaml) is not kept
-    if scale is not None:  # before the speed and yaw fits: the model flies the log's commands with it
+    return scale
+
+
+def surge_and_payload(base: OtterParameters, result: Identification, fields: dict[str, Any]) -> dict[str, Any]:
+    """``fields`` with the surge fields: ``payload_mass`` where the payload explains the log's steady speeds
+    (``payload.fit_payload``: its estimate goes into ``result.estimates``, and why it is not used into
+    ``result.surge``), else ``max_speed`` calibrated on the model; the reverse and thrust fields either way."""
+    full_forward, full_reverse = surge_full_rad_s(result)
+    forward = _value(result, "surge_speed_full_forward_m_s", MIN_SURGE_R2)
+    reverse = _value(result, "surge_speed_full_reverse_m_s", MIN_SURGE_R2)
+    out = {**fields, **surge_fields(base, forward, reverse, full_forward, full_reverse)}
+    if forward is None or "max_speed" not in out:
+        return out
+    kept = {k: v for k, v in out.items() if k != "max_speed"}
+    choice = fit_payload(base.replace(**kept), result)
+    if choice is not None:
+        result.estimates["payload_mass_kg"] = choice.estimate
+        result.surge["payload_not_used"] = choice.why_not
+    if choice is None or not choice.chosen:
+        return calibrate_max_speed(base, out, speed_levels(result))
+    kept.update(surge_fields(base, None, reverse, None, full_reverse))  # the reverse pull on the base's max_speed
+    kept["payload_mass"] = round(choice.estimate.value, 1)
+    return kept
+
+
+def vessel_fields(base: OtterParameters, result: Identification) -> dict[str, Any]:
+    """The OtterParameters fields the identified figures change (only those): the propellers first (the model flies
+    the log's commands with them), then surge (a payload changes the masses), then roll and pitch on those masses
+    (``fit_axis`` solves the gyration for the identified period), then yaw flown through the log."""
+    fields: dict[str, Any] = {}
+    scale = _propeller_scale(base, result)
+    if scale is not None:
         fields["propeller_scale"] = scale
-    if forward is not None and "max_speed" in fields:
-        fields = calibrate_max_speed(base, fields, speed_levels(result))
+    fields = surge_and_payload(base, result, fields)
+    for axis in ("roll", "pitch"):
+        period, zeta = _value(result, f"{axis}_period_s"), _value(result, f"{axis}_damping_ratio")
+        if period is not None or zeta is not None:
+            fields.update(fit_axis(base.replace(**fields), axis, period, zeta))
     T = _value(result, "yaw_nomoto_time_constant_s")
     if T is not None and yaw_identified(result) and result.yaw_replay is not None:
         field = yaw_time_constant(base.replace(**fields), result.yaw_replay)

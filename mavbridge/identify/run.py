@@ -10,6 +10,7 @@ an --out that already holds them is refused, never overwritten.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from collections import defaultdict
@@ -140,5 +141,7 @@ def _surge_summary(result: Identification) -> dict[str, Any]:
     return {"command": s["label"], "unit": s["unit"], "full_forward": round(s["full_forward"], 3),
             "full_reverse": round(s["full_reverse"], 3),
             "steady_windows": [{"t_s": round(p.t_s, 1), "command": round(p.command, 3),
-                                "thrust_fraction": round(p.fraction, 4), "speed_m_s": round(p.speed_m_s, 3)}
+                                "thrust_fraction": round(p.fraction, 4), "speed_m_s": round(p.speed_m_s, 3),
+                                "pitch_deg": round(math.degrees(p.pitch_rad), 3)
+                                if math.isfinite(p.pitch_rad) else None}
                                for p in s["points"]]}

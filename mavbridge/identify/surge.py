@@ -32,17 +32,19 @@ BOOTSTRAP = 300
 
 @dataclass(frozen=True)
 class SurgePoint:
-    """One steady window: its mean command (the log's unit), thrust fraction, and mean speed (m/s)."""
+    """One steady window: its mean command (the log's unit), thrust fraction, mean speed (m/s) and mean pitch
+    (rad, nan when the stretch has none: the trim the payload fit checks)."""
 
     t_s: float
     command: float
     fraction: float
     speed_m_s: float
+    pitch_rad: float = math.nan
 
 
 def steady_points(items: list[Stretch]) -> list[SurgePoint]:
     """Steady windows of stretches whose columns are (command in the log's unit, thrust fraction, speed m/s, yaw
-    rate rad/s)."""
+    rate rad/s[, pitch rad])."""
     points = []
     for s in items:
         if s.dt <= 0:
@@ -53,8 +55,9 @@ def steady_points(items: list[Stretch]) -> list[SurgePoint]:
             window = s.y[start:start + n_win]
             if np.ptp(held) > STEADY_FRACTION or float(np.mean(np.abs(window[:, 3]))) > MAX_TURN_RAD_S:
                 continue
+            pitch = float(np.mean(window[:, 4])) if window.shape[1] > 4 else math.nan
             points.append(SurgePoint(float(s.t[start]), float(np.mean(window[:, 0])), float(np.mean(window[:, 1])),
-                                     float(np.mean(window[:, 2]))))
+                                     float(np.mean(window[:, 2])), pitch))
     return points
 
 

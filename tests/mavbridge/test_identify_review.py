@@ -15,7 +15,7 @@ from mavbridge.identify.asymmetry import propeller_scale
 from mavbridge.identify.commands import identify_propellers
 from mavbridge.identify.estimate import Estimate
 from mavbridge.identify.logdata import LogData
-from mavbridge.identify.outputs import vessel_fields
+from mavbridge.identify.outputs import unfit_lines, vessel_fields, yaw_identified
 from vessel import OtterParameters
 
 
@@ -56,8 +56,6 @@ def test_a_ratio_beyond_the_models_range_writes_no_scale() -> None:
 
 
 def test_a_nomoto_t_whose_interval_reaches_zero_fits_no_yaw_field() -> None:
-    from mavbridge.identify.outputs import unfit_lines, yaw_identified
-
     loose = Identification(estimates={"yaw_nomoto_time_constant_s": Estimate(0.95, -1.2, 3.1, "s", "zig-zag")})
     tight = Identification(estimates={"yaw_nomoto_time_constant_s": Estimate(0.87, 0.37, 1.37, "s", "zig-zag")})
     assert not yaw_identified(loose) and yaw_identified(tight)
@@ -128,3 +126,12 @@ def test_the_gyros_yaw_rate_is_used_where_the_log_has_it() -> None:
     assert "propeller_thrust_ratio" in _propellers(_helm_log(holds, 0.85, 0.0, yaw_noise_deg=1.0)).estimates
     weaving = _propellers(_helm_log(holds, 0.85, 0.0, yaw_noise_deg=1.0, gyro=False))
     assert "propeller_thrust_ratio" not in weaving.estimates and weaving.missing
+
+
+def test_a_nomoto_t_without_an_interval_fits_no_yaw_field_and_says_why() -> None:
+    """A T whose log gave fewer than two independent blocks has no interval (nan): nothing says the logs hold
+    the yaw's lag, so yaw_time_constant is left as the base's, with a line that says so (not "reaches zero")."""
+    one_block = Identification(estimates={"yaw_nomoto_time_constant_s": Estimate(0.66, math.nan, math.nan, "s", "z")})
+    assert not yaw_identified(one_block)
+    lines = [line for line in unfit_lines(one_block) if "yaw_time_constant" in line]
+    assert len(lines) == 1 and "no interval" in lines[0] and "reaches zero" not in lines[0]
