@@ -12,7 +12,7 @@ import numpy as np
 from mavbridge.identify.ambient import ArFit, prepared
 from mavbridge.identify.analyse import Identification
 from mavbridge.identify.decay import DecayFit, decay_curve
-from mavbridge.identify.model import linear_mode
+from mavbridge.identify.model import linear_mode, plant_speed
 from mavbridge.identify.series import Stretch
 from mavbridge.identify.yaw import Nomoto
 from vessel import OtterParameters
@@ -92,17 +92,29 @@ def ambient_figure(axis: str, fit: ArFit, items: list[Stretch], base: OtterParam
     return _png(fig)
 
 
-def surge_figure(result: Identification, base_speed: float, identified_speed: float) -> bytes:
+CURVE_OUTPUTS = (0.2, 0.35, 0.5, 0.65, 0.8, 1.0)  # motor outputs at which each model's steady speed is drawn
+
+
+def model_speed_curve(p: OtterParameters) -> tuple[np.ndarray, np.ndarray]:
+    """(thrust fractions, steady speeds m/s) of the model measured on ``vessel.Plant`` at CURVE_OUTPUTS (the points
+    where it diverges left out): the model's own curve, which neither ``max_speed`` alone nor u = U·s gives where a
+    payload's weight pushes the hull (``payload_mass`` is identified in place of ``max_speed`` there)."""
+    got = [(o * o, v) for o in CURVE_OUTPUTS if (v := plant_speed(p, o)) is not None]
+    return np.array([0.0] + [f for f, _ in got]), np.array([0.0] + [v for _, v in got])
+
+
+def surge_figure(result: Identification, base: OtterParameters, identified: OtterParameters) -> bytes:
     """Steady windows' speed against the command, with the base and identified models' steady speeds."""
     s = result.surge
     points = s["points"]
     fig, axes = _figure()
     ax = axes[0][0]
     ax.plot([p.command for p in points], [p.speed_m_s for p in points], "o", ms=4, color="k", label="steady windows")
-    fractions = np.linspace(0, 1, 50)
-    command = fractions * s["full_forward"] if s["kind"] == "tau" else np.sqrt(fractions) * s["full_forward"]
-    for name, speed, style in (("base", base_speed, "--"), ("identified", identified_speed, "-")):
-        ax.plot(command, fractions * speed, style, label=f"{name} model (U={speed:.2f} m/s at full)")
+    for name, params, style in (("base", base, "--"), ("identified", identified, "-")):
+        fractions, speeds = model_speed_curve(params)
+        command = fractions * s["full_forward"] if s["kind"] == "tau" else np.sqrt(fractions) * s["full_forward"]
+        said = f"{speeds[-1]:.2f} m/s at full" if fractions[-1] == 1.0 else "diverges before full command"
+        ax.plot(command, speeds, style, marker=".", label=f"{name} model ({said})")
     ax.set_xlabel(f"{s['label']} [{s['unit']}]")
     ax.set_ylabel("speed [m/s]")
     ax.legend(fontsize="small")

@@ -35,7 +35,7 @@ def _figures(result: Identification, base: OtterParameters, identified: OtterPar
                       image(ambient_figure(axis, fit, items, base, identified), f"{axis} spectrum")]
     if result.surge and result.surge["points"]:
         parts += ["<h3>surge: steady speed</h3>",
-                  image(surge_figure(result, base.max_speed, identified.max_speed), "surge")]
+                  image(surge_figure(result, base, identified), "surge")]
     if result.yaw is not None:
         model, items, label = result.yaw
         base_K = 1 / float(base.matrices().D[5, 5]) if label.startswith("tau_N") else None

@@ -114,3 +114,16 @@ def test_a_speed_not_linear_in_the_thrust_writes_no_payload() -> None:
     good = _steady_windows(HULLS["45 kg"], 0.0)
     good.estimates["surge_speed_full_forward_m_s"] = Estimate(3.7, 3.6, 3.8, "m/s", "windows", 0.99)
     assert vessel_fields(PUBLISHED, good)["payload_mass"] == pytest.approx(45.0, abs=0.5)  # the same, well fitted
+
+
+def test_the_pages_surge_curve_is_the_models_own_with_the_payload(identified: dict) -> None:
+    """The page draws each model's steady speeds measured on the plant, not u = max_speed·s: with the payload
+    identified (max_speed unchanged) the identified curve is the 45 kg hull's, above the base's."""
+    from mavbridge.identify.figures import model_speed_curve, surge_figure
+
+    result, fields = identified["45 kg"]
+    fractions, speeds = model_speed_curve(PUBLISHED.replace(**fields))
+    _, base_speeds = model_speed_curve(PUBLISHED)
+    assert fractions[-1] == 1.0 and speeds[-1] == pytest.approx(plant_speed(HULLS["45 kg"], 1.0), rel=0.05)
+    assert speeds[-1] > 1.05 * base_speeds[-1]
+    assert surge_figure(result, PUBLISHED, PUBLISHED.replace(**fields)).startswith(b"\x89PNG")
