@@ -8,8 +8,10 @@ sea and NATO sea state 4, each realistic (estimator on simulated sensors, hidden
 observer) on nrti. A run's simulated time is its watch (the estimator's, before t = 0) plus the run to the
 waypoint; its cost is the process's CPU time (every thread: per core, as a sweep of one run per core pays it)
 and its wall time. Each case is timed ``--repeat`` times after one warm-up run (compiled code cached, imports
-done) and its fastest kept. Prints the real-time factor (simulated / CPU seconds) per run, their median, and the
-top five entries (own time) of a cProfile of the paper-sea Balanced run.
+done) and its fastest kept; every run watches afresh (``MAVBRIDGE_WATCH_CACHE=0`` unless set: a sweep's runs
+reuse a watch of their process, ``mavbridge.lab.watch``, a single run does not). Prints the real-time factor
+(simulated / CPU seconds) per run, their median, and the top five entries (own time) of a cProfile of the
+paper-sea Balanced run.
 
 ``--as-max-iterations N`` sets nrti's preparation to at most N SQP iterations (default: the controller's own, 30,
 which converges; 1 is plain RTI): faster, and no longer the same numbers, so the table gives each run's average
@@ -246,6 +248,8 @@ def main() -> None:
                         help="instead: one case's CPU seconds per part of the loop (e.g. 'paper sea, balanced')")
     parser.add_argument("--json", type=Path, help=argparse.SUPPRESS)  # (the second process's output)
     args = parser.parse_args()
+    # a run's figure includes its watch: each timed run watches afresh, not from the warm-up's (``lab.watch``)
+    os.environ.setdefault("MAVBRIDGE_WATCH_CACHE", "0")
     if args.repeat < 1:
         parser.error("--repeat: must be >= 1")
     if args.as_max_iterations is not None:

@@ -31,17 +31,14 @@ import yaml
 
 from mavbridge.lab.runlog import RunRecorder, column, run_metrics, write_csv
 from mavbridge.lab.scenario import Scenario
-from mavbridge.lab.sensed_plant import SensedPlant
+from mavbridge.lab.watch import observe, realistic_parts
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.disturbance import DisturbanceObserver
 from mavbridge.nmpc.model_state import resolve_heave_feedback
-from mavbridge.waves import EstimatorSettings, make_estimator
-from mavbridge.waves.inloop import WaveFeed, calibrated_settings, hidden_sea, sensor_model
-from mavbridge.waves.phase.bank_source import BankFeed, PredictedSource
-from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth, TrueSpread
+from mavbridge.waves.inloop import WaveFeed
+from mavbridge.waves.source import SCENARIO_TRUTH, ScenarioTruth
 from vessel import (
     CalmWater,
-    ConfigError,
     OceanCurrent,
     RegularWaves,
     WaveField,
@@ -49,7 +46,6 @@ from vessel import (
     tau_to_shaft_speeds,
 )
 from vessel.closed_loop import PropellerPlant, TauPlant
-from vessel.sea.irregular import IrregularWaves
 
 
 @dataclass
@@ -142,53 +138,6 @@ def experiment_metrics(scenario: Scenario, record: RunRecorder, arrival: float |
     }
 
 
-def observe(observer: DisturbanceObserver, nmpc: RollAwareNmpc, t: float, x: np.ndarray, tau: np.ndarray | None,
-            say: Callable[[str], None] | None) -> None:
-    """One period of the disturbance observer (``tau``: the command in effect from now, None: unknown), and the
-    NMPC's later solves predict with its estimate; one line when it settles."""
-    if observer.update(t, x, tau, nmpc.model_wave(), nmpc.wave_known) and say is not None:
-        say(f"disturbance settled at t = {t:.1f} s: {observer.describe()}")
-    nmpc.set_disturbance(observer.estimate)
-
-
-def _realistic_parts(scenario: Scenario, progress: Callable[[str], None] | None,
-                     on_period: Callable[[float, np.ndarray], None] | None = None) -> tuple[SensedPlant, WaveFeed]:
-    """The sensed plant in the hidden-phase sea and the wave feed (estimator or truth) of a realistic run."""
-    est, cfg, params = scenario.estimation, scenario.controller, scenario.model_params()  # (the companion's side)
-    plant_params = scenario.plant_params()
-    waves = scenario.sea.waves(plant_params)
-    truth = hidden_sea(waves, est.seed) if est.hidden_phase else waves
-    bank: BankFeed | None = None
-    if est.waves in ("estimated", "predicted"):
-        settings = (calibrated_settings(params, est.surface_heave, est.roll_sign) if est.calibrate
-                    else EstimatorSettings(roll_sign=est.roll_sign))
-        source: Any = make_estimator(settings)
-        if est.spread_truth:
-            if not isinstance(truth, IrregularWaves):
-                raise ConfigError("estimation.spread_truth: needs an irregular sea (sea.spectrum): its slope "
-                                  "covariance is what replaces the estimator's")
-            source = TrueSpread(source, truth.slope_covariance())
-        if est.waves == "predicted":
-            if cfg.wave_components < 1:
-                raise ConfigError("estimation.waves: predicted needs controller.wave_components >= 1 (the bank's "
-                                  "size K); allowed [1, 256]")
-            irregular = truth if isinstance(truth, IrregularWaves) else None
-            source = PredictedSource(source, cfg.wave_components, est.roll_sign, est.bank_lead_s,
-                                     oracle=irregular if est.bank_oracle else None, select=est.bank_select,
-                                     horizon_s=cfg.horizon * cfg.period_s,
-                                     true_slope=irregular if est.bank_true_slope else None)
-            bank = BankFeed(source, est.bank_spread, fade=est.bank_fade)
-    else:
-        source = ScenarioTruth(truth)
-    plant = SensedPlant(plant_params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
-                        scenario.plant_dt_s, est.surface_heave, sensor_model(est.sensors, est.seed), source,
-                        wind=scenario.sea.wind(), propellers=scenario.plant == "propellers")
-    say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
-    feed = WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s, bank)
-    plant.watch(est.watch_s, cfg.period_s, on_period)
-    return plant, feed
-
-
 def true_disturbance(scenario: Scenario) -> dict[str, float]:
     """The plant's current as NED components (simulation truth, for the metrics' comparison only)."""
     sea = scenario.sea
@@ -234,13 +183,9 @@ def run_scenario(scenario: Scenario, out_dir: str | Path | None = None, plots: b
     feed: WaveFeed | None = None
     observer: DisturbanceObserver | None = None
     if scenario.estimation.realistic:
-        say = (lambda line: progress(f"[{scenario.name}] {line}")) if progress is not None else None
         if scenario.estimation.disturbance == "estimated":
             observer = DisturbanceObserver(nmpc)
-        watched = (lambda t, x: observe(observer, nmpc, t, x, np.zeros(2), say)) if observer is not None else None
-        if nmpc.takes_waves:  # nothing known of the sea while it watches (the observer predicts with the NMPC's wave)
-            nmpc.set_wave(None)
-        plant, feed = _realistic_parts(scenario, progress, watched)
+        plant, feed = realistic_parts(scenario, nmpc, observer, progress)  # after the watch (or a kept one's copy)
         if nmpc.takes_waves:
             nmpc.set_wave(feed.truth if scenario.estimation.waves == "truth" else None)
     else:

@@ -127,6 +127,15 @@ class SensedPlant:
         """Actual shaft speeds (rad/s) with propellers; None for the τ-driven body."""
         return (float(self.x[12]), float(self.x[13])) if self.propellers else None
 
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the plant's own state and the input it holds (the sensors and the wave source keep theirs)."""
+        return self.x.copy(), self._input.copy()
+
+    def set_state(self, x: np.ndarray, held: np.ndarray) -> None:
+        """Continue from ``state()`` of a plant of the same make (a watch kept by ``mavbridge.lab.watch``)."""
+        self.x, self._input = np.array(x, float), np.array(held, float)
+        self._half.hold(self._input)
+
     def sense(self, t: float) -> None:
         """Sample the sensors at ``t`` (true state, last applied τ for the IMU) and feed the wave source."""
         x_in, u_in, t_in = self._imu.inputs[0:3]

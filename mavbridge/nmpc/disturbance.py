@@ -20,6 +20,7 @@ simulator's truth enters.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -37,6 +38,8 @@ MEASURED = (6, 7, 11)  # u, v (m/s, body), r (rad/s): what the errors are taken 
 SETTLED_CURRENT_STD = 0.08  # m/s: the current's standard deviation under which the estimate counts as settled
 SETTLED_STEPS = 50  # ... held for this many periods
 IDLE = np.zeros(2)  # τ with the thrusters idle (disarmed, or neutral sent)
+# what ``update`` changes: all the rest is made from the NMPC and the settings at construction
+LEARNT = ("estimate", "covariance", "_previous", "updates", "settled_at_s", "_calm_steps")
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,16 @@ class DisturbanceObserver:
             return False
         self.settled_at_s = t
         return True
+
+    def state(self) -> dict[str, Any]:
+        """A copy of all the filter has learnt (``restore`` puts it into an observer of the same model): what a
+        watch before a run leaves, kept by ``mavbridge.lab.watch`` for the next run that would repeat it."""
+        return copy.deepcopy({name: getattr(self, name) for name in LEARNT})
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from ``state`` (``state()`` of an observer of the same NMPC model and settings)."""
+        for name, value in copy.deepcopy(state).items():
+            setattr(self, name, value)
 
     def row(self) -> dict[str, float]:
         """CSV columns: the estimate (current NED m/s, surge force N, yaw moment N·m) and the current's std."""

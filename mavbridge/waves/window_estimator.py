@@ -27,6 +27,7 @@ back) is dropped or restarts the window; nothing raises or gives NaN.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -40,7 +41,7 @@ from mavbridge.waves.spread import SlopeSpread
 from mavbridge.waves.staged import AheadJob, FitStages
 from mavbridge.waves.window_buffer import MotionWindow
 from mavbridge.waves.window_fit import Fit, dominant_encounter_frequency, initial_guess, refine_stages
-from mavbridge.waves.window_model import HullResponse, WaveParams
+from mavbridge.waves.window_model import HullResponse, WaveParams, Window
 
 STAGE_S = 0.09  # at most one stage of a fit per this much sample time (one per 0.1 s control step)
 WARM_ITERATIONS = 2  # Gauss–Newton iterations of a fit warm-started from the last one
@@ -135,7 +136,9 @@ class WindowEstimator:
             if t - self._fit_t < interval:
                 return
             self._fit_t = t
-            self._job = AheadJob(self._fit_stages(t))
+            built = self._motion.window(t)  # (its stages read only it and what stays fixed until the fit ends)
+            self._window_origin = built[1] if built is not None else None
+            self._job = AheadJob(functools.partial(self._fit_stages, built))
         elif t - self._stage_t < STAGE_S:
             return
         self._stage_t = t
@@ -153,12 +156,12 @@ class WindowEstimator:
         stage falls due, so the answers are the same whenever the work was done. True while more is left."""
         return self._job is not None and self._job.work_ahead()
 
-    def _fit_stages(self, t: float) -> FitStages:
-        """A new fit on the window ending at ``t``: warm from the last one, else cold (see ``refine_stages``). A
-        stage may yield what it found out (a dict), which ``_advance_fit`` applies when the stage falls due."""
-        built = self._motion.window(t)
-        self._window_origin = built[1] if built is not None else None
-        yield
+    def _fit_stages(self, built: tuple[Window, tuple[float, float, float]] | None) -> FitStages:
+        """A new fit on the window ``built`` (and its origin): warm from the last one, else cold (see
+        ``refine_stages``). A stage may yield what it found out (a dict), which ``_advance_fit`` applies when the
+        stage falls due. The stages read nothing of the estimator that changes before the fit ends (the last fit,
+        its origin, the window's origin, the hull and settings): a copy of the estimator makes them again."""
+        yield  # (the first stage: the window, built when the fit started)
         if built is None or built[0].span_s < self.s.min_window_s:
             return None
         window = built[0]
