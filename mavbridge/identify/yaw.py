@@ -23,6 +23,7 @@ from mavbridge.identify.series import Stretch, blocks
 MIN_S = 30.0
 MIN_R2 = 0.3
 BLOCK_S = 60.0
+MIN_BLOCK_STEERING = 0.1  # a block whose steering varies less than this share of the whole's says nothing of K, T
 SHORT_BLOCK_S = 20.0  # blocks of this (or 10 T) when BLOCK_S gives fewer than two fits: one zig-zag leg
 T_RANGE_S = (0.05, 30.0)
 IV_ITERATIONS = 6
@@ -108,12 +109,15 @@ def simulated_r2(model: Nomoto, items: list[Stretch]) -> float:
 def interval_parts(items: list[Stretch], model: Nomoto) -> tuple[list[Nomoto], float]:
     """The fits over independent blocks of the log (for the interval) and the blocks' length: blocks of BLOCK_S (or
     10 T) where they give two fits or more, else of SHORT_BLOCK_S (or 10 T): an identification run turns only in
-    its zig-zag, about 70 s, so that 60 s blocks hold one fit and no interval (one block that holds only a throttle
-    hold has no steering to fit)."""
+    its zig-zag, about 70 s, so that 60 s blocks hold one fit and no interval. A block whose steering hardly moves
+    (a standard deviation under MIN_BLOCK_STEERING of the whole's: a heading hold) is left out: its fit is
+    anything (K −69, T 6.7 s from 20 s of a held heading on a simulated hull) and would swamp the interval."""
     parts: list[Nomoto] = []
     length = BLOCK_S
+    floor = MIN_BLOCK_STEERING * float(np.std(np.concatenate([s.y[:, 0] for s in items])))
     for length in (max(BLOCK_S, 10 * model.T), max(SHORT_BLOCK_S, 10 * model.T)):
-        parts = [m for b in blocks(items, length) if (m := fit_nomoto(b)) is not None]
+        parts = [m for b in blocks(items, length)
+                 if float(np.std(np.concatenate([s.y[:, 0] for s in b]))) >= floor and (m := fit_nomoto(b)) is not None]
         if len(parts) >= 2:
             break
     return parts, length

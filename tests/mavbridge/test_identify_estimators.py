@@ -203,16 +203,18 @@ def test_a_weaker_starboard_propeller_from_the_helm_that_holds_a_heading() -> No
 
 def test_nomoto_interval_from_a_single_zigzag() -> None:
     """An identification run turns only in its zig-zag (about 70 s) after a held throttle step: 60 s blocks give
-    one fit and no interval, so shorter blocks give it (above zero: yaw_time_constant is then fitted)."""
+    one fit and no interval, so shorter blocks give it (above zero: yaw_time_constant is then fitted); the held
+    blocks, whose fits say nothing, are left out of it."""
     rng = np.random.default_rng(3)
     dt = 0.1
     t = np.arange(0, 130, dt)
-    steering = np.where(t < 60, 0.0, np.where(((t - 60) // 7) % 2 == 0, 1.0, -1.0))
+    held = 0.004 * rng.standard_normal(t.size)  # a heading hold's small corrections: no K or T in them
+    steering = np.where(t < 60, held, np.where(((t - 60) // 7) % 2 == 0, 1.0, -1.0))
     truth = Nomoto(K=math.radians(40.0), T=0.6, r0=0.0, dt=dt)
     r = truth.simulate(steering, 0.0) + rng.normal(0, math.radians(0.1), t.size)
     got, _ = nomoto_estimates(stretches(t, np.column_stack([steering, r]), dt, 0.35), "thrust difference", "1")
     T = got["yaw_nomoto_time_constant_s"]
     assert math.isfinite(T.low) and math.isfinite(T.high)
-    assert 0 < T.low <= T.value <= T.high
+    assert 0 < T.low <= T.value <= T.high < 1.0
     assert T.value == pytest.approx(0.6, rel=0.05)
     assert "of 20 s for the interval" in T.source
