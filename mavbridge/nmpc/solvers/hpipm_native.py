@@ -8,7 +8,8 @@ conic gives the plugin's bits. Two things the generated code of CasADi 3.8.2 lea
 compiled (``SOURCE_FIXES``): the HPIPM options it does not write (duality-gap limit, hot-start minima, ...) take
 HPIPM's defaults of the plugin's mode, as the plugin's do, instead of whatever the stack held; and its local
 structs start zeroed. The generated function also uses its result-pointer array as scratch space, so the output
-pointers are set again before every call (``NativeQp.solve``).
+pointers are set again before every call (``NativeQp.solve``). Each ``NativeQp`` owns its work and output buffers;
+what instances of one library share (its static block tables) is rewritten with the same constants every call.
 
 Without a C compiler, without HPIPM's headers and libraries in the CasADi package, or when the generated source
 is not the one these fixes are for (another CasADi version), ``native_qp`` answers None with the reason and the
@@ -17,7 +18,6 @@ SQP calls the plugin as before.
 
 from __future__ import annotations
 
-import contextlib
 import fcntl
 import hashlib
 import os
@@ -51,9 +51,9 @@ def hpipm_location() -> tuple[Path | None, str]:
 
 def fixed_source(qp: ca.Function) -> str:
     """The conic's generated C with ``SOURCE_FIXES`` applied; RuntimeError when an anchor is not met exactly once."""
-    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):
-        qp.generate(f"{qp.name()}.c", {"with_header": False})
-        source = Path(f"{qp.name()}.c").read_text(encoding="utf-8")
+    generator = ca.CodeGenerator(f"{qp.name()}.c", {"with_header": False})  # (in memory: no file, no chdir)
+    generator.add(qp)
+    source = generator.dump()
     for anchor, insert in SOURCE_FIXES:
         if source.count(anchor) != 1:
             raise RuntimeError(f"the generated conic is not the one known (CasADi {ca.__version__}): {anchor!r}")
@@ -129,4 +129,9 @@ class NativeQp:
 def native_qp(qp: ca.Function) -> tuple[NativeQp | None, str]:
     """(a compiled instance of the conic ``qp``, how) or (None, why it runs as CasADi's plugin)."""
     library, how = qp_library(qp)
-    return (None, how) if library is None else (NativeQp(library, qp), how)
+    if library is None:
+        return None, how
+    try:
+        return NativeQp(library, qp), how
+    except (OSError, AttributeError) as exc:  # a library that does not load, or lacks the conic's entry points
+        return None, f"loading the compiled conic failed ({exc})"
