@@ -1,6 +1,6 @@
 """Sweep throughput: closed-loop Balanced-like runs per minute on local and dask-local, 1 and 2 workers.
 
-    OMP_NUM_THREADS=1 python bench/sweep_throughput.py [--cases 32] [--solver asrti]
+    OMP_NUM_THREADS=1 python bench/sweep_throughput.py [--cases 32] [--solver asrti] [--executors local:1,local:2]
 
 A fixed sweep of Balanced-like cases (R around 1550, four wave directions; each case's R = 0 reference
 runs too) in the paper's sea, each run on a fresh output folder so nothing is skipped. Prints runs per
@@ -19,6 +19,10 @@ from pathlib import Path
 from mavbridge.sweep import load_spec, open_executor, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
+EXECUTORS = {  # --executors name -> (label, executor, jobs)
+    "local:1": ("local, 1 worker", "local", 1), "local:2": ("local, 2 workers", "local", 2),
+    "dask-local:1": ("dask-local:1", "dask-local:1", 1), "dask-local:2": ("dask-local:2", "dask-local:2", 2),
+}
 
 
 def write_spec(folder: Path, cases: int, solver: str) -> Path:
@@ -63,13 +67,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=32)
     parser.add_argument("--solver", default="asrti")
+    parser.add_argument("--executors", default=",".join(EXECUTORS),
+                        help=f"comma-separated, of {', '.join(EXECUTORS)} (default: all four, in that order)")
     args = parser.parse_args()
+    chosen = [name.strip() for name in args.executors.split(",") if name.strip()]
+    unknown = [name for name in chosen if name not in EXECUTORS]
+    if unknown:
+        parser.error(f"--executors: unknown {', '.join(unknown)}; known: {', '.join(EXECUTORS)}")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         spec = write_spec(folder, args.cases, args.solver)
         rows = []
-        for label, executor, jobs in (("local, 1 worker", "local", 1), ("local, 2 workers", "local", 2),
-                                      ("dask-local:1", "dask-local:1", 1), ("dask-local:2", "dask-local:2", 2)):
+        for label, executor, jobs in (EXECUTORS[name] for name in chosen):
             runs, wall, stolen = measure(spec, executor, jobs, folder / label.replace(" ", "_").replace(",", ""))
             rows.append((label, runs, wall, stolen))
             print(f"  {label}: {runs} runs in {wall:.1f} s, steal {100 * stolen:.0f} %", flush=True)

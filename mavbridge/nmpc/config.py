@@ -88,7 +88,8 @@ class NmpcConfig:
                             "(CasADi releases the GIL while it computes), in a worker process (no GIL sharing), or "
                             "inline, when the next step takes it (no thread; in-process runs wait for it anyway, and "
                             "set it themselves; paced flight turns it into a thread)")
-    rti_codegen: str = choice("auto", ("auto", "off"), "rti: compile the linearisation to C (cached) or not")
+    rti_codegen: str = choice("auto", ("auto", "off"),
+                              "rti, asrti: compile the linearisation and the HPIPM conic to C (cached) or not")
     heave_feedback: str = choice("auto", ("auto", "measured", "none"), "the heave the model is given: measured, "
                                  "none (down = 0, no vertical velocity: the hull on its calm waterline, for a hull "
                                  "that rides the sea) or auto (none where the hull heaves with the sea)")

@@ -13,11 +13,14 @@ import pytest
 from mavbridge.lab.experiment import run_scenario
 from mavbridge.lab.scenario import scenario_from_mapping
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc
-from mavbridge.nmpc.layout import PARAMS
+from mavbridge.nmpc.layout import NU, PARAMS
 from mavbridge.nmpc.problem import discrete_model
 from mavbridge.nmpc.solvers.codegen import compiler
+from mavbridge.nmpc.solvers.gauss_newton import NZ, make_qp
+from mavbridge.nmpc.solvers.hpipm_native import hpipm_location, native_qp
 from mavbridge.nmpc.solvers.rti import linearisation, linearisation_inlined
 from mavbridge.nmpc.wave_model import wave_parameters
+from tests.mavbridge.test_loop_figures import figures
 from vessel import OceanCurrent, RegularWaves, otter_parameters
 from vessel.config import ConfigError
 
@@ -175,3 +178,79 @@ def test_a_qp_cut_at_its_iteration_cap_is_named_so_and_its_step_is_taken() -> No
     step = nmpc.solve(first.states[1], 0.1, (85.0, 75.0))
     assert step.status in ("RTI (1 of 2 QPs at the iteration cap)", "RTI (2 of 2 QPs at the iteration cap)")
     assert step.success and step.fallback is None and np.all(np.isfinite(step.tau))
+
+
+def _ocp_qp(horizon: int, rng: np.random.Generator) -> dict[str, ca.DM]:
+    """A random QP of the augmented OCP's structure (SPD stage blocks, random dynamics, a box on the inputs, the
+    first state fixed), as ``GaussNewtonSqp`` hands it to HPIPM."""
+    nzu, n = NZ + NU, horizon * (NZ + NU) + NZ
+    H, A = np.zeros((n, n)), np.zeros((NZ * horizon, n))
+    for k in range(horizon + 1):
+        size = nzu if k < horizon else NZ
+        M = rng.normal(size=(size, size))
+        H[k * nzu:k * nzu + size, k * nzu:k * nzu + size] = M @ M.T + 0.1 * np.eye(size)
+    for k in range(horizon):
+        A[k * NZ:(k + 1) * NZ, k * nzu:(k + 1) * nzu] = 0.4 * rng.normal(size=(NZ, nzu))
+        A[k * NZ:(k + 1) * NZ, (k + 1) * nzu:(k + 1) * nzu + NZ] = -np.eye(NZ)
+    lbx, ubx = np.full(n, -np.inf), np.full(n, np.inf)
+    for k in range(horizon):
+        lbx[k * nzu + NZ:(k + 1) * nzu], ubx[k * nzu + NZ:(k + 1) * nzu] = -0.5, 0.5
+    lbx[0:NZ] = ubx[0:NZ] = rng.normal(size=NZ)
+    gap = 0.1 * rng.normal(size=NZ * horizon)
+    return {"h": ca.sparsify(ca.DM(H)), "g": ca.DM(10.0 * rng.normal(size=n)), "a": ca.sparsify(ca.DM(A)),
+            "lba": ca.DM(-gap), "uba": ca.DM(-gap), "lbx": ca.DM(lbx), "ubx": ca.DM(ubx)}
+
+
+@pytest.mark.skipif(compiler() is None or hpipm_location()[0] is None, reason="no C compiler or no HPIPM headers")
+@pytest.mark.parametrize("iter_max", [0, 2])
+def test_the_compiled_conic_gives_the_plugins_bits(iter_max: int, tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """Same x, to the bit, and the same success flag as CasADi's HPIPM plugin, QP after QP in one instance (the
+    generated code uses its output-pointer array as scratch: a second QP must still land in the outputs)."""
+    monkeypatch.setenv("MAVBRIDGE_CACHE_DIR", str(tmp_path))
+    rng = np.random.default_rng(11)
+    horizon = 5
+    first = _ocp_qp(horizon, rng)
+    qp = make_qp("test_qp", first["h"].sparsity(), first["a"].sparsity(), horizon, iter_max)
+    native, how = native_qp(qp)
+    assert native is not None and how.startswith("compiled"), how
+    successes = []
+    for data in [first, *(_ocp_qp(horizon, rng) for _ in range(3))]:
+        for i, name in enumerate(qp.name_in()):
+            if name in data:
+                native.inputs[name][:] = np.array(ca.project(data[name], qp.sparsity_in(i)).nonzeros())
+        converged = native.solve()
+        expected = np.asarray(qp(**data)["x"]).ravel()
+        np.testing.assert_array_equal(native.x, expected)
+        assert converged == qp.stats()["success"]
+        successes.append(converged)
+        u = np.concatenate([expected[k * (NZ + NU) + NZ:(k + 1) * (NZ + NU)] for k in range(horizon)])
+        assert iter_max or np.any(np.abs(u) > 0.5 - 1e-6)  # some input on its bound: the box is in play
+    assert all(successes) if iter_max == 0 else not any(successes)  # 2 iterations never converge here
+
+
+def test_without_a_compiler_the_sqp_calls_casadis_plugin(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))  # no gcc, no cc
+    qp = make_qp("test_qp", ca.Sparsity.diag(NZ + NU + NZ), ca.Sparsity(NZ, NZ + NU + NZ), 1, 0)
+    assert native_qp(qp) == (None, "no C compiler ($CC, gcc or cc)")
+    cfg = NmpcConfig(horizon=6, solver="asrti", rti_codegen="auto")
+    with RollAwareNmpc(cfg, otter_parameters(), WAVES) as nmpc:
+        assert nmpc._backend.sqp.native is None and nmpc._backend.sqp.native_how.startswith("no C compiler")
+        x = np.zeros(12)
+        x[5], x[6] = math.pi / 2, 1.0
+        first = nmpc.solve(x, 0.0, (85.0, 75.0))
+        step = nmpc.solve(first.states[1], 0.1, (85.0, 75.0))
+    assert step.success and step.status.startswith("RTI") and np.all(np.isfinite(step.tau))
+
+
+@pytest.mark.skipif(compiler() is None or hpipm_location()[0] is None, reason="no C compiler or no HPIPM headers")
+def test_the_compiled_sqp_flies_the_plugins_closed_loop() -> None:
+    """asrti with the compiled linearisation and conic gives the run CasADi's Functions give, to the bit."""
+    metrics = {}
+    for codegen in ("off", "auto"):
+        mapping = _beam("asrti")
+        mapping["controller"]["rti_codegen"] = codegen
+        metrics[codegen] = run_scenario(scenario_from_mapping(mapping, "test"), None, plots=False).metrics
+    assert metrics["auto"]["failures"] == 0 and metrics["auto"]["steps"] > 50
+    assert figures(metrics["auto"]) == figures(metrics["off"])  # every figure but the timings, exactly

@@ -60,7 +60,8 @@ class BackgroundSolve:
         self.layout = functions.layout
         self.blocks = parameter_layout(cfg.wave_components)
         lin, _ = functions.load_linearisation(cfg.rti_codegen)
-        self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0, input_space(cfg, functions.params))
+        self.sqp = GaussNewtonSqp(lin, cfg, "asrti_qp", 0, input_space(cfg, functions.params),
+                                  functions.linearisation_library(cfg.rti_codegen)[0])
 
     def predict(self, x0: np.ndarray, u: np.ndarray, t: float, wave: np.ndarray) -> np.ndarray:
         """The model's state one period after (x0, t) with the model's input ``u`` held, in ``wave`` (a new array)."""

@@ -12,6 +12,8 @@ solved in the step Δw with bounds lbw − w ≤ Δw ≤ ubw − w and full step
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import casadi as ca
 import numpy as np
 
@@ -35,6 +37,8 @@ from mavbridge.nmpc.problem import (
     min_speed,
     roll_fade,
 )
+from mavbridge.nmpc.solvers.hpipm_native import NativeQp, native_qp
+from mavbridge.nmpc.solvers.native_lib import CompiledFunction
 
 NZ = NX + NU
 SMOOTH_EPS = 1e-4
@@ -174,11 +178,16 @@ def make_qp(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int, iter_
 
 
 class GaussNewtonSqp:
-    """Full-step Gauss–Newton SQP with its own linearisation and QP instances (one per thread of use)."""
+    """Full-step Gauss–Newton SQP with its own linearisation and QP instances (one per thread of use).
+
+    Where a C compiler is found (and ``rti_codegen`` is "auto") both run as compiled C called on numpy buffers
+    (``native_lib.CompiledFunction``, ``hpipm_native``): the same code on the same numbers as CasADi's calls of the
+    linearisation and the HPIPM plugin, without their per-call conversions. Otherwise they are CasADi Functions."""
 
     def __init__(self, lin: ca.Function, cfg: NmpcConfig, qp_name: str, qp_iter_max: int,
-                 space: InputSpace | None = None) -> None:
-        """``space``: the inputs' box (default: the τ box, for τ inputs only)."""
+                 space: InputSpace | None = None, lin_library: Path | None = None) -> None:
+        """``space``: the inputs' box (default: the τ box, for τ inputs only); ``lin_library``: ``lin`` compiled
+        (called through its C API when given)."""
         P = cfg.horizon
         space = space or input_space(cfg, None)
         self.cfg = cfg
@@ -193,6 +202,20 @@ class GaussNewtonSqp:
             self.u_mask[u] = True
             self.lb[u] = space.low
             self.ub[u] = space.high
+        self.native: NativeQp | None = None
+        self.native_how = "CasADi's plugin (rti_codegen off)"
+        if cfg.rti_codegen == "auto":
+            self.native, self.native_how = native_qp(self.qp)
+        self.native_lin: CompiledFunction | None = None
+        self._w, self._p = np.zeros(self.n), np.zeros(lin.nnz_in(1))  # the native linearisation's inputs
+        if self.native is not None and lin_library is not None:
+            self.native_lin = CompiledFunction(lin_library, lin.name(), [lin.nnz_out(i) for i in range(4)],
+                                               [lin.nnz_in(0), lin.nnz_in(1)])
+            self.native_lin.bind(self._w, self._p)
+        # where the nonzeros of g and of the gaps go in the QP's dense g, lba and uba (structural zeros stay +0.0,
+        # as when CasADi densifies them)
+        self._g_rows = np.array(lin.sparsity_out(1).row(), int)
+        self._gap_rows = np.array(lin.sparsity_out(3).row(), int)
 
     def to_aug(self, w: np.ndarray, u_applied: np.ndarray) -> np.ndarray:
         """Augmented decision vector from the controller's layout."""
@@ -221,6 +244,8 @@ class GaussNewtonSqp:
         lb[0:NX] = ub[0:NX] = x0
         lb[NX:NZ] = ub[NX:NZ] = u_applied
         w[NX:NZ] = u_applied
+        if self.native is not None:
+            return self._iterate_native(self.native, w, lb, ub, p, min_iter, max_iter, step_tol)
         p_dm = ca.DM(p)
         statuses: list[bool] = []
         violation = float("nan")
@@ -233,6 +258,39 @@ class GaussNewtonSqp:
             statuses.append(bool(stats.get("success", False)))
             if not np.all(np.isfinite(step)):
                 return None, statuses, violation, f"RTI: QP {stats.get('return_status', 'failed')}"
+            w = w + step
+            if it + 1 >= min_iter and np.max(np.abs(step[self.u_mask])) <= step_tol:
+                break
+        return self.from_aug(w), statuses, violation, ""
+
+    def _linearise(self, w: np.ndarray, p: np.ndarray) -> list[np.ndarray]:
+        """(H, g, A, gaps) at w: each output's nonzeros."""
+        if self.native_lin is None:
+            return [np.array(out.nonzeros()) for out in self.lin(ca.DM(w), ca.DM(p))]
+        self._w[:] = w
+        return self.native_lin.call()
+
+    def _iterate_native(self, qp: NativeQp, w: np.ndarray, lb: np.ndarray, ub: np.ndarray, p: np.ndarray,
+                        min_iter: int, max_iter: int, step_tol: float) -> tuple[np.ndarray | None, list[bool], float,
+                                                                                 str]:
+        """``iterate``'s loop with the compiled conic (``qp``), each QP's data written into its input buffers."""
+        q = qp.inputs
+        self._p[:] = p
+        statuses: list[bool] = []
+        violation = float("nan")
+        for it in range(max_iter):
+            H, g, A, gap = self._linearise(w, p)
+            violation = float(np.max(np.abs(gap)))
+            q["h"][:], q["a"][:] = H, A
+            q["g"][self._g_rows] = g
+            q["lba"][self._gap_rows] = -gap
+            q["uba"][self._gap_rows] = q["lba"][self._gap_rows]
+            np.subtract(lb, w, out=q["lbx"])
+            np.subtract(ub, w, out=q["ubx"])
+            statuses.append(qp.solve())
+            step = qp.x
+            if not np.all(np.isfinite(step)):
+                return None, statuses, violation, "RTI: QP failed"
             w = w + step
             if it + 1 >= min_iter and np.max(np.abs(step[self.u_mask])) <= step_tol:
                 break

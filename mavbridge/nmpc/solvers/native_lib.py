@@ -174,6 +174,11 @@ class CompiledFunction:
             raise RuntimeError("compiled function failed")
         return self.outputs
 
+    def status_call(self) -> int:
+        """Evaluate at the inputs last bound, the outputs into ``res``'s first pointers (which the caller sets):
+        the function's return code (0: success; a generated conic answers −1 when its solver did not converge)."""
+        return int(self.fn(self.arg, self.res, *self._work, 0))
+
 
 def compiled_native(fn: ca.Function) -> tuple[ca.Function, CompiledFunction | None, str]:
     """(Function, the same library called through its C API or None, how): ``codegen.compiled`` plus a direct

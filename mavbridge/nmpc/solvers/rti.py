@@ -32,7 +32,8 @@ class RtiBackend:
         self.ipopt = ipopt or IpoptBackend(functions, cfg)
         lin, self.codegen = functions.load_linearisation(cfg.rti_codegen)
         self.sqp: GaussNewtonSqp | None = GaussNewtonSqp(lin, cfg, "rti_qp", cfg.rti_qp_iter_max,
-                                                            input_space(cfg, functions.params))
+                                                            input_space(cfg, functions.params),
+                                                            functions.linearisation_library(cfg.rti_codegen)[0])
 
     def iteration_limits(self) -> tuple[int, int, float]:
         """(at least, at most, input-step tolerance) SQP iterations per real-time step."""
