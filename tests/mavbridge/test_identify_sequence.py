@@ -17,6 +17,7 @@ from mavbridge.companion.identify_run.sequence import (
     SEQUENCE,
     ZIGZAG_RAD,
     IdentifySequence,
+    Nomoto,
     Pose,
     Sticks,
     brake_lead,
@@ -158,3 +159,20 @@ def test_the_yaw_rates_change_is_taken_between_attitude_samples_not_commands() -
     assert seq.yaw_accel == pytest.approx(-1.0), "a sample seen twice read as the turn no longer slowing"
     seq.command(0.3, Pose(0.0, 0.0, 0.0, 0.2, sample_s=0.3))
     assert seq.yaw_accel == pytest.approx(-1.0)  # over the 0.2 s between the two samples, not the 0.1 s since
+
+
+@pytest.mark.parametrize("time_constant", [0.5, 0.009, 0.001])
+def test_the_brakes_prediction_stays_bounded_whatever_t_a_noisy_spin_up_gives(time_constant: float) -> None:
+    """Full opposite steering from the turn's steady rate: the predicted rate heads for −K and never past it, even
+    for a T far under the prediction's step (an Euler step gave −1348 rad/s at T = 9 ms)."""
+    rate = Nomoto(0.6, time_constant).rate_after(0.6, 0.7, lambda _s: -1.0)
+    assert -0.6 <= rate < 0.6
+
+
+def test_commands_issued_before_the_autopilots_clock_went_back_are_forgotten() -> None:
+    sequence = IdentifySequence()
+    pose = Pose(0.0, 0.0, 0.0, 0.0, None)
+    for t in np.arange(100.0, 103.0, 0.1):
+        sequence.command(float(t), pose)
+    sequence.command(0.5, pose)  # a reboot: the autopilot's time starts again
+    assert [at for at, _ in sequence.issued] == [0.5]

@@ -51,6 +51,8 @@ BRAKE_LEAD_S = 0.15  # the full brake ends when the yaw rate would stop this muc
 BRAKE_MARGIN_S = 0.1  # ... and the measured command delay plus this (the autopilot's loop, the motors' lag)
 BRAKE_DELAY_MAX_S = 0.6  # a measured command delay counts up to this much
 PREDICT_STEP_S = 0.02  # the brake's prediction of the yaw rate integrates its Nomoto model in steps of at most this
+MIN_SPIN_T_S = 0.05  # the hard turn's Nomoto T is taken as at least this (two close, noisy gyro samples read as a
+#                      huge spin-up acceleration, a T of milliseconds no hull has)
 BRAKE_PROPORTIONAL_RAD_S = math.radians(30.0)  # after it, steering against the yaw rate in proportion: full at this
 
 
@@ -149,11 +151,15 @@ class Nomoto:
     time_constant: float
 
     def rate_after(self, rate: float, seconds: float, steering_at: Callable[[float], float]) -> float:
-        """The yaw rate ``seconds`` on from ``rate`` (rad/s) under ``steering_at(s since now)``."""
+        """The yaw rate ``seconds`` on from ``rate`` (rad/s) under ``steering_at(s since now)``, the steering held
+        over each step and the model stepped exactly (stable for any T > 0: an explicit Euler step diverged once a
+        noisy spin-up gave T under the step)."""
         steps = max(1, math.ceil(seconds / PREDICT_STEP_S))
         dt = seconds / steps
+        decay = math.exp(-dt / max(self.time_constant, MIN_SPIN_T_S))
         for k in range(steps):
-            rate += dt * (self.gain * steering_at(k * dt) - rate) / self.time_constant
+            steady = self.gain * steering_at(k * dt)
+            rate = steady + (rate - steady) * decay
         return rate
 
 
@@ -294,6 +300,8 @@ class IdentifySequence:
         if leg is None:
             return None
         sticks = Sticks(leg.name, leg.throttle, self._steering(leg, t_s, pose))
+        if self.issued and t_s < self.issued[-1][0] - 1.0:  # the autopilot's clock went back (a reboot): afresh
+            self.issued.clear()
         self.issued.append((t_s, sticks.steering))
         while self.issued and self.issued[0][0] < t_s - BRAKE_DELAY_MAX_S - 1.0:
             self.issued.popleft()
