@@ -111,6 +111,10 @@ def surge_and_payload(base: OtterParameters, result: Identification, fields: dic
     if choice is not None:
         result.estimates["payload_mass_kg"] = choice.estimate
         result.surge["payload_not_used"] = choice.why_not
+    elif base.payload_load_term:
+        result.surge["payload_not_used"] = ("payload_mass: needs steady forward windows at two commands or more "
+                                            "(the payload bends the speed curve; one command cannot show it): "
+                                            "max_speed is fitted instead")
     if choice is None or not choice.chosen:
         return calibrate_max_speed(base, out, speed_levels(result))
     kept.update(surge_fields(base, None, reverse, None, full_reverse))  # the reverse pull on the base's max_speed

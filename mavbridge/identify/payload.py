@@ -193,6 +193,9 @@ def _why_not(p: OtterParameters, mass: float, interval: tuple[float, float], lim
     if mass <= 2 * MASS_STEP_KG:
         return head + "at no payload, the bound: the speeds want less than the payload can give; max_speed is " \
                       "fitted instead"
+    if not (math.isfinite(interval[0]) and math.isfinite(interval[1])):
+        return head + "no interval (the model's speeds do not change with the mass about it, or it runs away "\
+                      "there): max_speed is fitted instead"
     if interval[0] <= p.payload_mass <= interval[1]:
         return head + f"its interval [{interval[0]:.3g}, {interval[1]:.3g}] holds the base's {p.payload_mass:g} kg: " \
                       "max_speed is fitted instead"

@@ -20,6 +20,7 @@ from __future__ import annotations
 import copy
 import json
 import os
+import threading
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -87,6 +88,7 @@ class WatchCache:
         self.size = size
         self._kept: OrderedDict[str, Watched] = OrderedDict()
         self.hits = 0
+        self._lock = threading.Lock()  # (runs in threads of one process would otherwise race on the order)
 
     @staticmethod
     def enabled() -> bool:
@@ -95,23 +97,26 @@ class WatchCache:
 
     def get(self, key: str) -> Watched | None:
         """The watch kept under ``key`` (now the most recent), or None."""
-        found = self._kept.get(key)
-        if found is not None:
-            self._kept.move_to_end(key)
-            self.hits += 1
-        return found
+        with self._lock:
+            found = self._kept.get(key)
+            if found is not None:
+                self._kept.move_to_end(key)
+                self.hits += 1
+            return found
 
     def put(self, key: str, watched: Watched) -> None:
         """Keep ``watched``, dropping the least recently used beyond ``size``."""
-        self._kept[key] = watched
-        self._kept.move_to_end(key)
-        while len(self._kept) > self.size:
-            self._kept.popitem(last=False)
+        with self._lock:
+            self._kept[key] = watched
+            self._kept.move_to_end(key)
+            while len(self._kept) > self.size:
+                self._kept.popitem(last=False)
 
     def clear(self) -> None:
         """Forget every watch, and count hits from 0."""
-        self._kept.clear()
-        self.hits = 0
+        with self._lock:
+            self._kept.clear()
+            self.hits = 0
 
 
 WATCHES = WatchCache()

@@ -127,3 +127,27 @@ def test_the_pages_surge_curve_is_the_models_own_with_the_payload(identified: di
     assert fractions[-1] == 1.0 and speeds[-1] == pytest.approx(plant_speed(HULLS["45 kg"], 1.0), rel=0.05)
     assert speeds[-1] > 1.05 * base_speeds[-1]
     assert surge_figure(result, PUBLISHED, PUBLISHED.replace(**fields)).startswith(b"\x89PNG")
+
+
+def test_a_payload_without_an_interval_is_refused_with_its_line() -> None:
+    """An interval of nan (the model's speeds flat in the mass, or running away beside it) holds nothing against
+    the base's mass: refused, not taken for one that leaves it out."""
+    from mavbridge.identify.payload import _why_not
+
+    why = _why_not(PUBLISHED, 45.0, (math.nan, math.nan), 50.0, 0.003, 0.14, 0.0)
+    assert "no interval" in why and "max_speed is fitted instead" in why
+    assert _why_not(PUBLISHED, 45.0, (44.5, 45.5), 50.0, 0.003, 0.14, 0.0) == ""
+
+
+def test_one_steady_command_says_the_payload_was_not_tried() -> None:
+    """A log with steady forward windows at one command only (a real boat run at one throttle): max_speed as
+    before, and one line saying why no payload."""
+    from mavbridge.identify.outputs import surge_and_payload
+
+    two = _steady_windows(HULLS["45 kg"], 0.0)
+    one = Identification(surge={"points": [p for p in two.surge["points"] if p.fraction > 0.2]})
+    one.estimates["surge_speed_full_forward_m_s"] = Estimate(3.9, 3.8, 4.0, "m/s", "windows", 0.99)
+    fields = surge_and_payload(PUBLISHED, one, {})
+    assert "payload_mass" not in fields and "max_speed" in fields
+    assert "two commands" in one.surge["payload_not_used"]
+    assert any("two commands" in line for line in unfit_lines(one))
