@@ -12,6 +12,7 @@ solved in the step Δw with bounds lbw − w ≤ Δw ≤ ubw − w and full step
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import casadi as ca
@@ -37,7 +38,8 @@ from mavbridge.nmpc.problem import (
     min_speed,
     roll_fade,
 )
-from mavbridge.nmpc.solvers.hpipm_native import NativeQp, native_qp
+from mavbridge.nmpc.solvers.codegen import cache_dir, compiler
+from mavbridge.nmpc.solvers.hpipm_native import NativeQp, qp_library, solve_natively
 from mavbridge.nmpc.solvers.native_lib import CompiledFunction
 
 NZ = NX + NU
@@ -177,6 +179,25 @@ def make_qp(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int, iter_
                      "hpipm": hpipm, "error_on_fail": False, "print_problem": False, "print_time": False})
 
 
+@functools.lru_cache(maxsize=16)
+def _shared_conic(name: str, h: str, a: str, horizon: int, iter_max: int, cc: str | None,
+                  directory: Path) -> tuple[ca.Function, Path | None, str]:
+    """(``make_qp``'s conic, its compiled library or None, how), once per process for each key: the sparsities
+    ``h`` and ``a`` serialised and the other arguments of ``make_qp`` (all the conic and its generated source depend
+    on), the compiler and the cache directory ``qp_library`` uses (keys only). Deterministic and immutable: every
+    SQP of a run, and every run of a tune, would build the same one again."""
+    qp = make_qp(name, ca.Sparsity.deserialize(h), ca.Sparsity.deserialize(a), horizon, iter_max)
+    library, how = qp_library(qp)
+    return qp, library, how
+
+
+def shared_conic(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int,
+                 iter_max: int) -> tuple[ca.Function, Path | None, str]:
+    """``_shared_conic`` for these sparsities. The conic Function is shared only to be compiled and to size a
+    ``NativeQp`` (which owns its buffers); an SQP that calls it as CasADi's plugin builds its own (``make_qp``)."""
+    return _shared_conic(name, H_sp.serialize(), A_sp.serialize(), horizon, iter_max, compiler(), cache_dir())
+
+
 class GaussNewtonSqp:
     """Full-step Gauss–Newton SQP with its own linearisation and QP instances (one per thread of use).
 
@@ -193,7 +214,6 @@ class GaussNewtonSqp:
         self.cfg = cfg
         self.lin = lin
         self.n = P * (NZ + NU) + NZ
-        self.qp = make_qp(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P, qp_iter_max)
         self.u_mask = np.zeros(self.n, bool)
         self.lb = np.full(self.n, -np.inf)
         self.ub = np.full(self.n, np.inf)
@@ -204,8 +224,12 @@ class GaussNewtonSqp:
             self.ub[u] = space.high
         self.native: NativeQp | None = None
         self.native_how = "CasADi's plugin (rti_codegen off)"
-        if cfg.rti_codegen == "auto":
-            self.native, self.native_how = native_qp(self.qp)
+        if cfg.rti_codegen == "auto":  # the conic and its library from this process's cache; the buffers its own
+            qp, library, how = shared_conic(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P, qp_iter_max)
+            self.native, self.native_how = solve_natively(library, how, qp)
+        # the conic: called as CasADi's plugin (its work memory and stats are this instance's) without a native one
+        self.qp = qp if self.native is not None else make_qp(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P,
+                                                             qp_iter_max)
         self.native_lin: CompiledFunction | None = None
         self._w, self._p = np.zeros(self.n), np.zeros(lin.nnz_in(1))  # the native linearisation's inputs
         if self.native is not None and lin_library is not None:

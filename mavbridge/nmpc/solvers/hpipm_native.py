@@ -129,6 +129,12 @@ class NativeQp:
 def native_qp(qp: ca.Function) -> tuple[NativeQp | None, str]:
     """(a compiled instance of the conic ``qp``, how) or (None, why it runs as CasADi's plugin)."""
     library, how = qp_library(qp)
+    return solve_natively(library, how, qp)
+
+
+def solve_natively(library: Path | None, how: str, qp: ca.Function) -> tuple[NativeQp | None, str]:
+    """(a new instance of ``library``, the conic ``qp`` compiled by ``qp_library``, with buffers of its own; how) or
+    (None, why it runs as CasADi's plugin: ``how`` when there is no library)."""
     if library is None:
         return None, how
     try:
