@@ -20,10 +20,10 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Hashable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import casadi as ca
 import numpy as np
@@ -32,7 +32,8 @@ from mavbridge.nmpc.config import NmpcConfig
 from mavbridge.nmpc.inputs import model_matrix
 from mavbridge.nmpc.layout import Layout
 from mavbridge.nmpc.problem import build_nlp, discrete_model
-from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, compiled_library, load
+from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, cache_dir, compiled_library, compiler, load
+from mavbridge.nmpc.solvers.condensed import BlockLinearisation, block_instance, compile_block_linearisation
 from mavbridge.nmpc.solvers.gauss_newton import linearisation
 from mavbridge.nmpc.wave_model import is_parametric
 from vessel import OceanCurrent, OtterParameters, WaveField
@@ -53,6 +54,9 @@ class ProblemFunctions:
     layout: Layout
     linearisation: ca.Function  # (w_aug, p) -> (H, g, A, gap), SX virtual machine
     input_matrix: np.ndarray | None = None  # B (τ = B·u) of propeller-thrust inputs; None when u is τ
+    # the condensing's block linearisations built for this structure, by ``block_linearisation``'s key
+    _blocks: dict[tuple, tuple[ca.Function, Path | None, str]] = field(default_factory=dict, compare=False,
+                                                                      repr=False)
 
     def linearisation_library(self, codegen: str) -> tuple[Path | None, str]:
         """(compiled library of the linearisation or None, how): ``codegen`` "auto" compiles (cached; ``HOT_FLAGS``:
@@ -69,6 +73,18 @@ class ProblemFunctions:
             cached = compiled_library(self.linearisation, HOT_FLAGS)
             _libraries(self.fixed_waves).put(key, cached)
         return cached
+
+    def block_linearisation(self, cfg: NmpcConfig) -> tuple[BlockLinearisation, str]:
+        """A new instance of the condensing's block linearisation (``condensed.block_instance``: its buffers its own)
+        for a backend with configuration ``cfg`` (whose structural fields are this structure's), and how it runs.
+        The Function and its compiled library are built once per process for each key: the structural fields and
+        ``rti_codegen`` (all of ``cfg`` it reads), the compiler and the cache directory; the model step and the input
+        matrix are this structure's."""
+        key: Any = (cfg.structural(), cfg.rti_codegen, compiler(), cache_dir())
+        built = self._blocks.get(key)
+        if built is None:
+            built = self._blocks[key] = compile_block_linearisation(self.step, cfg, self.input_matrix)
+        return block_instance(*built)
 
     def load_linearisation(self, codegen: str) -> tuple[ca.Function, str]:
         """A new linearisation instance for one solver (compiled when available), and how it runs."""

@@ -19,6 +19,7 @@ from __future__ import annotations
 import ctypes
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import casadi as ca
@@ -113,17 +114,30 @@ class VmBlocks:
 BlockLinearisation = CompiledFunction | VmBlocks
 
 
-def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
-                             matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
-    """(w_aug, p) -> [AB, H, g, gap] flat column-major, into the instance's own output buffers: the compiled library
-    (disk-cached, ``HOT_FLAGS``: it runs a few times every step) called through its C API when a compiler exists
-    and ``cfg.rti_codegen`` is "auto", else the Function in CasADi's SX VM (outputs converted)."""
+def compile_block_linearisation(step: ca.Function, cfg: NmpcConfig,
+                                matrix: np.ndarray | None = None) -> tuple[ca.Function, Path | None, str]:
+    """(``block_linearisation``, its compiled library or None, how): compiled (disk-cached, ``HOT_FLAGS``: it runs a
+    few times every step) when a compiler exists and ``cfg.rti_codegen`` is "auto". Immutable: shared by every
+    instance (``block_instance``) of one problem structure (``ProblemFunctions.block_linearisation``)."""
     fn = block_linearisation(step, cfg, matrix)
     library, how = compiled_library(fn, HOT_FLAGS) if cfg.rti_codegen == "auto" else (None, "sx-vm (codegen off)")
+    return fn, library, how
+
+
+def block_instance(fn: ca.Function, library: Path | None, how: str) -> tuple[BlockLinearisation, str]:
+    """(w_aug, p) -> [AB, H, g, gap] flat column-major, into the instance's own output buffers: ``library`` (``fn``
+    compiled) called through its C API, or without one a private copy of ``fn`` in CasADi's SX VM (outputs
+    converted; two threads never share one Function's work memory)."""
     if library is not None:
         n_out, n_in = ([f(i) for i in range(n)] for f, n in ((fn.nnz_out, fn.n_out()), (fn.nnz_in, fn.n_in())))
         return CompiledFunction(library, fn.name(), n_out, n_in), how
-    return VmBlocks(fn), how
+    return VmBlocks(ca.Function.deserialize(fn.serialize())), how
+
+
+def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
+                             matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
+    """A new instance (``block_instance``) of the block linearisation built and compiled here."""
+    return block_instance(*compile_block_linearisation(step, cfg, matrix))
 
 
 @dataclass

@@ -32,7 +32,7 @@ from mavbridge.nmpc.functions import ProblemFunctions
 from mavbridge.nmpc.inputs import input_space
 from mavbridge.nmpc.layout import NX, PARAMS
 from mavbridge.nmpc.solvers.asrti import AdvancedStep, AsrtiBackend, BackgroundResult, BackgroundSolve
-from mavbridge.nmpc.solvers.condensed import CondensedQp, Condenser, FeedbackBuffers, load_block_linearisation
+from mavbridge.nmpc.solvers.condensed import CondensedQp, Condenser, FeedbackBuffers
 from mavbridge.nmpc.solvers.gauss_newton import NZ
 from mavbridge.nmpc.solvers.native_lib import native_library
 from mavbridge.nmpc.solvers.worker import Job
@@ -165,7 +165,7 @@ class NrtiBackend(AsrtiBackend):
         if lib is None:
             say_once(f"nrti: {self.native}; running as asrti (slower)")
             return
-        lin, how = load_block_linearisation(functions.step, cfg, functions.input_matrix)
+        lin, how = functions.block_linearisation(cfg)  # (built once per structure in a process)
         if not how.startswith("compiled"):
             say_once(f"nrti: the block linearisation runs in CasADi's virtual machine ({how}); preparation is slower")
         self.lib = lib
