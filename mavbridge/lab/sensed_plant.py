@@ -16,12 +16,13 @@ serves every seed and hidden phase.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from mavbridge.nmpc.compiled_model import compiled_model
+from mavbridge.nmpc.compiled_model import ModelMake, bind, model_make
 from mavbridge.waves.inloop import SAMPLES_PER_PERIOD, SETTLE_S
 from mavbridge.waves.source import MotionSample, WaveSource
 from vessel import WaveField
@@ -80,11 +81,37 @@ class CompiledHalf:
         return out
 
 
-def half_period(step: ca.Function, substeps: int, dt: float) -> MappedHalf | CompiledHalf:
+def half_period(step: ModelMake, substeps: int, dt: float) -> MappedHalf | CompiledHalf:
     """The half period of the plant whose one step is ``step`` ((x, u, t) -> x, its numbers inside): compiled when it
     can be, else ``step`` mapped over the substeps."""
-    call, compiled = compiled_model(step)
-    return CompiledHalf(call, substeps, dt) if compiled else MappedHalf(step, substeps, dt)
+    call, compiled = bind(step)
+    return CompiledHalf(call, substeps, dt) if compiled else MappedHalf(step.function, substeps, dt)
+
+
+@dataclass(frozen=True)
+class PlantMake:
+    """The plant's functions before they are bound to arrays (immutable: one serves every plant built from the same
+    arguments, ``plant_make``'s): its step over ``dt_s`` and the IMU's specific force, and its state's size."""
+
+    step: ModelMake
+    imu: ModelMake
+    nx: int
+
+
+def plant_make(params: Any, waves: WaveField, current: OceanCurrent, dt_s: float, surface_heave: bool,
+               wind: Wind | None = None, propellers: bool = False) -> PlantMake:
+    """The functions of ``SensedPlant``'s plant (its arguments of the same names)."""
+    if propellers:
+        ode = plant_ode(params, waves, current, surface_heave, wind)
+        step = plant_step(params, waves, current, dt_s, "rk4", surface_heave, wind)
+    else:
+        ode = rigid_body_ode(params, waves, current, surface_heave, wind)
+        step = rk4_step(ode, dt_s)
+    nx = ode.size1_in(0)
+    x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
+    xdot = ode(x, u, t)
+    imu = ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)])
+    return PlantMake(model_make(step), model_make(imu), nx)
 
 
 class SensedPlant:
@@ -94,25 +121,18 @@ class SensedPlant:
 
     def __init__(self, params: Any, waves: WaveField, current: OceanCurrent, x0: np.ndarray, period_s: float,
                  dt_s: float, surface_heave: bool, sensors: SensorModel, source: WaveSource,
-                 wind: Wind | None = None, propellers: bool = False) -> None:
+                 wind: Wind | None = None, propellers: bool = False, make: PlantMake | None = None) -> None:
+        """``make``: ``plant_make`` of these same arguments, built before (by default built here)."""
         self.propellers = propellers
-        if propellers:
-            ode = plant_ode(params, waves, current, surface_heave, wind)
-            step = plant_step(params, waves, current, dt_s, "rk4", surface_heave, wind)
-        else:
-            ode = rigid_body_ode(params, waves, current, surface_heave, wind)
-            step = rk4_step(ode, dt_s)
+        self.make = make or plant_make(params, waves, current, dt_s, surface_heave, wind, propellers)
         self.dt = dt_s
         self.half_s = period_s / SAMPLES_PER_PERIOD
         self.substeps = substeps_per_period(self.half_s, dt_s)
         # a half period's substeps bound to preallocated arrays (no DM conversions per call); compiled in an
         # irregular sea (see ``half_period``)
-        self._half = half_period(step, self.substeps, dt_s)
-        nx = ode.size1_in(0)
-        x, u, t = ca.SX.sym("x", nx), ca.SX.sym("u", 2), ca.SX.sym("t")
-        xdot = ode(x, u, t)
-        self._imu, _ = compiled_model(
-            ca.Function("imu", [x, u, t], [specific_force(x[6:12], xdot[6:12], x[3], x[4], params.g)]))
+        self._half = half_period(self.make.step, self.substeps, dt_s)
+        self._imu, _ = bind(self.make.imu)
+        nx = self.make.nx
         self.x = np.concatenate([np.asarray(x0, float)[:12], np.zeros(nx - 12)])
         self.sensors, self.source = sensors, source
         self._input = np.zeros(2)  # τ (N, N·m), or the shaft-speed commands (rad/s) with propellers

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from mavbridge.lab.scenario import Scenario
-from mavbridge.lab.sensed_plant import SensedPlant
+from mavbridge.lab.sensed_plant import PlantMake, SensedPlant
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.disturbance import DisturbanceObserver
 from mavbridge.waves import EstimatorSettings, make_estimator
@@ -75,6 +75,7 @@ class Watched:
     observer: dict[str, Any] | None
     disturbance: np.ndarray
     lines: tuple[str, ...]
+    plant_make: PlantMake  # the plant's unbound functions: the same hull, sea, current, wind and steps (the key)
 
     def copies(self, truth: WaveField) -> tuple[SensorModel, Any]:
         """The sensors and the wave source as the watch left them (the source's sea made ``truth``)."""
@@ -165,7 +166,8 @@ def realistic_parts(scenario: Scenario, nmpc: RollAwareNmpc, observer: Disturban
                                                                   wave_source(scenario, truth))
     plant = SensedPlant(plant_params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
                         scenario.plant_dt_s, est.surface_heave, sensors, source,
-                        wind=scenario.sea.wind(), propellers=scenario.plant == "propellers")
+                        wind=scenario.sea.wind(), propellers=scenario.plant == "propellers",
+                        make=kept.plant_make if kept is not None else None)
     bank = BankFeed(source, est.bank_spread, fade=est.bank_fade) if est.waves == "predicted" else None
     feed = WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s, bank)
     if kept is not None:
@@ -196,10 +198,12 @@ def _watcher(nmpc: RollAwareNmpc, observer: DisturbanceObserver | None, lines: l
 def _taken(truth: WaveField, plant: SensedPlant, nmpc: RollAwareNmpc, observer: DisturbanceObserver | None,
            lines: list[str]) -> Watched:
     """Copies of everything the watch left (the plant's own numbers, its sensors, the wave source, the observer's
-    filter, the NMPC's disturbance); the compiled functions bound to arrays are not copied (they hold no state)."""
+    filter, the NMPC's disturbance); the compiled functions bound to arrays are not copied (they hold no state), the
+    plant's unbound ones are kept as they are (immutable: the next run with the key binds its own arrays)."""
     x, held = plant.state()
     return Watched(truth, x, held, copy.deepcopy(plant.sensors), copy.deepcopy(plant.source, {id(truth): truth}),
-                   observer.state() if observer is not None else None, nmpc.disturbance.copy(), tuple(lines))
+                   observer.state() if observer is not None else None, nmpc.disturbance.copy(), tuple(lines),
+                   plant.make)
 
 
 def _resume(kept: Watched, plant: SensedPlant, nmpc: RollAwareNmpc, observer: DisturbanceObserver | None,

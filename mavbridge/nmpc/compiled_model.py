@@ -14,6 +14,7 @@ machine, bound just the same.
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -49,16 +50,35 @@ def _generic(serialized: str) -> tuple[ca.Function, np.ndarray] | None:
     return compiled, constants
 
 
-def compiled_model(function: ca.Function) -> tuple[BoundFunction, bool]:
-    """(``function`` bound to arrays, compiled): compiled, its inputs are ``function``'s and then the constants,
-    already filled in (the caller fills the first ``function.n_in()`` as ever); else ``function`` itself on the
-    virtual machine."""
+@dataclass(frozen=True)
+class ModelMake:
+    """A model function and, where it compiles, its make's compiled function and constants: immutable, so one serves
+    every run with the same model (each binds its own arrays: ``bind``)."""
+
+    function: ca.Function
+    compiled: tuple[ca.Function, np.ndarray] | None  # None: it runs on the virtual machine
+
+
+def model_make(function: ca.Function) -> ModelMake:
+    """``function``'s make (compiled once per process, see ``_generic``), not yet bound to arrays."""
     from mavbridge.nmpc.solvers.codegen import compiler
 
-    found = _generic(function.serialize()) if compiler() is not None else None  # (no rebuild without a compiler)
-    if found is None:
-        return BoundFunction(function), False
-    compiled, constants = found
+    return ModelMake(function, _generic(function.serialize()) if compiler() is not None else None)  # (no rebuild
+    # without a compiler)
+
+
+def bind(make: ModelMake) -> tuple[BoundFunction, bool]:
+    """(the make's function bound to arrays of its own, compiled): compiled, its inputs are the model's and then the
+    constants, already filled in (the caller fills the first ``function.n_in()`` as ever); else the model itself on
+    the virtual machine."""
+    if make.compiled is None:
+        return BoundFunction(make.function), False
+    compiled, constants = make.compiled
     bound = BoundFunction(compiled)
     bound.inputs[-1][:] = constants
     return bound, True
+
+
+def compiled_model(function: ca.Function) -> tuple[BoundFunction, bool]:
+    """(``function`` bound to arrays, compiled): ``bind`` of its ``model_make``."""
+    return bind(model_make(function))

@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mavbridge.nmpc.compiled_model import compiled_model
+from mavbridge.nmpc.compiled_model import compiled_model, model_make
 from vessel import OceanCurrent, otter_parameters
 from vessel.dynamics import rigid_body_ode
 from vessel.jit import BoundFunction, find_compiler
@@ -43,7 +43,7 @@ def test_compiled_half_period_equals_the_mapped_one_and_serves_every_seed() -> N
     halves = []
     for seed in (1, 2):
         step = rk4_step(rigid_body_ode(params, _sea(seed), OceanCurrent(), True), 0.01)
-        compiled, mapped = hp.half_period(step, 5, 0.01), hp.MappedHalf(step, 5, 0.01)
+        compiled, mapped = hp.half_period(model_make(step), 5, 0.01), hp.MappedHalf(step, 5, 0.01)
         assert isinstance(compiled, hp.CompiledHalf)
         x = np.zeros(12)
         for k in range(100):
