@@ -121,6 +121,10 @@ class BoundedCache(Generic[V]):
         while len(self._entries) > self.capacity:
             self._entries.popitem(last=False)
 
+    def clear(self) -> None:
+        """Forget every entry (a process then builds as a fresh one would)."""
+        self._entries.clear()
+
     def __len__(self) -> int:
         return len(self._entries)
 
