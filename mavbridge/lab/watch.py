@@ -13,6 +13,10 @@ The key is the whole scenario but for its name, description and the controller's
 (``RUN_TIME_WEIGHTS``), so anything else that changes makes a fresh watch. At most ``CACHE_SIZE`` watches are kept
 per process (a tune on three sea seeds needs three, a sweep over ten seeds ten); ``MAVBRIDGE_WATCH_CACHE=0`` in the
 environment turns the reuse off (to check it, or to measure the watch itself).
+
+The plant's compiled functions (``sensed_plant.plant_make``: its step and IMU, 1.5–2 MB each in an irregular sea)
+are kept apart, a few per process (``MAKES``), by ``plant_key``: what they are built from, so that the runs of a tune
+from other start headings share them too. Immutable: each run binds its own arrays.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from mavbridge.lab.scenario import Scenario
-from mavbridge.lab.sensed_plant import PlantMake, SensedPlant
+from mavbridge.lab.sensed_plant import SensedPlant
 from mavbridge.nmpc import RollAwareNmpc
 from mavbridge.nmpc.disturbance import DisturbanceObserver
 from mavbridge.waves import EstimatorSettings, make_estimator
@@ -41,7 +45,7 @@ from vessel.sea.irregular import IrregularWaves
 from vessel.sensors import SensorModel
 
 RUN_TIME_WEIGHTS = ("q", "r", "s", "w_dtau_x", "w_dtau_n")  # ``NmpcConfig.weights``: only the NLP's solves use them
-CACHE_SIZE = 16  # watches kept per process (each about 90 kB after a NATO sea state 3 watch of 60 s: 1.4 MB at most)
+CACHE_SIZE = 16  # watches kept per process (each about 100 kB after a NATO sea state 3 watch of 60 s: under 2 MB)
 ENVIRONMENT = "MAVBRIDGE_WATCH_CACHE"  # "0", "off" or "no": every run watches afresh
 
 
@@ -75,7 +79,6 @@ class Watched:
     observer: dict[str, Any] | None
     disturbance: np.ndarray
     lines: tuple[str, ...]
-    plant_make: PlantMake  # the plant's unbound functions: the same hull, sea, current, wind and steps (the key)
 
     def copies(self, truth: WaveField) -> tuple[SensorModel, Any]:
         """The sensors and the wave source as the watch left them (the source's sea made ``truth``)."""
@@ -121,6 +124,17 @@ class WatchCache:
 
 
 WATCHES = WatchCache()
+MAKES_SIZE = 4  # plants' compiled functions kept per process (1.5-2 MB each in a 200-component irregular sea)
+MAKES = WatchCache(MAKES_SIZE)  # by ``plant_key``: a tune's start headings and weights share their seed's plant
+
+
+def plant_key(scenario: Scenario) -> str:
+    """What the plant's functions (``sensed_plant.plant_make``) are built from: the hull, the sea (its hidden
+    phases' seed where they are hidden), current and wind (in ``sea``), the plant's kind and step, surface heave."""
+    data, est = scenario.to_mapping(), scenario.estimation
+    return json.dumps({"vessel": data["vessel"], "sea": data["sea"], "plant": scenario.plant,
+                       "plant_dt_s": scenario.plant_dt_s, "surface_heave": est.surface_heave,
+                       "hidden_seed": est.seed if est.hidden_phase else None}, sort_keys=True, default=str)
 
 
 def wave_source(scenario: Scenario, truth: WaveField) -> Any:
@@ -164,10 +178,13 @@ def realistic_parts(scenario: Scenario, nmpc: RollAwareNmpc, observer: Disturban
     kept = WATCHES.get(key) if key is not None else None
     sensors, source = kept.copies(truth) if kept is not None else (sensor_model(est.sensors, est.seed),
                                                                   wave_source(scenario, truth))
+    make_key = plant_key(scenario) if WatchCache.enabled() else None
     plant = SensedPlant(plant_params, truth, scenario.sea.current(), scenario.world.rigid_state(), cfg.period_s,
                         scenario.plant_dt_s, est.surface_heave, sensors, source,
                         wind=scenario.sea.wind(), propellers=scenario.plant == "propellers",
-                        make=kept.plant_make if kept is not None else None)
+                        make=MAKES.get(make_key) if make_key is not None else None)
+    if make_key is not None:
+        MAKES.put(make_key, plant.make)
     bank = BankFeed(source, est.bank_spread, fade=est.bank_fade) if est.waves == "predicted" else None
     feed = WaveFeed(est.waves, source, truth, cfg.horizon * cfg.period_s, say, est.hold_s, bank)
     if kept is not None:
@@ -199,11 +216,10 @@ def _taken(truth: WaveField, plant: SensedPlant, nmpc: RollAwareNmpc, observer: 
            lines: list[str]) -> Watched:
     """Copies of everything the watch left (the plant's own numbers, its sensors, the wave source, the observer's
     filter, the NMPC's disturbance); the compiled functions bound to arrays are not copied (they hold no state), the
-    plant's unbound ones are kept as they are (immutable: the next run with the key binds its own arrays)."""
+    plant's unbound ones are kept apart (``MAKES``: immutable, each run binds its own arrays)."""
     x, held = plant.state()
     return Watched(truth, x, held, copy.deepcopy(plant.sensors), copy.deepcopy(plant.source, {id(truth): truth}),
-                   observer.state() if observer is not None else None, nmpc.disturbance.copy(), tuple(lines),
-                   plant.make)
+                   observer.state() if observer is not None else None, nmpc.disturbance.copy(), tuple(lines))
 
 
 def _resume(kept: Watched, plant: SensedPlant, nmpc: RollAwareNmpc, observer: DisturbanceObserver | None,

@@ -83,7 +83,9 @@ class ProblemFunctions:
         key: Any = (cfg.structural(), cfg.rti_codegen, compiler(), cache_dir())
         built = self._blocks.get(key)
         if built is None:
-            built = self._blocks[key] = compile_block_linearisation(self.step, cfg, self.input_matrix)
+            built = compile_block_linearisation(self.step, cfg, self.input_matrix)
+            if built[1] is not None or "failed" not in built[2]:  # (a failed compile is tried again next time)
+                self._blocks[key] = built
         return block_instance(*built)
 
     def load_linearisation(self, codegen: str) -> tuple[ca.Function, str]:

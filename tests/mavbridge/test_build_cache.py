@@ -16,7 +16,7 @@ import pytest
 
 from mavbridge.lab.experiment import run_scenario
 from mavbridge.lab.scenario import Scenario, scenario_from_mapping
-from mavbridge.lab.watch import WATCHES
+from mavbridge.lab.watch import MAKES, WATCHES
 from mavbridge.nmpc import NmpcConfig, RollAwareNmpc, compiled_model, functions
 from mavbridge.nmpc.solvers import gauss_newton
 from mavbridge.nmpc.solvers.codegen import compiler
@@ -49,8 +49,9 @@ def _figures(metrics: dict[str, Any]) -> dict[str, Any]:
 def _clear_caches() -> None:
     """Forget all a process keeps between runs: the conics, the kept watches (with their plants' functions), the
     built problem structures (with their block linearisations) and the compiled models."""
-    gauss_newton._shared_conic.cache_clear()
+    gauss_newton.clear_conics()
     WATCHES.clear()
+    MAKES.clear()
     for cache in (functions._FUNCTIONS, functions._FIXED_FUNCTIONS, functions._LIBRARIES, functions._FIXED_LIBRARIES):
         cache.clear()
     compiled_model._generic.cache_clear()
@@ -82,8 +83,29 @@ def test_two_controllers_share_the_compiled_conic_and_blocks_but_no_buffers() ->
 def test_a_run_from_the_caches_flies_as_a_run_with_every_cache_cleared() -> None:
     run_scenario(_scenario("before", r=12800), None, plots=False)  # fills every cache
     warm = _figures(run_scenario(_scenario("run"), None, plots=False).metrics)
-    assert WATCHES.hits >= 1  # (the watch, and the plant's functions with it, came from the first run)
+    assert WATCHES.hits >= 1 and MAKES.hits >= 1  # (the watch and the plant's functions came from the first run)
     _clear_caches()
-    assert gauss_newton._shared_conic.cache_info().currsize == 0 and functions.cached_structures() == 0
+    assert gauss_newton.clear_conics() == 0 and functions.cached_structures() == 0
     cold = _figures(run_scenario(_scenario("run"), None, plots=False).metrics)
     assert warm == cold
+
+
+def test_a_failed_conic_compile_is_tried_again_a_settled_answer_is_kept(tmp_path, monkeypatch) -> None:
+    """A compile that failed (here a compiler that always fails, into an empty cache) is not kept: the next NMPC
+    of the process tries again; "no C compiler" is a settled answer and is kept."""
+    import casadi as ca
+
+    nz, n = gauss_newton.NZ, gauss_newton.NZ + gauss_newton.NU  # one stage: [x0 u0] and x1
+    h = ca.diagcat(ca.DM.ones(n, n), ca.DM.ones(nz, nz)).sparsity()
+    a = ca.horzcat(ca.DM.ones(nz, n), ca.DM.eye(nz)).sparsity()
+    monkeypatch.setenv("MAVBRIDGE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CC", "false")  # found on PATH, exits 1
+    gauss_newton.clear_conics()
+    _, library, how = gauss_newton.shared_conic("qp_fail_test", h, a, 1, 0)
+    assert library is None and "failed" in how
+    assert gauss_newton.clear_conics() == 0  # not kept
+    monkeypatch.setattr(gauss_newton, "compiler", lambda: None)
+    monkeypatch.setattr("mavbridge.nmpc.solvers.hpipm_native.compiler", lambda: None)
+    _, library, how = gauss_newton.shared_conic("qp_fail_test", h, a, 1, 0)
+    assert library is None and "no C compiler" in how
+    assert gauss_newton.clear_conics() == 1  # kept

@@ -12,7 +12,8 @@ solved in the step Δw with bounds lbw − w ≤ Δw ≤ ubw − w and full step
 
 from __future__ import annotations
 
-import functools
+import threading
+from collections import OrderedDict
 from pathlib import Path
 
 import casadi as ca
@@ -179,23 +180,41 @@ def make_qp(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int, iter_
                      "hpipm": hpipm, "error_on_fail": False, "print_problem": False, "print_time": False})
 
 
-@functools.lru_cache(maxsize=16)
-def _shared_conic(name: str, h: str, a: str, horizon: int, iter_max: int, cc: str | None,
-                  directory: Path) -> tuple[ca.Function, Path | None, str]:
-    """(``make_qp``'s conic, its compiled library or None, how), once per process for each key: the sparsities
-    ``h`` and ``a`` serialised and the other arguments of ``make_qp`` (all the conic and its generated source depend
-    on), the compiler and the cache directory ``qp_library`` uses (keys only). Deterministic and immutable: every
-    SQP of a run, and every run of a tune, would build the same one again."""
-    qp = make_qp(name, ca.Sparsity.deserialize(h), ca.Sparsity.deserialize(a), horizon, iter_max)
-    library, how = qp_library(qp)
-    return qp, library, how
+CONICS_KEPT = 16
+_CONICS: OrderedDict[tuple, tuple[ca.Function, Path | None, str]] = OrderedDict()
+_CONICS_LOCK = threading.Lock()
 
 
 def shared_conic(name: str, H_sp: ca.Sparsity, A_sp: ca.Sparsity, horizon: int,
                  iter_max: int) -> tuple[ca.Function, Path | None, str]:
-    """``_shared_conic`` for these sparsities. The conic Function is shared only to be compiled and to size a
-    ``NativeQp`` (which owns its buffers); an SQP that calls it as CasADi's plugin builds its own (``make_qp``)."""
-    return _shared_conic(name, H_sp.serialize(), A_sp.serialize(), horizon, iter_max, compiler(), cache_dir())
+    """(``make_qp``'s conic, its compiled library or None, how), built once per process for each key: the
+    sparsities serialised and the other arguments of ``make_qp`` (all the conic and its generated source depend on),
+    the compiler and the cache directory ``qp_library`` uses. Deterministic and immutable: every SQP of a run, and
+    every run of a tune, would build the same one again. The conic Function is shared only to be compiled and to
+    size a ``NativeQp`` (which owns its buffers); an SQP that calls it as CasADi's plugin builds its own
+    (``make_qp``). A compile that failed is not kept (a full disk or a timeout under load passes; the next NMPC
+    tries again); a settled answer (no compiler, no HPIPM headers) is."""
+    key = (name, H_sp.serialize(), A_sp.serialize(), horizon, iter_max, compiler(), cache_dir())
+    with _CONICS_LOCK:
+        if key in _CONICS:
+            _CONICS.move_to_end(key)
+            return _CONICS[key]
+    qp = make_qp(name, H_sp, A_sp, horizon, iter_max)
+    library, how = qp_library(qp)
+    if library is not None or "failed" not in how:
+        with _CONICS_LOCK:
+            _CONICS[key] = (qp, library, how)
+            while len(_CONICS) > CONICS_KEPT:
+                _CONICS.popitem(last=False)
+    return qp, library, how
+
+
+def clear_conics() -> int:
+    """Forget the kept conics (for tests); how many there were."""
+    with _CONICS_LOCK:
+        n = len(_CONICS)
+        _CONICS.clear()
+        return n
 
 
 class GaussNewtonSqp:
@@ -203,7 +222,9 @@ class GaussNewtonSqp:
 
     Where a C compiler is found (and ``rti_codegen`` is "auto") both run as compiled C called on numpy buffers
     (``native_lib.CompiledFunction``, ``hpipm_native``): the same code on the same numbers as CasADi's calls of the
-    linearisation and the HPIPM plugin, without their per-call conversions. Otherwise they are CasADi Functions."""
+    linearisation and the HPIPM plugin, without their per-call conversions. Otherwise they are CasADi Functions.
+    With the compiled conic, ``qp`` is the process's shared conic Function (``shared_conic``), kept for its shape
+    and never called: only an SQP without ``native`` calls ``qp``, and that one is its own."""
 
     def __init__(self, lin: ca.Function, cfg: NmpcConfig, qp_name: str, qp_iter_max: int,
                  space: InputSpace | None = None, lin_library: Path | None = None) -> None:
@@ -224,12 +245,13 @@ class GaussNewtonSqp:
             self.ub[u] = space.high
         self.native: NativeQp | None = None
         self.native_how = "CasADi's plugin (rti_codegen off)"
+        qp: ca.Function | None = None
         if cfg.rti_codegen == "auto":  # the conic and its library from this process's cache; the buffers its own
             qp, library, how = shared_conic(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P, qp_iter_max)
             self.native, self.native_how = solve_natively(library, how, qp)
         # the conic: called as CasADi's plugin (its work memory and stats are this instance's) without a native one
-        self.qp = qp if self.native is not None else make_qp(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P,
-                                                             qp_iter_max)
+        own = self.native is None or qp is None
+        self.qp = make_qp(qp_name, lin.sparsity_out(0), lin.sparsity_out(2), P, qp_iter_max) if own else qp
         self.native_lin: CompiledFunction | None = None
         self._w, self._p = np.zeros(self.n), np.zeros(lin.nnz_in(1))  # the native linearisation's inputs
         if self.native is not None and lin_library is not None:
