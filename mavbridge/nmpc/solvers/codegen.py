@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import casadi as ca
@@ -57,20 +58,26 @@ def compiled_library(fn: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> tupl
     cc = compiler()
     if cc is None:
         return None, "sx-vm (no C compiler)"
-    directory = cache_dir()
-    library = directory / f"{fn.name()}_{function_hash(fn, flags)}.so"
+    library = cache_dir() / f"{fn.name()}_{function_hash(fn, flags)}.so"
     try:
-        directory.mkdir(parents=True, exist_ok=True)
-        if not library.exists():
-            with open(directory / f".{library.name}.lock", "w") as lock:
-                fcntl.flock(lock, fcntl.LOCK_EX)  # another process may be building the same library
-                if not library.exists():
-                    _build(fn, library, cc, flags)
+        build_once(library, lambda: _build(fn, library, cc, flags))
         return library, f"compiled ({library.name})"
     except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
         warnings.warn(f"compiling {fn.name()} failed ({str(exc).splitlines()[0]}); using the SX virtual machine",
                       RuntimeWarning, stacklevel=2)
         return None, "sx-vm (compilation failed)"
+
+
+def build_once(library: Path, build: Callable[[], None]) -> None:
+    """Run ``build`` (which writes ``library``) unless the library is in the cache already, under a file lock: two
+    processes that need the same library build it once, the second waiting for the first."""
+    library.parent.mkdir(parents=True, exist_ok=True)
+    if library.exists():
+        return
+    with open(library.parent / f".{library.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not library.exists():
+            build()
 
 
 def load(fn: ca.Function, library: Path | None) -> ca.Function:

@@ -18,7 +18,6 @@ SQP calls the plugin as before.
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import os
 import subprocess
@@ -28,7 +27,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, cache_dir, compiler
+from mavbridge.nmpc.solvers.codegen import HOT_FLAGS, build_once, cache_dir, compiler
 from mavbridge.nmpc.solvers.native_lib import CompiledFunction
 
 MODE = "speed_abs"  # the conic's HPIPM mode (``gauss_newton.make_qp``); the fix sets the defaults of this one
@@ -80,15 +79,9 @@ def qp_library(qp: ca.Function) -> tuple[Path | None, str]:
     links = (f"-L{root}", "-lhpipm", "-lblasfeo", f"-Wl,-rpath,{root}", "-lm")
     digest = hashlib.sha256(source.encode())
     digest.update(" ".join((*flags, *links, ca.__version__)).encode())
-    directory = cache_dir()
-    library = directory / f"{qp.name()}_hpipm_{digest.hexdigest()[:20]}.so"
+    library = cache_dir() / f"{qp.name()}_hpipm_{digest.hexdigest()[:20]}.so"
     try:
-        directory.mkdir(parents=True, exist_ok=True)
-        if not library.exists():
-            with open(directory / f".{library.name}.lock", "w") as lock:
-                fcntl.flock(lock, fcntl.LOCK_EX)  # another process may be building the same library
-                if not library.exists():
-                    _build(source, library, [cc, *flags], list(links))
+        build_once(library, lambda: _build(source, library, [cc, *flags], list(links)))
     except (OSError, subprocess.SubprocessError) as exc:
         return None, f"compiling the conic failed ({str(exc).splitlines()[0] if str(exc) else exc})"
     return library, f"compiled ({library.name})"
