@@ -129,16 +129,21 @@ class Plant:
         A non-finite result (the integrator diverged) raises FloatingPointError and keeps the last state.
         """
         self._u[:] = n_cmd
+        return self._step_held()
+
+    def advance(self, n_cmd: np.ndarray | tuple[float, float], steps: int) -> np.ndarray:
+        """Advance ``steps`` steps with the same command; returns a view of the final state."""
+        self._u[:] = n_cmd  # (held: set once, not every step)
+        for _ in range(steps):
+            self._step_held()
+        return self._x
+
+    def _step_held(self) -> np.ndarray:
+        """One dt with the command already in the input buffer (see ``step``)."""
         self._evaluate()
-        if not np.all(np.isfinite(self._out)):
+        if not np.isfinite(self._out).all():
             raise FloatingPointError(f"plant state became non-finite at t = {self.time:.3f} s")
         self._x[:] = self._out
         self._steps += 1
         self._t[0] = self._t0 + self._steps * self.dt
-        return self._x
-
-    def advance(self, n_cmd: np.ndarray | tuple[float, float], steps: int) -> np.ndarray:
-        """Advance ``steps`` steps with the same command; returns a view of the final state."""
-        for _ in range(steps):
-            self.step(n_cmd)
         return self._x

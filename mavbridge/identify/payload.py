@@ -17,6 +17,7 @@ changes every speed alike). Both are fitted to the log's steady forward windows 
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -36,6 +37,7 @@ RUNAWAY_MARGIN = 0.95  # the fit stays below this share of the runaway mass (the
 MAX_MASS_KG = 400.0
 MASS_STEP_KG = 0.05  # the golden-section search's resolution
 BOOTSTRAP = 400
+MAX_LEVELS = 6  # steady commands the fit flies the model at, at most (more are merged: see forward_levels)
 GOLDEN = (math.sqrt(5) - 1) / 2
 
 
@@ -70,12 +72,27 @@ class PayloadChoice:
 
 
 def forward_levels(result: Identification) -> list[Level]:
-    """The log's steady forward commands above a crawl (MIN_FRACTION), grouped by thrust fraction."""
-    groups: dict[float, list[tuple[float, float]]] = {}
+    """The log's steady forward commands above a crawl (MIN_FRACTION), grouped by thrust fraction; a log that held
+    more than MAX_LEVELS commands (a day of operations: an hour's log held 54) has them merged, in order of
+    fraction, into MAX_LEVELS levels of about as many commands each, flown at their windows' mean fraction (the
+    model is flown at every level for every mass the fit tries: 54 levels took the identification of an hour's
+    log from seconds to 130 s)."""
+    groups: dict[float, list[tuple[float, float, float]]] = {}
     for point in result.surge.get("points", []):
         if point.fraction > MIN_FRACTION and point.speed_m_s > 0:
-            groups.setdefault(round(point.fraction, 2), []).append((point.speed_m_s, point.pitch_rad))
-    return [Level(f, tuple(u for u, _ in v), tuple(q for _, q in v)) for f, v in sorted(groups.items())]
+            groups.setdefault(round(point.fraction, 2), []).append((point.fraction, point.speed_m_s,
+                                                                   point.pitch_rad))
+    if len(groups) <= MAX_LEVELS:
+        return [_level(fraction, windows) for fraction, windows in sorted(groups.items())]
+    ordered = [windows for _, windows in sorted(groups.items())]
+    edges = np.linspace(0, len(ordered), MAX_LEVELS + 1).astype(int)
+    merged = [[w for windows in ordered[i:j] for w in windows] for i, j in itertools.pairwise(edges)]
+    return [_level(float(np.mean([f for f, _, _ in windows])), windows) for windows in merged]
+
+
+def _level(fraction: float, windows: list[tuple[float, float, float]]) -> Level:
+    """A level at ``fraction`` of windows (fraction, speed m/s, pitch rad)."""
+    return Level(fraction, tuple(u for _, u, _ in windows), tuple(q for _, _, q in windows))
 
 
 def model_errors(p: OtterParameters, levels: list[Level]) -> tuple[np.ndarray, np.ndarray] | None:

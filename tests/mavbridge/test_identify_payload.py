@@ -151,3 +151,18 @@ def test_one_steady_command_says_the_payload_was_not_tried() -> None:
     assert "payload_mass" not in fields and "max_speed" in fields
     assert "two commands" in one.surge["payload_not_used"]
     assert any("two commands" in line for line in unfit_lines(one))
+
+
+def test_a_day_of_commands_is_merged_into_a_few_levels() -> None:
+    """An hour's log holds dozens of steady commands; the fit flies the model at each level for every mass it
+    tries, so more than MAX_LEVELS are merged (in order, by their windows' mean fraction), fewer are kept as they
+    are."""
+    from mavbridge.identify.payload import MAX_LEVELS, forward_levels
+
+    many = [SurgePoint(float(k), 0.0, 0.05 + 0.01 * k, 0.5 + 0.02 * k, -0.01) for k in range(40)]
+    levels = forward_levels(Identification(surge={"points": many}))
+    assert len(levels) == MAX_LEVELS
+    assert [v.fraction for v in levels] == sorted(v.fraction for v in levels)
+    assert sum(len(v.speeds) for v in levels) == len(many)
+    few = forward_levels(Identification(surge={"points": many[:3]}))
+    assert [v.fraction for v in few] == [0.05, 0.06, 0.07]
