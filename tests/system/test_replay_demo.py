@@ -50,9 +50,17 @@ def test_replay_of_a_lockstep_demo_is_the_live_flight(tmp_path: Path, capsys: py
     # the companion's steps, no more, no fewer, but for the last: the replay also looks for the arrival between its
     # steps (an ATTITUDE inside the acceptance radius); on a busy machine it was seen to arrive one step before the
     # live run (861 of 862 steps, every command equal), so the live run's last step may be missing
+    # A longer tail is the replay's documented early arrival (``ReplayFlight._arrival_between_steps``): a grazing
+    # pass inside the acceptance radius on an attitude between the steps, which the live companion, stepping on its
+    # ticks, never saw; it then flew on until inside at a step (seen under CI's load: live 872 steps, replay 863,
+    # arrived at 236.25 s between steps, the live run at 237.1 s). Every step the replay has is still the live one's.
     times = [round(float(r["t_s"]), 3) for r in rows]
-    assert len(steps) > 500 and times == sorted(steps)[:len(times)] and len(steps) - len(rows) in (0, 1), \
-        (len(rows), len(steps), sorted(set(steps) - set(times)))
+    tail = sorted(steps)[len(times):]
+    arrived = replay["arrived_at_s"]
+    grazing = arrived is not None and abs(arrived * 10 - round(arrived * 10)) > 1e-6 and all(
+        arrived < t <= arrived + 5.0 for t in tail)
+    assert len(steps) > 500 and times == sorted(steps)[:len(times)] and (len(tail) <= 1 or grazing), \
+        (len(rows), len(steps), arrived, tail[:12])
     for row in rows:  # each engaged step: the command the companion sent (logged in its tlog), to the microsecond
         for what in ("steering", "throttle"):
             assert row[f"logged_{what}_pwm_us"] != "", row["t_s"]
