@@ -134,12 +134,6 @@ def block_instance(fn: ca.Function, library: Path | None, how: str) -> tuple[Blo
     return VmBlocks(ca.Function.deserialize(fn.serialize())), how
 
 
-def load_block_linearisation(step: ca.Function, cfg: NmpcConfig,
-                             matrix: np.ndarray | None = None) -> tuple[BlockLinearisation, str]:
-    """A new instance (``block_instance``) of the block linearisation built and compiled here."""
-    return block_instance(*compile_block_linearisation(step, cfg, matrix))
-
-
 @dataclass
 class FeedbackBuffers:
     """The feedback step's preallocated inputs and outputs (owned by one backend, used by its main thread)."""
